@@ -1,0 +1,47 @@
+#pragma once
+// OpenCL device selection, queue and program cache. One Context per process is typical.
+#include <CL/opencl.hpp>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+struct DeviceInfo {
+  int index = 0;  // position in list_devices()
+  std::string platform, name, vendor, version;
+  bool is_gpu = false, fp64 = false;
+  size_t global_mem = 0, max_alloc = 0, max_work_group = 0;
+  cl::Device device;
+};
+
+// Every OpenCL device of every platform; throws penumbra::Error if there is none.
+std::vector<DeviceInfo> list_devices();
+
+class Context {
+ public:
+  // `device`: empty → $PENUMBRA_DEVICE → the first GPU, else the first device. Otherwise an
+  // index into list_devices() or a case-insensitive substring of the device or platform name.
+  explicit Context(const std::string& device = "");
+
+  const DeviceInfo& info() const { return info_; }
+  cl::Context& cl_context() { return context_; }
+  cl::CommandQueue& queue() { return queue_; }
+
+  // Builds (once per process) kernels/<file> with the given -D options; includes of
+  // "common/..." are resolved from the embedded sources, or from $PENUMBRA_KERNEL_DIR when set.
+  // A build failure throws penumbra::Error carrying the compiler log.
+  cl::Program& program(const std::string& file, const std::string& options);
+
+  // Source of kernels/<file> with includes expanded (for tests and diagnostics).
+  static std::string kernel_source(const std::string& file);
+
+ private:
+  DeviceInfo info_;
+  cl::Context context_;
+  cl::CommandQueue queue_;
+  std::map<std::string, cl::Program> programs_;
+};
+
+}  // namespace penumbra

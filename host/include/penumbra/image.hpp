@@ -1,0 +1,32 @@
+#pragma once
+// Row-major images (row 0 at the top), interleaved channels, double on the host.
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<double> data;  // height * width * channels
+
+  Image() = default;
+  Image(int w, int h, int c, double fill = 0.0)
+      : width(w), height(h), channels(c), data(size_t(w) * h * c, fill) {}
+  double& at(int x, int y, int c = 0) { return data[(size_t(y) * width + x) * channels + c]; }
+  double at(int x, int y, int c = 0) const {
+    return data[(size_t(y) * width + x) * channels + c];
+  }
+  size_t size() const { return data.size(); }
+};
+
+// The differentiable outputs of one view (SPEC §1).
+struct RenderOutput {
+  Image color;       // 3 channels, I
+  Image silhouette;  // 1 channel, A
+  Image depth;       // 1 channel, I_z (view depth)
+};
+
+// dL/d(outputs) of one view; an empty image means zero gradient for that output.
+using OutputGrads = RenderOutput;
+
+}  // namespace penumbra

@@ -1,0 +1,54 @@
+#pragma once
+// The differentiable renderer: forward (render) and backward (gradients) on an OpenCL device.
+#include <memory>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/scene.hpp"
+
+namespace penumbra {
+
+enum class Precision { Float, Double };
+
+// Launch tunables of the raster stage (kernels/raster.cl). Every legal combination gives the
+// same result bit for bit: they change the schedule, never the summation order.
+struct RasterTuning {
+  int tile = 16;             // screen tile edge in pixels (binning)
+  int pixels_per_item = 1;   // pixels per work-item along x
+  bool brute_force = false;  // ignore the bins: every pixel visits every face
+};
+
+// dL/d(scene parameters), laid out like the scene.
+struct SceneGrads {
+  std::vector<std::vector<glm::dvec3>> vertices;  // [mesh][vertex]
+  std::vector<std::vector<glm::dvec3>> albedo;    // [mesh][albedo entry]
+  std::vector<glm::dvec3> light_position;         // [light] (direction for directional lights)
+  std::vector<glm::dvec3> light_color;            // [light]
+  glm::dvec3 ambient{0.0};
+};
+
+class Renderer {
+ public:
+  explicit Renderer(Context& context, Precision precision = Precision::Float,
+                    RasterTuning tuning = {});
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Renders every camera of the scene (validated first).
+  std::vector<RenderOutput> render(const Scene& scene);
+
+  // Gradients of a scalar loss given dL/d(outputs) for every camera, by the exact derivative of
+  // the most recent render(), which must have been of this same scene (same sizes and values).
+  SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
+
+  Precision precision() const;
+  const RasterTuning& tuning() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace penumbra

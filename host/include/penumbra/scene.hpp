@@ -1,0 +1,80 @@
+#pragma once
+// Scene model: meshes, cameras, lights and render parameters (SPEC §0, §2, §7).
+// Host-side values are double so that gradient checks can run entirely in double precision.
+#include <glm/glm.hpp>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+enum class AlbedoMode { PerVertex, PerFace };
+
+struct Mesh {
+  std::string name;
+  std::vector<glm::dvec3> vertices;
+  std::vector<glm::ivec3> faces;      // indices into vertices, counter-clockwise
+  std::vector<glm::dvec3> albedo;     // one per vertex or one per face (see albedo_mode)
+  AlbedoMode albedo_mode = AlbedoMode::PerVertex;
+};
+
+enum class Projection { Perspective, Orthographic };
+
+struct Camera {
+  glm::dvec3 eye{0, 0, 5}, target{0, 0, 0}, up{0, 1, 0};
+  Projection projection = Projection::Perspective;
+  double fov_deg = 40.0;      // vertical field of view (perspective)
+  double half_height = 1.0;   // half the visible height in world units (orthographic)
+  double near = 0.1, far = 100.0;
+  int width = 256, height = 256;
+};
+
+enum class LightType { Point, Directional };
+
+struct Light {
+  LightType type = LightType::Point;
+  glm::dvec3 position{0, 5, 5};    // point light
+  glm::dvec3 direction{0, -1, 0};  // directional light: direction the light travels
+  glm::dvec3 color{1, 1, 1};       // RGB intensity I_L
+  double size = 0.0;               // light diameter D_L (soft shadows)
+};
+
+// SPEC §7, names as in its table.
+struct RenderParams {
+  double sigma = 1e-5;       // coverage sharpness σ (screen units²)
+  double gamma = 1e-4;       // aggregation sharpness γ
+  double eps = 1e-3;         // background depth ε of the aggregation
+  double dist_eps = 1e-4;    // coverage cut-off ε_D
+  double sigma_s = 2.0;      // shadow-map Gaussian variance (texel²)
+  double lambda_eps = 1e-3;  // truncation threshold ε_λ
+  double gamma_s = 0.02;     // depth-compare softness γ_s
+  double beta = 0.05;        // depth bias β (depth units)
+  double gamma_p = 10.0;     // penumbra soft-minimum sharpness γ_P
+  bool cull_backfaces = false;
+};
+
+struct Scene {
+  std::vector<Mesh> meshes;
+  std::vector<Camera> cameras;
+  std::vector<Light> lights;
+  glm::dvec3 ambient{0.2, 0.2, 0.2};
+  glm::dvec3 background{1, 1, 1};
+  RenderParams params;
+};
+
+// Throws penumbra::Error naming the first problem: NaN/inf values, out-of-range indices,
+// zero-area faces, albedo count mismatch, zero-size images, non-positive σ/γ, near ≥ far, ...
+void validate(const Scene& scene);
+void validate(const Mesh& mesh);
+
+// Axis-aligned bounds and bounding sphere of all meshes.
+struct Bounds {
+  glm::dvec3 lo, hi;
+  glm::dvec3 center() const { return 0.5 * (lo + hi); }
+  double radius() const { return 0.5 * glm::length(hi - lo); }
+};
+Bounds bounds(const Scene& scene);
+
+// A scene around one mesh, with a camera and a light that frame it (for `render --mesh`).
+Scene framed_scene(Mesh mesh, int width = 256, int height = 256);
+
+}  // namespace penumbra

@@ -1,0 +1,176 @@
+// Device selection, queue and program cache.
+#include "penumbra/context.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+namespace detail {
+const std::map<std::string, std::string>& embedded_kernels();
+}
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  size_t b = s.find_first_not_of(" \t\r\n\0", 0, 5), e = s.find_last_not_of(" \t\r\n\0", s.npos, 5);
+  return b == std::string::npos ? "" : s.substr(b, e - b + 1);
+}
+
+// Raw text of kernels/<file>: from $PENUMBRA_KERNEL_DIR when set (for development), else the
+// copy embedded at build time.
+std::string raw_kernel(const std::string& file) {
+  if (const char* dir = std::getenv("PENUMBRA_KERNEL_DIR"); dir && *dir) {
+    std::ifstream in(std::string(dir) + "/" + file);
+    if (!in) throw Error("kernel source '" + file + "' not found in PENUMBRA_KERNEL_DIR=" + dir);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+  const auto& m = detail::embedded_kernels();
+  auto it = m.find(file);
+  if (it == m.end()) throw Error("no embedded kernel source named '" + file + "'");
+  return it->second;
+}
+
+// Expands `#include "x"` lines (each file once), so the device compiler needs no file system.
+void expand(const std::string& file, std::vector<std::string>& seen, std::string& out) {
+  if (std::find(seen.begin(), seen.end(), file) != seen.end()) return;
+  seen.push_back(file);
+  std::istringstream in(raw_kernel(file));
+  std::string line;
+  while (std::getline(in, line)) {
+    auto t = trim(line);
+    if (t.rfind("#include \"", 0) == 0) {
+      auto end = t.find('"', 10);
+      expand(t.substr(10, end - 10), seen, out);
+    } else {
+      out += line;
+      out += '\n';
+    }
+  }
+}
+
+std::string condense(const std::string& log) {
+  // The first error lines of a compiler log, on one line.
+  std::istringstream in(log);
+  std::string line, out;
+  int n = 0;
+  while (std::getline(in, line) && n < 6) {
+    line = trim(line);
+    if (line.empty()) continue;
+    out += (out.empty() ? "" : " | ") + line;
+    ++n;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<DeviceInfo> list_devices() {
+  std::vector<cl::Platform> platforms;
+  try {
+    cl::Platform::get(&platforms);
+  } catch (const cl::Error&) {
+    platforms.clear();
+  }
+  std::vector<DeviceInfo> out;
+  for (auto& p : platforms) {
+    std::vector<cl::Device> devices;
+    try {
+      p.getDevices(CL_DEVICE_TYPE_ALL, &devices);
+    } catch (const cl::Error&) {
+      continue;
+    }
+    for (auto& d : devices) {
+      DeviceInfo info;
+      info.index = int(out.size());
+      info.platform = trim(p.getInfo<CL_PLATFORM_NAME>());
+      info.name = trim(d.getInfo<CL_DEVICE_NAME>());
+      info.vendor = trim(d.getInfo<CL_DEVICE_VENDOR>());
+      info.version = trim(d.getInfo<CL_DEVICE_VERSION>());
+      info.is_gpu = (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) != 0;
+      info.fp64 = d.getInfo<CL_DEVICE_EXTENSIONS>().find("cl_khr_fp64") != std::string::npos ||
+                  d.getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() != 0;
+      info.global_mem = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+      info.max_alloc = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+      info.max_work_group = d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>();
+      info.device = d;
+      out.push_back(info);
+    }
+  }
+  if (out.empty())
+    throw Error("no OpenCL device found (is an OpenCL driver installed? on Debian: "
+                "apt-get install pocl-opencl-icd)");
+  return out;
+}
+
+Context::Context(const std::string& device) {
+  std::string spec = device;
+  if (spec.empty())
+    if (const char* env = std::getenv("PENUMBRA_DEVICE")) spec = env;
+  auto devices = list_devices();
+  if (spec.empty()) {
+    auto gpu = std::find_if(devices.begin(), devices.end(), [](auto& d) { return d.is_gpu; });
+    info_ = gpu != devices.end() ? *gpu : devices.front();
+  } else if (std::all_of(spec.begin(), spec.end(), ::isdigit)) {
+    size_t i = std::stoul(spec);
+    if (i >= devices.size())
+      throw Error("device index " + spec + " out of range: " + std::to_string(devices.size()) +
+                  " OpenCL device(s) found (see `penumbra devices`)");
+    info_ = devices[i];
+  } else {
+    auto it = std::find_if(devices.begin(), devices.end(), [&](auto& d) {
+      return lower(d.name).find(lower(spec)) != std::string::npos ||
+             lower(d.platform).find(lower(spec)) != std::string::npos;
+    });
+    if (it == devices.end())
+      throw Error("no OpenCL device matches '" + spec + "' (see `penumbra devices`)");
+    info_ = *it;
+  }
+  try {
+    context_ = cl::Context(info_.device);
+    queue_ = cl::CommandQueue(context_, info_.device, CL_QUEUE_PROFILING_ENABLE);
+  } catch (const cl::Error& e) {
+    throw Error("cannot open OpenCL device '" + info_.name + "': " + e.what() + " (" +
+                std::to_string(e.err()) + ")");
+  }
+}
+
+std::string Context::kernel_source(const std::string& file) {
+  std::vector<std::string> seen;
+  std::string out;
+  expand(file, seen, out);
+  return out;
+}
+
+cl::Program& Context::program(const std::string& file, const std::string& options) {
+  std::string key = file + "\n" + options;
+  auto it = programs_.find(key);
+  if (it != programs_.end()) return it->second;
+  if (options.find("PENUMBRA_DOUBLE") != std::string::npos && !info_.fp64)
+    throw Error("device '" + info_.name + "' has no double precision (cl_khr_fp64)");
+  cl::Program program(context_, kernel_source(file));
+  try {
+    program.build({info_.device}, (options + " -cl-std=CL1.2").c_str());
+  } catch (const cl::BuildError& e) {
+    std::string log;
+    for (auto& l : e.getBuildLog()) log += l.second;
+    throw Error("kernel " + file + " failed to build with '" + options + "': " + condense(log));
+  } catch (const cl::Error& e) {
+    std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(info_.device);
+    throw Error("kernel " + file + " failed to build with '" + options + "': " + condense(log));
+  }
+  return programs_.emplace(key, std::move(program)).first->second;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,41 @@
+#pragma once
+// Small helpers around opencl.hpp: buffers of `real` (float or double on the device, double on
+// the host), kernel arguments in one call, launches with padded global sizes.
+#include <CL/opencl.hpp>
+#include <cstddef>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/renderer.hpp"
+
+namespace penumbra::detail {
+
+inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }
+inline std::string precision_define(Precision p) {
+  return p == Precision::Double ? "-DPENUMBRA_DOUBLE" : "";
+}
+
+// Device buffer holding `values` converted to the precision's real type.
+cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& values);
+void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values);
+std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf,
+                                   size_t count);
+cl::Buffer upload_ints(Context& ctx, const std::vector<int>& values);
+std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count);
+// Uninitialised device buffer of `count` reals (at least one element).
+cl::Buffer alloc_reals(Context& ctx, Precision p, size_t count);
+cl::Buffer alloc_ints(Context& ctx, size_t count);
+
+template <class... Args>
+void set_args(cl::Kernel& k, const Args&... args) {
+  cl_uint i = 0;
+  (k.setArg(i++, args), ...);
+}
+
+// Enqueues `k` with global sizes rounded up to multiples of the local sizes.
+void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local);
+inline void launch_1d(Context& ctx, cl::Kernel& k, size_t n, size_t local = 64) {
+  launch(ctx, k, cl::NDRange(n), cl::NDRange(local));
+}
+
+}  // namespace penumbra::detail

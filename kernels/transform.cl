@@ -1,0 +1,81 @@
+// Stage 1 — transform: world vertices → screen, per-face setup; backward gathers per vertex.
+//
+// Buffers (V vertices, F faces, P the per-view parameters of common/layout.h):
+//   vworld   V × real4   world positions (w unused)
+//   vscreen  V × real4   (screen x, screen y, view depth z, 0)
+//   faces    F × int4    vertex indices (w unused)
+//   fbbox    F × int4    pixel bounding box (x0, y0, x1, y1) of the face's coverage, widened by
+//                        the coverage cut-off radius; empty (x0 > x1) for a dropped face
+//   fnormal  F × real4   unit world normal (xyz) and signed screen area (w)
+// Launch: one work-item per vertex (transform_fwd, transform_bwd) or per face (face_setup).
+#include "common/geometry.clh"
+
+__kernel void transform_fwd(__global const real4* vworld, __global const real* P, int nv,
+                            __global real4* vscreen) {
+  int v = get_global_id(0);
+  if (v >= nv) return;
+  vscreen[v] = (real4)(project_fwd(vworld[v].xyz, P), 0);
+}
+
+__kernel void face_setup(__global const real4* vworld, __global const real4* vscreen,
+                         __global const int4* faces, __global const real* P, int nf, int W,
+                         int H, __global int4* fbbox, __global real4* fnormal) {
+  int f = get_global_id(0);
+  if (f >= nf) return;
+  int4 idx = faces[f];
+  real3 s0 = vscreen[idx.x].xyz, s1 = vscreen[idx.y].xyz, s2 = vscreen[idx.z].xyz;
+  real3 V0 = vworld[idx.x].xyz;
+  real3 n = cross(vworld[idx.y].xyz - V0, vworld[idx.z].xyz - V0);
+  real nlen = length(n);
+  n = nlen > 0 ? n / nlen : n;
+  real2 e1 = s1.xy - s0.xy, e2 = s2.xy - s0.xy;
+  real area = cross2(e1, e2);
+#ifdef PENUMBRA_DOUBLE
+  real tiny = DBL_EPSILON;
+#else
+  real tiny = FLT_EPSILON;
+#endif
+  real nearz = P[P_NEAR];
+  int valid = s0.z >= nearz && s1.z >= nearz && s2.z >= nearz && nlen > 0 &&
+              fabs(area) > tiny * (dot(e1, e1) + dot(e2, e2));
+  if (valid && P[P_CULL] > 0) {
+    real3 to_cam = P[P_ORTHO] > 0 ? -p_vec3(P, P_FWD) : p_vec3(P, P_EYE) - V0;
+    valid = dot(n, to_cam) > 0;
+  }
+  int4 box = (int4)(1, 1, 0, 0);
+  if (valid) {
+    // Pixel centres: x = (2px + 1 − W)/H, y = (H − 2py − 1)/H. One pixel of margin on each
+    // side keeps the box conservative under rounding; the raster re-tests every pixel exactly.
+    real r = sqrt(P[P_CUTOFF_D2]);
+    real xlo = fmin(s0.x, fmin(s1.x, s2.x)) - r, xhi = fmax(s0.x, fmax(s1.x, s2.x)) + r;
+    real ylo = fmin(s0.y, fmin(s1.y, s2.y)) - r, yhi = fmax(s0.y, fmax(s1.y, s2.y)) + r;
+    real fx0 = clamp((xlo * H + W - 1) / 2 - 1, R(-1), (real)W);
+    real fx1 = clamp((xhi * H + W - 1) / 2 + 1, R(-1), (real)W);
+    real fy0 = clamp((H - 1 - yhi * H) / 2 - 1, R(-1), (real)H);
+    real fy1 = clamp((H - 1 - ylo * H) / 2 + 1, R(-1), (real)H);
+    box = (int4)(max((int)ceil(fx0), 0), max((int)ceil(fy0), 0), min((int)floor(fx1), W - 1),
+                 min((int)floor(fy1), H - 1));
+    if (box.x > box.z || box.y > box.w) box = (int4)(1, 1, 0, 0);
+  }
+  fbbox[f] = box;
+  fnormal[f] = (real4)(n, area);
+}
+
+// Backward: each vertex gathers, in a fixed order, the per-corner gradients its faces wrote
+// (dL/d screen position and depth, and dL/d world position), so no atomics are needed and the
+// result is bit-for-bit reproducible.
+//   adj_offsets (V+1) × int, adj (Σ) × int: entries face*3 + corner, sorted
+//   gface_screen, gface_world  3F × real4;   gvworld  V × real4 (output)
+__kernel void transform_bwd(__global const real4* vscreen, __global const real* P, int nv,
+                            __global const int* adj_offsets, __global const int* adj,
+                            __global const real4* gface_screen,
+                            __global const real4* gface_world, __global real4* gvworld) {
+  int v = get_global_id(0);
+  if (v >= nv) return;
+  real3 gs = 0, gw = 0;
+  for (int i = adj_offsets[v]; i < adj_offsets[v + 1]; ++i) {
+    gs += gface_screen[adj[i]].xyz;
+    gw += gface_world[adj[i]].xyz;
+  }
+  gvworld[v] = (real4)(project_bwd(vscreen[v].xyz, gs, P) + gw, 0);
+}
