@@ -1,20 +1,31 @@
 // Stage 3 — raster: soft coverage, perspective-correct depth, shading and softmax aggregation
-// (SPEC §1–§2); backward: exact derivative of all of it (SPEC §5).
+// (SPEC §1–§2) for a camera or, with no lights, for a light's depth map; backward: the exact
+// derivative of all of it (SPEC §5).
 //
-// Buffers (V vertices, F faces, N = W·H pixels, row 0 at the top):
-//   vscreen, vworld  V × real4      from transform_fwd / the scene
-//   faces            F × int4
-//   fbbox, fnormal   F × int4/real4 from face_setup
-//   albedo           3F × real4     albedo per face corner (per-face albedo repeats it)
+// Three passes, so that shadow terms can be sampled between the second and the third:
+//   raster_count      per pixel: softmax maximum m, Σ log(1 − D), and a bound on the number of
+//                     fragments to keep (those near the running maximum)
+//   raster_fragments  per pixel: the kept fragments — (pixel, face) pairs with
+//                     (z̃ − m)/γ ≥ −ln(1/ε_w) — with their weight, depth, shading terms and
+//                     light-map coordinates, in face order
+//   raster_resolve    per pixel: colour, silhouette and soft depth from the fragments and the
+//                     shadow terms s (1 unless shadow.cl has sampled them)
+// Buffers (V vertices, F faces, N = W·H pixels, row 0 at the top, K fragments, nl lights):
+//   vscreen, vworld  V × real4;  faces F × int4;  fbbox, fnormal F × int4/real4 (face_setup)
+//   albedo           3F × real4 albedo per face corner
 //   P                per-view parameters (common/layout.h)
 //   tile_offsets, tile_counts, tile_faces   from bin.cl (ignored when BRUTE_FORCE)
-//   image            N × real4      (R, G, B, silhouette A)
-//   aux              N × real4      (soft depth I_z, softmax max m, normaliser Z, Σ log(1−D))
-//                                   — what the backward needs to undo the aggregation
-// Forward launch: global (ceil(W/TILE)·TILE/PPW, ceil(H/TILE)·TILE), local (TILE/PPW, TILE):
-// one work-group per tile; each work-item renders PPW consecutive pixels of one row.
-// Backward launch: one work-item per face; it visits the pixels of its bounding box and sums
-// its own gradient in a fixed order (a gather: no atomics, bit-reproducible).
+//   pix_count, pix_offset, pix_n   N × int: fragment bound, first fragment, fragments kept
+//   rec_face K × int; rec_frag K × real4 (D·e^{(z̃−m)/γ}, z, 0, 0)
+//   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
+//   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
+//   image N × real4 (R, G, B, silhouette A); aux N × real4 (I_z, m, Z, Σ log(1 − D));
+//   depth N × real (I_z again, densely, as the shadow map S when rendering from a light)
+// Launch of count/fragments: global (ceil(W/TILE)·TILE/PPW, ceil(H/TILE)·TILE), local
+// (TILE/PPW, TILE): one work-group per tile, PPW consecutive pixels of a row per work-item.
+// resolve and resolve_bwd: one work-item per pixel. raster_bwd: one work-item per face, which
+// visits the pixels of its bounding box and sums its own gradient in a fixed order (a gather:
+// no atomics, bit-reproducible).
 #include "common/geometry.clh"
 #include "common/shade.clh"
 
@@ -59,97 +70,194 @@ inline real2 pixel_centre(int px, int py, int W, int H) {
   return (real2)((real)(2 * px + 1 - W) / H, (real)(H - 2 * py - 1) / H);
 }
 
-// Colour of the face at a fragment, with the facing sign it used.
-inline real3 fragment_colour(const Face* F, const Fragment* fr, __global const real* P,
-                             real* sign) {
-  real3 X = fr->b[0] * F->V[0] + fr->b[1] * F->V[1] + fr->b[2] * F->V[2];
-  real3 a = fr->b[0] * F->a[0] + fr->b[1] * F->a[1] + fr->b[2] * F->a[2];
-  *sign = facing_sign(F->n, X, P);
-  real shadow[P_MAX_LIGHTS];
-  for (int i = 0; i < P_MAX_LIGHTS; ++i) shadow[i] = 1;
-  return shade_fwd(X, *sign * F->n, a, shadow, P);
-}
-
 inline int depth_in_range(real z, __global const real* P) {
   return z >= P[P_NEAR] && z <= P[P_FAR];
 }
 
+inline real depth_normalised(real z, __global const real* P) {
+  return (P[P_FAR] - z) / (P[P_FAR] - P[P_NEAR]);
+}
+
+// The faces a work-item visits: its tile's list, or every face.
+#if BRUTE_FORCE
+#define FACE_LIST_BEGIN(px0, py) int list_begin = 0, list_count = nf;
+#define FACE_AT(i) (i)
+#else
+#define FACE_LIST_BEGIN(px0, py)                              \
+  int list_tile = ((px0) / TILE) + ((py) / TILE) * tiles_x;   \
+  int list_begin = tile_offsets[list_tile], list_count = tile_counts[list_tile];
+#define FACE_AT(i) tile_faces[list_begin + (i)]
+#endif
+#define TILE_ARGS                                                                     \
+  int tiles_x, __global const int *tile_offsets, __global const int *tile_counts,     \
+      __global const int *tile_faces
+
 __kernel __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
-void raster_fwd(__global const real4* vscreen, __global const real4* vworld,
-                __global const int4* faces, __global const int4* fbbox,
-                __global const real4* fnormal, __global const real4* albedo,
-                __global const real* P, int W, int H, int nf, int tiles_x,
-                __global const int* tile_offsets, __global const int* tile_counts,
-                __global const int* tile_faces, __global real4* image, __global real4* aux) {
+void raster_count(__global const real4* vscreen, __global const real4* vworld,
+                  __global const int4* faces, __global const int4* fbbox,
+                  __global const real4* fnormal, __global const real4* albedo,
+                  __global const real* P, int W, int H, int nf, TILE_ARGS,
+                  __global real4* aux, __global int* pix_count) {
   int px0 = get_global_id(0) * PPW, py = get_global_id(1);
   if (py >= H || px0 >= W) return;
-  const real gamma = P[P_GAMMA], nearz = P[P_NEAR], farz = P[P_FAR];
-  real m[PPW], Z[PPW], slog[PPW], accz[PPW];
-  real3 acc[PPW];
-  for (int j = 0; j < PPW; ++j) {
-    m[j] = P[P_EPS];  // the background enters with z̃ = ε
-    Z[j] = 1;
-    acc[j] = p_vec3(P, P_BACKGROUND);
-    accz[j] = farz;
-    slog[j] = 0;
-  }
-#if BRUTE_FORCE
-  int begin = 0, count = nf;
-#else
-  int tile = (px0 / TILE) + (py / TILE) * tiles_x;
-  int begin = tile_offsets[tile], count = tile_counts[tile];
-#endif
-  for (int i = 0; i < count; ++i) {
-#if BRUTE_FORCE
-    int f = i;
-#else
-    int f = tile_faces[begin + i];
-#endif
+  const real gamma = P[P_GAMMA], keep = -P[P_WEIGHT_LOG];
+  real m[PPW], slog[PPW];
+  int count[PPW];
+  for (int j = 0; j < PPW; ++j) m[j] = P[P_EPS], slog[j] = 0, count[j] = 0;
+  FACE_LIST_BEGIN(px0, py)
+  for (int i = 0; i < list_count; ++i) {
+    int f = FACE_AT(i);
     int4 bb = fbbox[f];
     if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
-    for (int j = 0; j < PPW; ++j) {
-      int px = px0 + j;
-      if (px >= W) break;
+    for (int j = 0; j < PPW && px0 + j < W; ++j) {
       Fragment fr;
-      if (!fragment_fwd(pixel_centre(px, py, W, H), F.p, F.z, F.area, P, &fr)) continue;
+      if (!fragment_fwd(pixel_centre(px0 + j, py, W, H), F.p, F.z, F.area, P, &fr)) continue;
       slog[j] += log1m_sigmoid(fr.u);
       if (!depth_in_range(fr.z, P)) continue;
-      real zt = (farz - fr.z) / (farz - nearz);
-      if (zt > m[j]) {  // online softmax: rescale what was summed to the new maximum
-        real s = exp((m[j] - zt) / gamma);
-        Z[j] *= s;
-        acc[j] *= s;
-        accz[j] *= s;
-        m[j] = zt;
-      }
-      real sign;
-      real3 C = fragment_colour(&F, &fr, P, &sign);
-      real De = sigmoid(fr.u) * exp((zt - m[j]) / gamma);
-      Z[j] += De;
-      acc[j] += De * C;
-      accz[j] += De * fr.z;
+      real zt = depth_normalised(fr.z, P);
+      m[j] = fmax(m[j], zt);
+      // The running maximum never exceeds the final one, so this counts a superset of the
+      // fragments raster_fragments keeps.
+      if ((zt - m[j]) / gamma >= keep) ++count[j];
     }
   }
-  for (int j = 0; j < PPW; ++j) {
-    int px = px0 + j;
-    if (px >= W) break;
-    image[py * W + px] = (real4)(acc[j] / Z[j], 1 - exp(slog[j]));
-    aux[py * W + px] = (real4)(accz[j] / Z[j], m[j], Z[j], slog[j]);
+  for (int j = 0; j < PPW && px0 + j < W; ++j) {
+    aux[py * W + px0 + j] = (real4)(0, m[j], 0, slog[j]);
+    pix_count[py * W + px0 + j] = count[j];
   }
 }
 
-// Backward. Inputs: image, aux (from raster_fwd), gimage N × real4 (dL/dR, dL/dG, dL/dB,
-// dL/dA), gdepth N × real (dL/dI_z). Outputs per face corner (3F × real4): gface_screen
-// (dL/d screen x, y, depth z), gface_world (dL/d world position), gface_albedo; and per face
-// gface_light (F × (2·nlights + 1) real4: dL/d light position|direction, dL/d light colour, …,
-// dL/d ambient).
+__kernel __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
+void raster_fragments(__global const real4* vscreen, __global const real4* vworld,
+                      __global const int4* faces, __global const int4* fbbox,
+                      __global const real4* fnormal, __global const real4* albedo,
+                      __global const real* P, int W, int H, int nf, TILE_ARGS,
+                      __global const real4* aux, __global const int* pix_count,
+                      __global const int* pix_offset, __global int* pix_n,
+                      __global int* rec_face, __global real4* rec_frag,
+                      __global real4* rec_shade, __global real4* rec_light) {
+  int px0 = get_global_id(0) * PPW, py = get_global_id(1);
+  if (py >= H || px0 >= W) return;
+  const real gamma = P[P_GAMMA], keep = -P[P_WEIGHT_LOG];
+  const int nl = (int)P[P_NLIGHTS];
+  real m[PPW];
+  int n[PPW];
+  for (int j = 0; j < PPW && px0 + j < W; ++j) m[j] = aux[py * W + px0 + j].y, n[j] = 0;
+  FACE_LIST_BEGIN(px0, py)
+  for (int i = 0; i < list_count; ++i) {
+    int f = FACE_AT(i);
+    int4 bb = fbbox[f];
+    if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;
+    Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
+    for (int j = 0; j < PPW && px0 + j < W; ++j) {
+      int pix = py * W + px0 + j;
+      Fragment fr;
+      if (!fragment_fwd(pixel_centre(px0 + j, py, W, H), F.p, F.z, F.area, P, &fr)) continue;
+      if (!depth_in_range(fr.z, P)) continue;
+      real e = (depth_normalised(fr.z, P) - m[j]) / gamma;
+      if (e < keep || n[j] >= pix_count[pix]) continue;  // (the bound holds by construction)
+      int r = pix_offset[pix] + n[j]++;
+      rec_face[r] = f;
+      rec_frag[r] = (real4)(sigmoid(fr.u) * exp(e), fr.z, 0, 0);
+      real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
+      real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
+      real3 direct[P_MAX_LIGHTS];
+      rec_shade[r * (1 + nl)] =
+          (real4)(shade_terms(X, facing_sign(F.n, X, P) * F.n, a, P, direct), 0);
+      for (int l = 0; l < nl; ++l) {
+        rec_shade[r * (1 + nl) + 1 + l] = (real4)(direct[l], 0);
+        rec_light[r * nl + l] = (real4)(light_project(l, X, P), 1);
+      }
+    }
+  }
+  for (int j = 0; j < PPW && px0 + j < W; ++j) pix_n[py * W + px0 + j] = n[j];
+}
+
+inline real3 fragment_colour(int r, int nl, __global const real4* rec_shade,
+                             __global const real4* rec_light) {
+  real3 c = rec_shade[r * (1 + nl)].xyz;
+  for (int l = 0; l < nl; ++l) c += rec_light[r * nl + l].w * rec_shade[r * (1 + nl) + 1 + l].xyz;
+  return c;
+}
+
+__kernel void raster_resolve(__global const real* P, int W, int H,
+                             __global const int* pix_offset, __global const int* pix_n,
+                             __global const real4* rec_frag, __global const real4* rec_shade,
+                             __global const real4* rec_light, __global real4* image,
+                             __global real4* aux, __global real* depth) {
+  int pix = get_global_id(0);
+  if (pix >= W * H) return;
+  const int nl = (int)P[P_NLIGHTS];
+  real4 ax = aux[pix];
+  real Z = exp((P[P_EPS] - ax.y) / P[P_GAMMA]);  // the background's weight
+  real3 acc = Z * p_vec3(P, P_BACKGROUND);
+  real accz = Z * P[P_FAR];
+  for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
+    real4 fr = rec_frag[r];
+    Z += fr.x;
+    acc += fr.x * fragment_colour(r, nl, rec_shade, rec_light);
+    accz += fr.x * fr.y;
+  }
+  image[pix] = (real4)(acc / Z, 1 - exp(ax.w));
+  aux[pix] = (real4)(accz / Z, ax.y, Z, ax.w);
+  depth[pix] = accz / Z;
+}
+
+// Backward of raster_resolve. gimage N × real4 (dL/dR, dL/dG, dL/dB, dL/dA), gdepth N × real
+// (dL/dI_z). Writes rec_wg K × real4 (w, G, 0, 0): the fragment's normalised weight w and
+// G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; and rec_lgrad K·nl × real4
+// (dL/ds, 0, 0, 0), which the shadow backward completes.
+__kernel void raster_resolve_bwd(__global const real* P, int W, int H,
+                                 __global const int* pix_offset, __global const int* pix_n,
+                                 __global const real4* rec_frag,
+                                 __global const real4* rec_shade,
+                                 __global const real4* rec_light, __global const real4* image,
+                                 __global const real4* aux, __global const real4* gimage,
+                                 __global const real* gdepth, __global real4* rec_wg,
+                                 __global real4* rec_lgrad) {
+  int pix = get_global_id(0);
+  if (pix >= W * H) return;
+  const int nl = (int)P[P_NLIGHTS];
+  real3 I = image[pix].xyz, gI = gimage[pix].xyz;
+  real Iz = aux[pix].x, Z = aux[pix].z, gz = gdepth[pix];
+  for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
+    real4 fr = rec_frag[r];
+    real w = fr.x / Z;
+    real3 C = fragment_colour(r, nl, rec_shade, rec_light);
+    rec_wg[r] = (real4)(w, dot(gI, C - I) + gz * (fr.y - Iz), 0, 0);
+    for (int l = 0; l < nl; ++l)
+      rec_lgrad[r * nl + l] = (real4)(w * dot(gI, rec_shade[r * (1 + nl) + 1 + l].xyz), 0, 0, 0);
+  }
+}
+
+// The fragment of face f at pixel pix, if it was kept: binary search of the pixel's list,
+// which is in face order. −1 if absent.
+inline int find_fragment(int pix, int f, __global const int* pix_offset,
+                         __global const int* pix_n, __global const int* rec_face) {
+  int lo = pix_offset[pix], hi = lo + pix_n[pix];
+  while (lo < hi) {
+    int mid = (lo + hi) / 2;
+    if (rec_face[mid] < f) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < pix_offset[pix] + pix_n[pix] && rec_face[lo] == f ? lo : -1;
+}
+
+// Backward of count/fragments/resolve and of the shading, per face. Inputs: aux, gimage (its
+// .w is dL/dA), rec_wg and rec_lgrad (the latter as completed by the shadow backward:
+// (dL/ds, dL/dμx, dL/dμy, dL/dd)). Outputs per face corner (3F × real4): gface_screen (dL/d
+// screen x, y, depth z), gface_world (dL/d world position), gface_albedo; per face
+// gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
+// each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
 __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
                          __global const int4* faces, __global const int4* fbbox,
                          __global const real4* fnormal, __global const real4* albedo,
                          __global const real* P, int W, int H, int nf,
-                         __global const real4* image, __global const real4* aux,
-                         __global const real4* gimage, __global const real* gdepth,
+                         __global const real4* aux, __global const real4* gimage,
+                         __global const real* gdepth, __global const int* pix_offset, __global const int* pix_n,
+                         __global const int* rec_face, __global const real4* rec_light,
+                         __global const real4* rec_wg, __global const real4* rec_lgrad,
                          __global real4* gface_screen, __global real4* gface_world,
                          __global real4* gface_albedo, __global real4* gface_light) {
   int f = get_global_id(0);
@@ -160,7 +268,11 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
   real gz[3] = {0, 0, 0};
   real3 gV[3] = {0, 0, 0}, ga[3] = {0, 0, 0}, gn = 0;
   LightGrads gl;
-  for (int i = 0; i < P_MAX_LIGHTS; ++i) gl.pos[i] = gl.color[i] = 0;
+  FrameGrads gframe[P_MAX_LIGHTS];
+  for (int i = 0; i < P_MAX_LIGHTS; ++i) {
+    gl.pos[i] = gl.color[i] = 0;
+    gframe[i].eye = gframe[i].fwd = gframe[i].right = gframe[i].up = 0;
+  }
   gl.ambient = 0;
 
   int4 bb = fbbox[f];
@@ -172,28 +284,27 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
       Fragment fr;
       if (!fragment_fwd(q, F.p, F.z, F.area, P, &fr)) continue;
       int pix = py * W + px;
-      real4 img = image[pix], ax = aux[pix], gimg = gimage[pix];
       real D = sigmoid(fr.u);
+      real4 gimg = gimage[pix];
       // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D, with 1 − A = exp(Σ log(1 − D)).
-      real gu = gimg.w * exp(ax.w) * D;
+      real gu = gimg.w * exp(aux[pix].w) * D;
       real gzf = 0, gb[3] = {0, 0, 0};
-      if (depth_in_range(fr.z, P)) {
-        real zt = (farz - fr.z) / (farz - nearz);
-        real w = D * exp((zt - ax.y) / gamma) / ax.z;
-        real sign;
-        real3 C = fragment_colour(&F, &fr, P, &sign);
-        real gI_z = gdepth[pix];
-        real3 gI = gimg.xyz;
-        // I = Σ w_f C_f + w_b C_bg with w_f ∝ D_f e^{z̃_f/γ}: dI/d(log w_f) = w_f (C_f − I).
-        real G = dot(gI, C - img.xyz) + gI_z * (fr.z - ax.x);
+      int r = depth_in_range(fr.z, P) ? find_fragment(pix, f, pix_offset, pix_n, rec_face) : -1;
+      if (r >= 0) {
+        real w = rec_wg[r].x, G = rec_wg[r].y;
+        // The weight is D·e^{z̃/γ}/Z: d(log weight)/du = 1 − D, d/dz̃ = 1/γ.
         gu += w * (1 - D) * G;
-        gzf = gI_z * w - w * G / gamma / (farz - nearz);
+        gzf = gdepth[pix] * w - w * G / gamma / (farz - nearz);
         real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
         real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
-        real shadow[P_MAX_LIGHTS], gshadow[P_MAX_LIGHTS];
-        for (int i = 0; i < P_MAX_LIGHTS; ++i) shadow[i] = 1, gshadow[i] = 0;
+        real sign = facing_sign(F.n, X, P);
+        real s[P_MAX_LIGHTS];
+        for (int l = 0; l < nl; ++l) s[l] = rec_light[r * nl + l].w;
         real3 gX = 0, gnf = 0, gaf = 0;
-        shade_bwd(X, sign * F.n, a, shadow, P, gI * w, &gX, &gnf, &gaf, gshadow, &gl);
+        shade_bwd(X, sign * F.n, a, s, P, gimg.xyz * w, &gX, &gnf, &gaf, &gl);
+        if (P[P_SHADOWS] > 0)  // s depends on X through (μ, d)
+          for (int l = 0; l < nl; ++l)
+            gX += light_project_bwd(l, X, rec_lgrad[r * nl + l].yzw, P, &gframe[l]);
         gn += sign * gnf;
         for (int k = 0; k < 3; ++k) {
           gb[k] = dot(gX, F.V[k]) + dot(gaf, F.a[k]);
@@ -218,10 +329,14 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
     gface_world[3 * f + k] = (real4)(gV[k], 0);
     gface_albedo[3 * f + k] = (real4)(ga[k], 0);
   }
-  __global real4* gL = gface_light + f * (2 * nl + 1);
-  for (int i = 0; i < nl; ++i) {
-    gL[2 * i] = (real4)(gl.pos[i], 0);
-    gL[2 * i + 1] = (real4)(gl.color[i], 0);
+  __global real4* gL = gface_light + f * (6 * nl + 1);
+  for (int l = 0; l < nl; ++l) {
+    gL[2 * l] = (real4)(gl.pos[l], 0);
+    gL[2 * l + 1] = (real4)(gl.color[l], 0);
+    gL[2 * nl + 1 + 4 * l] = (real4)(gframe[l].eye, 0);
+    gL[2 * nl + 2 + 4 * l] = (real4)(gframe[l].fwd, 0);
+    gL[2 * nl + 3 + 4 * l] = (real4)(gframe[l].right, 0);
+    gL[2 * nl + 4 + 4 * l] = (real4)(gframe[l].up, 0);
   }
   gL[2 * nl] = (real4)(gl.ambient, 0);
 }

@@ -14,7 +14,7 @@ __kernel void transform_fwd(__global const real4* vworld, __global const real* P
                             __global real4* vscreen) {
   int v = get_global_id(0);
   if (v >= nv) return;
-  vscreen[v] = (real4)(project_fwd(vworld[v].xyz, P), 0);
+  vscreen[v] = (real4)(project_fwd(vworld[v].xyz, P + P_FRAME), 0);
 }
 
 __kernel void face_setup(__global const real4* vworld, __global const real4* vscreen,
@@ -39,7 +39,8 @@ __kernel void face_setup(__global const real4* vworld, __global const real4* vsc
   int valid = s0.z >= nearz && s1.z >= nearz && s2.z >= nearz && nlen > 0 &&
               fabs(area) > tiny * (dot(e1, e1) + dot(e2, e2));
   if (valid && P[P_CULL] > 0) {
-    real3 to_cam = P[P_ORTHO] > 0 ? -p_vec3(P, P_FWD) : p_vec3(P, P_EYE) - V0;
+    __global const real* fr = P + P_FRAME;
+    real3 to_cam = fr[FR_ORTHO] > 0 ? -p_vec3(fr, FR_FWD) : p_vec3(fr, FR_EYE) - V0;
     valid = dot(n, to_cam) > 0;
   }
   int4 box = (int4)(1, 1, 0, 0);
@@ -65,11 +66,15 @@ __kernel void face_setup(__global const real4* vworld, __global const real4* vsc
 // (dL/d screen position and depth, and dL/d world position), so no atomics are needed and the
 // result is bit-for-bit reproducible.
 //   adj_offsets (V+1) × int, adj (Σ) × int: entries face*3 + corner, sorted
-//   gface_screen, gface_world  3F × real4;   gvworld  V × real4 (output)
-__kernel void transform_bwd(__global const real4* vscreen, __global const real* P, int nv,
-                            __global const int* adj_offsets, __global const int* adj,
-                            __global const real4* gface_screen,
-                            __global const real4* gface_world, __global real4* gvworld) {
+//   gface_screen, gface_world  3F × real4
+//   gvworld  V × real4 (output): dL/d world position
+//   gframe   4V × real4 (output): this vertex's share of dL/d(eye, fwd, right, up) of the
+//            view's frame (summed on the host where the frame depends on a light's position)
+__kernel void transform_bwd(__global const real4* vworld, __global const real4* vscreen,
+                            __global const real* P, int nv, __global const int* adj_offsets,
+                            __global const int* adj, __global const real4* gface_screen,
+                            __global const real4* gface_world, __global real4* gvworld,
+                            __global real4* gframe) {
   int v = get_global_id(0);
   if (v >= nv) return;
   real3 gs = 0, gw = 0;
@@ -77,5 +82,10 @@ __kernel void transform_bwd(__global const real4* vscreen, __global const real* 
     gs += gface_screen[adj[i]].xyz;
     gw += gface_world[adj[i]].xyz;
   }
-  gvworld[v] = (real4)(project_bwd(vscreen[v].xyz, gs, P) + gw, 0);
+  FrameGrads gf = {0, 0, 0, 0};
+  gvworld[v] = (real4)(project_bwd(vworld[v].xyz, vscreen[v].xyz, gs, P + P_FRAME, &gf) + gw, 0);
+  gframe[4 * v] = (real4)(gf.eye, 0);
+  gframe[4 * v + 1] = (real4)(gf.fwd, 0);
+  gframe[4 * v + 2] = (real4)(gf.right, 0);
+  gframe[4 * v + 3] = (real4)(gf.up, 0);
 }

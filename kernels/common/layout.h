@@ -5,29 +5,43 @@
 #ifndef PENUMBRA_LAYOUT_H
 #define PENUMBRA_LAYOUT_H
 
+/* A camera frame (the view's camera, or a light's camera), FR_SIZE reals. */
+#define FR_EYE 0         /* eye position */
+#define FR_FWD 3         /* unit viewing direction; view depth z = (X − eye)·fwd */
+#define FR_RIGHT 6
+#define FR_UP 9
+#define FR_SCALE 12      /* tan(fov/2) (perspective) or half-height (orthographic) */
+#define FR_ORTHO 13      /* 1 orthographic, 0 perspective */
+#define FR_SIZE 14
+
 #define P_SIGMA 0        /* coverage sharpness σ */
 #define P_GAMMA 1        /* aggregation sharpness γ */
 #define P_EPS 2          /* background depth ε */
 #define P_CUTOFF_D2 3    /* σ·ln(1/ε_D − 1): outside faces at d² ≥ this are skipped */
 #define P_NEAR 4
 #define P_FAR 5
-#define P_ORTHO 6        /* 1 orthographic, 0 perspective */
-#define P_SCALE 7        /* tan(fov/2) (perspective) or half-height (orthographic) */
-#define P_CULL 8         /* 1: skip faces whose normal faces away from the camera */
-#define P_NLIGHTS 9
-#define P_EYE 12         /* camera frame, 3 reals each */
-#define P_RIGHT 15
-#define P_UP 18
-#define P_FWD 21
-#define P_AMBIENT 24
-#define P_BACKGROUND 27
-#define P_LIGHTS 32      /* P_LIGHT_STRIDE reals per light: */
+#define P_CULL 6         /* 1: skip faces whose normal faces away from the camera */
+#define P_NLIGHTS 7
+#define P_WEIGHT_LOG 8   /* ln(1/ε_w): fragments with (z̃ − m)/γ below −this are not aggregated */
+#define P_SHADOWS 9      /* 0 none, 1 hard, 2 soft */
+#define P_SIGMA_S 10     /* shadow-map Gaussian variance σ_s (texel²) */
+#define P_LAMBDA_EPS 11  /* truncation threshold ε_λ */
+#define P_GAMMA_S 12     /* depth-compare softness γ_s */
+#define P_BETA 13        /* depth bias β */
+#define P_GAMMA_P 14     /* penumbra soft-minimum sharpness γ_P */
+#define P_AMBIENT 16     /* RGB */
+#define P_BACKGROUND 19  /* RGB */
+#define P_FRAME 24       /* the view's camera frame (FR_SIZE reals) */
+#define P_LIGHTS 40      /* P_LIGHT_STRIDE reals per light: */
 #define L_POS 0          /*   position (point) or travel direction (directional), xyz */
 #define L_POINT 3        /*   1 point light, 0 directional */
 #define L_COLOR 4        /*   RGB intensity */
 #define L_SIZE 7         /*   diameter D_L */
-#define P_LIGHT_STRIDE 8
-#define P_MAX_LIGHTS 8
+#define L_FRAME 8        /*   the light's camera frame (FR_SIZE reals) */
+#define L_MAP_W 22       /*   shadow-map size in texels */
+#define L_MAP_H 23
+#define P_LIGHT_STRIDE 32
+#define P_MAX_LIGHTS 4
 #define P_SIZE (P_LIGHTS + P_LIGHT_STRIDE * P_MAX_LIGHTS)
 
 #endif

@@ -1,0 +1,219 @@
+// Stage 4 — shadow: the shadow term s of every kept fragment for one light (SPEC §4, hard
+// shadows, eq. 7: filter then compare), forward and backward, with Gaussian-weighted sampling
+// of the light's shadow map S:
+//   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ))
+//   exact      g over the whole map (EXACT=1 builds of the same kernels)
+//   gemm       g over the whole map as matrix products (gemm_* kernels + CLBlast on the host)
+// Buffers (K fragments, nl lights, this light l, map W_s × H_s row-major, row 0 at the top):
+//   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
+//   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
+//              where v is the filtered depth
+//   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
+// Launch: one work-item per fragment (shadow_sample, shadow_sample_bwd, shadow_boxes,
+// gemm_*), one per texel (shadow_gather).
+#include "common/real.clh"
+
+#ifndef EXACT
+#define EXACT 0  // 1: sum over the whole map (no truncation)
+#endif
+
+typedef struct {
+  int x0, y0, x1, y1;  // texel window, inclusive
+  real eps;            // subtracted from every weight (ε_λ, or 0 when exact)
+} Window;
+
+// Where μ lies outside the map rectangle the fragment is lit (s = 1): an empty window.
+inline Window sample_window(real2 mu, __global const real* P, int Wm, int Hm) {
+  Window w = {1, 1, 0, 0, 0};
+  if (!(mu.x >= -R(0.5) && mu.x < Wm - R(0.5) && mu.y >= -R(0.5) && mu.y < Hm - R(0.5)))
+    return w;
+#if EXACT
+  w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
+#else
+  w.eps = P[P_LAMBDA_EPS];
+  real radius = sqrt(2 * P[P_SIGMA_S] * log(1 / w.eps));
+  w.x0 = max((int)ceil(mu.x - radius), 0);
+  w.x1 = min((int)floor(mu.x + radius), Wm - 1);
+  w.y0 = max((int)ceil(mu.y - radius), 0);
+  w.y1 = min((int)floor(mu.y + radius), Hm - 1);
+#endif
+  return w;
+}
+
+inline real gauss(int i, int j, real2 mu, real sigma_s) {
+  real dx = i - mu.x, dy = j - mu.y;
+  return exp(-(dx * dx + dy * dy) / (2 * sigma_s));
+}
+
+// Filtered depth v = Σ g'·S / Σ g'; returns 0 in `*norm` if no texel has weight.
+inline real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
+                         int Wm, real* norm) {
+  real sum = 0, acc = 0;
+  for (int j = w.y0; j <= w.y1; ++j)
+    for (int i = w.x0; i <= w.x1; ++i) {
+      real g = gauss(i, j, mu, P[P_SIGMA_S]) - w.eps;
+      if (g > 0) {
+        sum += g;
+        acc += g * S[j * Wm + i];
+      }
+    }
+  *norm = sum;
+  return sum > 0 ? acc / sum : 0;
+}
+
+inline real compare(real v, real d, __global const real* P) {
+  return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
+}
+
+__kernel void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                            __global const real* S, __global real4* rec_light) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  real4 x = rec_light[r * nl + light];
+  Window w = sample_window(x.xy, P, Wm, Hm);
+  real norm = 0, v = w.x0 <= w.x1 ? filter_depth(x.xy, w, P, S, Wm, &norm) : 0;
+  rec_light[r * nl + light].w = norm > 0 ? compare(v, x.z, P) : 1;
+}
+
+__kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
+                                int Hm, __global const real* S,
+                                __global const real4* rec_light, __global real4* rec_lgrad) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  real4 x = rec_light[r * nl + light];
+  real gs = rec_lgrad[r * nl + light].x;
+  Window w = sample_window(x.xy, P, Wm, Hm);
+  real norm = 0, v = w.x0 <= w.x1 ? filter_depth(x.xy, w, P, S, Wm, &norm) : 0;
+  if (norm <= 0) {
+    rec_lgrad[r * nl + light] = 0;
+    return;
+  }
+  real gv = gs * x.w * (1 - x.w) / P[P_GAMMA_S];
+  // dv/dμ = Σ ∂g'/∂μ·(S − v)/Σg', with ∂g'/∂μx = g·(i − μx)/σ_s where g' > 0.
+  real2 dv = 0;
+  for (int j = w.y0; j <= w.y1; ++j)
+    for (int i = w.x0; i <= w.x1; ++i) {
+      real g = gauss(i, j, x.xy, P[P_SIGMA_S]);
+      if (g - w.eps > 0) dv += g * (S[j * Wm + i] - v) * (real2)(i - x.x, j - x.y);
+    }
+  dv /= norm * P[P_SIGMA_S];
+  rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
+}
+
+// Texel window of each fragment as a box, for binning by bin.cl (the gather below).
+__kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                           __global const real4* rec_light, __global int4* boxes) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  Window w = sample_window(rec_light[r * nl + light].xy, P, Wm, Hm);
+  boxes[r] = (int4)(w.x0, w.y0, w.x1, w.y1);
+}
+
+// dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in
+// fragment order (no atomics). With bins (truncated) a texel visits its tile's list; without
+// (exact) every fragment.
+__kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                            __global const real4* rec_light, __global const real4* rec_lgrad,
+                            int tile, int tiles_x, __global const int* tile_offsets,
+                            __global const int* tile_counts, __global const int* tile_recs,
+                            __global real* gS) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= Wm || j >= Hm) return;
+#if EXACT
+  int begin = 0, count = nrec;
+#else
+  int t = (i / tile) + (j / tile) * tiles_x;
+  int begin = tile_offsets[t], count = tile_counts[t];
+#endif
+  real acc = 0;
+  for (int k = 0; k < count; ++k) {
+#if EXACT
+    int r = k;
+#else
+    int r = tile_recs[begin + k];
+#endif
+    real4 x = rec_light[r * nl + light];
+    Window w = sample_window(x.xy, P, Wm, Hm);
+    if (i < w.x0 || i > w.x1 || j < w.y0 || j > w.y1) continue;
+    real g = gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps;
+    if (g > 0) acc += rec_lgrad[r * nl + light].x * g;
+  }
+  gS[j * Wm + i] = acc;
+}
+
+// ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
+// T = Gx·Sᵀ (n × H_s) and v_r = Σ_j T_rj·Gy_rj / (Σgx_r·Σgy_r). -------------------------------
+// Gx n × W_s, Gy n × H_s; Gxd (backward only) = Gx ⊙ (i − μx)/σ_s; norm n × real4
+// (Σgx, Σgy, inside?, 0).
+__kernel void gemm_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
+                           int Hm, __global const real4* rec_light, __global real* Gx,
+                           __global real* Gxd, int with_derivative, __global real* Gy,
+                           __global real4* norm) {
+  int k = get_global_id(0);
+  if (k >= n) return;
+  real4 x = rec_light[(r0 + k) * nl + light];
+  Window w = sample_window(x.xy, P, Wm, Hm);
+  real sx = 0, sy = 0, ss = P[P_SIGMA_S];
+  int inside = w.x0 <= w.x1;
+  for (int i = 0; i < Wm; ++i) {
+    real d = i - x.x, g = inside ? exp(-d * d / (2 * ss)) : 0;
+    Gx[(size_t)k * Wm + i] = g;
+    if (with_derivative) Gxd[(size_t)k * Wm + i] = g * d / ss;
+    sx += g;
+  }
+  for (int j = 0; j < Hm; ++j) {
+    real d = j - x.y, g = inside ? exp(-d * d / (2 * ss)) : 0;
+    Gy[(size_t)k * Hm + j] = g;
+    sy += g;
+  }
+  norm[k] = (real4)(sx, sy, inside, 0);
+}
+
+__kernel void gemm_finish(__global const real* P, int r0, int n, int light, int nl, int Hm,
+                          __global const real* T, __global const real* Gy,
+                          __global const real4* norm, __global real4* rec_light) {
+  int k = get_global_id(0);
+  if (k >= n) return;
+  real4 nm = norm[k];
+  __global real4* x = rec_light + (r0 + k) * nl + light;
+  if (nm.z == 0) {
+    x->w = 1;
+    return;
+  }
+  real acc = 0;
+  for (int j = 0; j < Hm; ++j) acc += T[(size_t)k * Hm + j] * Gy[(size_t)k * Hm + j];
+  x->w = compare(acc / (nm.x * nm.y), x->z, P);
+}
+
+// Backward: T and Td = Gxd·Sᵀ are given; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in
+// place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
+__kernel void gemm_finish_bwd(__global const real* P, int r0, int n, int light, int nl, int Wm,
+                              int Hm, __global const real* T, __global const real* Td,
+                              __global const real* Gx, __global real* Gy,
+                              __global const real4* norm, __global const real4* rec_light,
+                              __global real4* rec_lgrad) {
+  int k = get_global_id(0);
+  if (k >= n) return;
+  real4 nm = norm[k], x = rec_light[(r0 + k) * nl + light];
+  __global real4* g = rec_lgrad + (r0 + k) * nl + light;
+  if (nm.z == 0) {
+    *g = 0;
+    for (int j = 0; j < Hm; ++j) Gy[(size_t)k * Hm + j] = 0;
+    return;
+  }
+  real ss = P[P_SIGMA_S], A = 0, Ax = 0, Ay = 0, sdx = 0, sdy = 0;
+  for (int j = 0; j < Hm; ++j) {
+    real gy = Gy[(size_t)k * Hm + j], t = T[(size_t)k * Hm + j];
+    real gyd = gy * (j - x.y) / ss;
+    A += t * gy;
+    Ax += Td[(size_t)k * Hm + j] * gy;
+    Ay += t * gyd;
+    sdy += gyd;
+  }
+  for (int i = 0; i < Wm; ++i) sdx += Gx[(size_t)k * Wm + i] * (i - x.x) / ss;
+  real nrm = nm.x * nm.y, v = A / nrm;
+  real gv = g->x * x.w * (1 - x.w) / P[P_GAMMA_S];
+  real dvx = Ax / nrm - v * sdx / nm.x, dvy = Ay / nrm - v * sdy / nm.y;
+  *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);
+  for (int j = 0; j < Hm; ++j) Gy[(size_t)k * Hm + j] *= gv / nrm;
+}
