@@ -1,0 +1,319 @@
+// JSON scene files: load_scene / parse_scene (io.hpp). The format is documented in
+// docs/scene-format.md; keep the two in step.
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "penumbra/error.hpp"
+#include "penumbra/io.hpp"
+
+namespace penumbra {
+namespace {
+
+using json = nlohmann::json;
+
+// Everything below throws SceneError with a message relative to the document; the entry
+// points prefix it with the file (or "scene") once.
+struct SceneError {
+  std::string message;
+};
+
+[[noreturn]] void fail(const std::string& message) { throw SceneError{message}; }
+
+const char* type_name(const json& j) {
+  switch (j.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "a number";
+    case json::value_t::string: return "a string";
+    case json::value_t::array: return "an array";
+    case json::value_t::object: return "an object";
+    default: return "an unsupported value";
+  }
+}
+
+std::string join(std::initializer_list<const char*> keys) {
+  std::string out;
+  for (const char* k : keys) {
+    if (!out.empty()) out += ", ";
+    out += k;
+  }
+  return out;
+}
+
+// The object at `where` must be an object whose keys are all in `allowed`.
+void check_object(const json& j, const std::string& where,
+                  std::initializer_list<const char*> allowed) {
+  if (!j.is_object()) fail("'" + where + "' must be an object, got " + type_name(j));
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    bool known = false;
+    for (const char* k : allowed) known = known || it.key() == k;
+    if (!known)
+      fail("unknown key '" + (where.empty() ? it.key() : where + "." + it.key()) +
+           "' (expected one of: " + join(allowed) + ")");
+  }
+}
+
+std::string child(const std::string& where, const char* key) {
+  return where.empty() ? std::string(key) : where + "." + key;
+}
+
+double get_number(const json& j, const std::string& where) {
+  if (!j.is_number()) fail("'" + where + "' must be a number, got " + type_name(j));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) fail("'" + where + "' must be a finite number");
+  return v;
+}
+
+int get_int(const json& j, const std::string& where) {
+  if (!j.is_number_integer())
+    fail("'" + where + "' must be an integer, got " +
+         (j.is_number() ? j.dump() : std::string(type_name(j))));
+  const double v = j.get<double>();
+  if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
+    fail("'" + where + "' = " + j.dump() + " is out of range");
+  return static_cast<int>(j.get<long long>());
+}
+
+bool get_bool(const json& j, const std::string& where) {
+  if (!j.is_boolean()) fail("'" + where + "' must be true or false, got " + type_name(j));
+  return j.get<bool>();
+}
+
+std::string get_string(const json& j, const std::string& where) {
+  if (!j.is_string()) fail("'" + where + "' must be a string, got " + type_name(j));
+  return j.get<std::string>();
+}
+
+glm::dvec3 get_vec3(const json& j, const std::string& where) {
+  if (!j.is_array() || j.size() != 3)
+    fail("'" + where + "' must be an array of 3 numbers, got " +
+         (j.is_array() ? "an array of " + std::to_string(j.size()) : std::string(type_name(j))));
+  glm::dvec3 v;
+  for (int k = 0; k < 3; ++k) v[k] = get_number(j[k], where + "[" + std::to_string(k) + "]");
+  return v;
+}
+
+// A number n (meaning [n, n, n]) or an array of 3 numbers.
+glm::dvec3 get_scalar_or_vec3(const json& j, const std::string& where) {
+  if (j.is_number()) return glm::dvec3(get_number(j, where));
+  if (!j.is_array())
+    fail("'" + where + "' must be a number or an array of 3 numbers, got " + type_name(j));
+  return get_vec3(j, where);
+}
+
+// Reads an optional key into `out` with the reader `read`.
+template <class T, class Read>
+void opt(const json& obj, const std::string& where, const char* key, T& out, Read read) {
+  auto it = obj.find(key);
+  if (it != obj.end()) out = read(*it, child(where, key));
+}
+
+const json& require(const json& obj, const std::string& where, const char* key) {
+  auto it = obj.find(key);
+  if (it == obj.end()) fail("'" + where + "' is missing the required key '" + key + "'");
+  return *it;
+}
+
+const json& require_array(const json& obj, const std::string& where, const char* key) {
+  const json& a = require(obj, where, key);
+  if (!a.is_array()) fail("'" + child(where, key) + "' must be an array, got " + type_name(a));
+  return a;
+}
+
+std::string item(const char* key, size_t i) {
+  return std::string(key) + "[" + std::to_string(i) + "]";
+}
+
+Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::path& base) {
+  check_object(j, where, {"file", "name", "translate", "scale", "albedo"});
+  const std::string file = get_string(require(j, where, "file"), child(where, "file"));
+  if (file.empty()) fail("'" + child(where, "file") + "' is empty");
+  std::filesystem::path path(file);
+  if (path.is_relative()) path = base / path;
+
+  glm::dvec3 translate(0), scale(1);
+  opt(j, where, "translate", translate, get_vec3);
+  opt(j, where, "scale", scale, get_scalar_or_vec3);
+  bool has_albedo = false;
+  glm::dvec3 albedo(0.8);
+  if (j.contains("albedo")) {
+    albedo = get_vec3(j["albedo"], child(where, "albedo"));
+    has_albedo = true;
+  }
+
+  Mesh mesh;
+  try {
+    mesh = load_obj(path.string());
+  } catch (const Error& e) {
+    fail(where + ": " + e.what());
+  }
+  opt(j, where, "name", mesh.name, get_string);
+
+  for (glm::dvec3& v : mesh.vertices) v = v * scale + translate;
+  // A mirroring scale (odd number of negative factors) would turn the faces inside out:
+  // swap two corners so that the winding stays counter-clockwise seen from outside.
+  if (scale.x * scale.y * scale.z < 0)
+    for (glm::ivec3& f : mesh.faces) std::swap(f.y, f.z);
+  if (has_albedo) {
+    mesh.albedo_mode = AlbedoMode::PerVertex;
+    mesh.albedo.assign(mesh.vertices.size(), albedo);
+  }
+  return mesh;
+}
+
+Camera parse_camera(const json& j, const std::string& where) {
+  check_object(j, where, {"eye", "target", "up", "projection", "fov", "half_height", "near",
+                          "far", "width", "height"});
+  Camera c;
+  opt(j, where, "eye", c.eye, get_vec3);
+  opt(j, where, "target", c.target, get_vec3);
+  opt(j, where, "up", c.up, get_vec3);
+  if (j.contains("projection")) {
+    const std::string p = get_string(j["projection"], child(where, "projection"));
+    if (p == "perspective")
+      c.projection = Projection::Perspective;
+    else if (p == "orthographic")
+      c.projection = Projection::Orthographic;
+    else
+      fail("'" + child(where, "projection") + "' is \"" + p +
+           "\" (expected \"perspective\" or \"orthographic\")");
+  }
+  opt(j, where, "fov", c.fov_deg, get_number);
+  opt(j, where, "half_height", c.half_height, get_number);
+  opt(j, where, "near", c.near, get_number);
+  opt(j, where, "far", c.far, get_number);
+  opt(j, where, "width", c.width, get_int);
+  opt(j, where, "height", c.height, get_int);
+  return c;
+}
+
+Light parse_light(const json& j, const std::string& where) {
+  check_object(j, where, {"type", "position", "direction", "color", "intensity", "size"});
+  Light l;
+  if (j.contains("type")) {
+    const std::string t = get_string(j["type"], child(where, "type"));
+    if (t == "point")
+      l.type = LightType::Point;
+    else if (t == "directional")
+      l.type = LightType::Directional;
+    else
+      fail("'" + child(where, "type") + "' is \"" + t +
+           "\" (expected \"point\" or \"directional\")");
+  }
+  opt(j, where, "position", l.position, get_vec3);
+  opt(j, where, "direction", l.direction, get_vec3);
+  opt(j, where, "color", l.color, get_vec3);
+  double intensity = 1.0;
+  opt(j, where, "intensity", intensity, get_number);
+  l.color *= intensity;
+  opt(j, where, "size", l.size, get_number);
+  return l;
+}
+
+RenderParams parse_render(const json& j, const std::string& where) {
+  check_object(j, where, {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps",
+                          "gamma_s", "beta", "gamma_p", "cull_backfaces"});
+  RenderParams p;
+  opt(j, where, "sigma", p.sigma, get_number);
+  opt(j, where, "gamma", p.gamma, get_number);
+  opt(j, where, "eps", p.eps, get_number);
+  opt(j, where, "dist_eps", p.dist_eps, get_number);
+  opt(j, where, "sigma_s", p.sigma_s, get_number);
+  opt(j, where, "lambda_eps", p.lambda_eps, get_number);
+  opt(j, where, "gamma_s", p.gamma_s, get_number);
+  opt(j, where, "beta", p.beta, get_number);
+  opt(j, where, "gamma_p", p.gamma_p, get_number);
+  opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
+  return p;
+}
+
+Scene parse_document(const json& doc, const std::filesystem::path& base) {
+  if (!doc.is_object()) fail(std::string("the document must be an object, got ") + type_name(doc));
+  check_object(doc, "", {"meshes", "cameras", "lights", "ambient", "background", "render"});
+  Scene scene;
+  const json& meshes = require_array(doc, "", "meshes");
+  for (size_t i = 0; i < meshes.size(); ++i)
+    scene.meshes.push_back(parse_mesh(meshes[i], item("meshes", i), base));
+  const json& cameras = require_array(doc, "", "cameras");
+  for (size_t i = 0; i < cameras.size(); ++i)
+    scene.cameras.push_back(parse_camera(cameras[i], item("cameras", i)));
+  if (doc.contains("lights")) {
+    const json& lights = doc["lights"];
+    if (!lights.is_array())
+      fail(std::string("'lights' must be an array, got ") + type_name(lights));
+    for (size_t i = 0; i < lights.size(); ++i)
+      scene.lights.push_back(parse_light(lights[i], item("lights", i)));
+  }
+  opt(doc, "", "ambient", scene.ambient, get_scalar_or_vec3);
+  opt(doc, "", "background", scene.background, get_scalar_or_vec3);
+  if (doc.contains("render")) scene.params = parse_render(doc["render"], "render");
+  return scene;
+}
+
+// nlohmann's messages start with "[json.exception.parse_error.101] "; drop that prefix.
+std::string json_message(const std::exception& e) {
+  std::string m = e.what();
+  if (!m.empty() && m[0] == '[') {
+    const size_t close = m.find("] ");
+    if (close != std::string::npos) m = m.substr(close + 2);
+  }
+  for (char& c : m)
+    if (c == '\n' || c == '\r') c = ' ';
+  return m;
+}
+
+Scene parse(const std::string& text, const std::filesystem::path& base, const std::string& label) {
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw Error(label + ": JSON syntax error: " + json_message(e));
+  }
+  Scene scene;
+  try {
+    scene = parse_document(doc, base);
+  } catch (const SceneError& e) {
+    throw Error(label + ": " + e.message);
+  } catch (const json::exception& e) {
+    throw Error(label + ": " + json_message(e));
+  }
+  try {
+    validate(scene);
+  } catch (const Error& e) {
+    throw Error(label + ": " + e.what());
+  }
+  return scene;
+}
+
+}  // namespace
+
+Scene parse_scene(const std::string& json_text, const std::string& base_dir) {
+  return parse(json_text, std::filesystem::path(base_dir.empty() ? "." : base_dir), "scene");
+}
+
+Scene load_scene(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw Error("cannot read scene file '" + path + "': it is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open scene file '" + path + "': " + std::strerror(errno));
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw Error("cannot read scene file '" + path + "'");
+  std::filesystem::path base = std::filesystem::path(path).parent_path();
+  if (base.empty()) base = ".";
+  return parse(s.str(), base, "'" + path + "'");
+}
+
+}  // namespace penumbra

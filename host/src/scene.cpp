@@ -1,0 +1,246 @@
+// Scene validation, bounds and the default framing of a single mesh (scene.hpp).
+#include "penumbra/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+namespace {
+
+constexpr int kMaxImageSize = 16384;
+
+// Values in messages: shortest form that identifies the number (%.9g-like).
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
+}
+
+std::string vec(const glm::dvec3& v) {
+  return "(" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + ")";
+}
+
+std::string ivec(const glm::ivec3& v) {
+  return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) +
+         ")";
+}
+
+bool finite(const glm::dvec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+bool any_negative(const glm::dvec3& v) { return v.x < 0 || v.y < 0 || v.z < 0; }
+
+[[noreturn]] void fail(const std::string& message) { throw Error(message); }
+
+void validate_mesh(const Mesh& mesh, const std::string& label) {
+  if (mesh.faces.empty()) fail(label + " has no faces");
+  if (mesh.vertices.empty()) fail(label + " has no vertices");
+
+  const auto n = static_cast<long long>(mesh.vertices.size());
+  glm::dvec3 lo(std::numeric_limits<double>::infinity());
+  glm::dvec3 hi(-std::numeric_limits<double>::infinity());
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const glm::dvec3& v = mesh.vertices[i];
+    if (!finite(v))
+      fail(label + ": vertex " + std::to_string(i) + " has a non-finite coordinate " + vec(v));
+    lo = glm::min(lo, v);
+    hi = glm::max(hi, v);
+  }
+  // Zero-area test relative to the mesh's size, so that it means the same at any scale.
+  const double scale = glm::length(hi - lo);
+  const double area_tol = 1e-12 * scale * scale;
+
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const glm::ivec3& t = mesh.faces[f];
+    for (int k = 0; k < 3; ++k) {
+      if (t[k] < 0 || t[k] >= n)
+        fail(label + ": face " + std::to_string(f) + " " + ivec(t) + " has vertex index " +
+             std::to_string(t[k]) + " out of range [0, " + std::to_string(n) + ")");
+    }
+    if (t.x == t.y || t.y == t.z || t.z == t.x)
+      fail(label + ": face " + std::to_string(f) + " " + ivec(t) + " repeats a vertex index");
+    const glm::dvec3& a = mesh.vertices[t.x];
+    const glm::dvec3 c = glm::cross(mesh.vertices[t.y] - a, mesh.vertices[t.z] - a);
+    const double twice_area = glm::length(c);
+    if (!(twice_area > area_tol))
+      fail(label + ": face " + std::to_string(f) + " " + ivec(t) +
+           " is degenerate (zero area: |cross| = " + num(twice_area) + ")");
+  }
+
+  const bool per_vertex = mesh.albedo_mode == AlbedoMode::PerVertex;
+  const size_t want = per_vertex ? mesh.vertices.size() : mesh.faces.size();
+  if (mesh.albedo.size() != want)
+    fail(label + ": albedo count " + std::to_string(mesh.albedo.size()) + " does not match the " +
+         (per_vertex ? "vertex count " : "face count ") + std::to_string(want) + " (" +
+         (per_vertex ? "per-vertex" : "per-face") + " albedo)");
+  for (size_t i = 0; i < mesh.albedo.size(); ++i) {
+    const glm::dvec3& a = mesh.albedo[i];
+    if (!finite(a))
+      fail(label + ": albedo " + std::to_string(i) + " is non-finite " + vec(a));
+    if (any_negative(a)) fail(label + ": albedo " + std::to_string(i) + " is negative " + vec(a));
+  }
+}
+
+std::string mesh_label(const Mesh& mesh) {
+  return mesh.name.empty() ? std::string("mesh (unnamed)") : "mesh '" + mesh.name + "'";
+}
+
+void validate_camera(const Camera& c, const std::string& label) {
+  if (c.width < 1 || c.width > kMaxImageSize || c.height < 1 || c.height > kMaxImageSize)
+    fail(label + ": image size " + std::to_string(c.width) + "x" + std::to_string(c.height) +
+         " must be between 1 and " + std::to_string(kMaxImageSize) + " on each side");
+  if (!finite(c.eye)) fail(label + ": eye " + vec(c.eye) + " is not finite");
+  if (!finite(c.target)) fail(label + ": target " + vec(c.target) + " is not finite");
+  if (!finite(c.up)) fail(label + ": up " + vec(c.up) + " is not finite");
+  if (c.projection == Projection::Perspective) {
+    if (!(c.fov_deg > 0 && c.fov_deg < 180))
+      fail(label + ": fov " + num(c.fov_deg) + " degrees must be in (0, 180)");
+  } else {
+    if (!(c.half_height > 0) || !std::isfinite(c.half_height))
+      fail(label + ": half_height " + num(c.half_height) + " must be positive and finite");
+  }
+  if (!(c.near > 0) || !std::isfinite(c.near))
+    fail(label + ": near " + num(c.near) + " must be positive and finite");
+  if (!(c.far > c.near) || !std::isfinite(c.far))
+    fail(label + ": far " + num(c.far) + " must be finite and greater than near " +
+         num(c.near));
+  const glm::dvec3 dir = c.target - c.eye;
+  const double dir_len = glm::length(dir);
+  if (!(dir_len > 0)) fail(label + ": eye and target are the same point " + vec(c.eye));
+  const double up_len = glm::length(c.up);
+  if (!(up_len > 0)) fail(label + ": up vector is zero");
+  const double sin_angle = glm::length(glm::cross(dir / dir_len, c.up / up_len));
+  if (!(sin_angle > 1e-9))
+    fail(label + ": up " + vec(c.up) + " is parallel to the view direction " +
+         vec(dir / dir_len));
+}
+
+void validate_light(const Light& l, const std::string& label) {
+  if (l.type == LightType::Point) {
+    if (!finite(l.position)) fail(label + ": position " + vec(l.position) + " is not finite");
+  } else {
+    if (!finite(l.direction)) fail(label + ": direction " + vec(l.direction) + " is not finite");
+    if (!(glm::length(l.direction) > 0)) fail(label + ": directional light has zero direction");
+  }
+  if (!finite(l.color)) fail(label + ": color " + vec(l.color) + " is not finite");
+  if (any_negative(l.color)) fail(label + ": color " + vec(l.color) + " is negative");
+  if (!std::isfinite(l.size)) fail(label + ": size " + num(l.size) + " is not finite");
+  if (l.size < 0) fail(label + ": size " + num(l.size) + " is negative");
+}
+
+void check_open_unit(const char* name, double v) {
+  if (!(v > 0 && v < 1))
+    fail(std::string("render parameter ") + name + " = " + num(v) + " must be in (0, 1)");
+}
+
+void check_positive(const char* name, double v) {
+  if (!(v > 0) || !std::isfinite(v))
+    fail(std::string("render parameter ") + name + " = " + num(v) +
+         " must be positive and finite");
+}
+
+void validate_params(const RenderParams& p) {
+  check_open_unit("sigma", p.sigma);
+  check_open_unit("gamma", p.gamma);
+  check_open_unit("eps", p.eps);
+  check_open_unit("dist_eps", p.dist_eps);
+  check_positive("sigma_s", p.sigma_s);
+  check_open_unit("lambda_eps", p.lambda_eps);
+  check_positive("gamma_s", p.gamma_s);
+  if (!std::isfinite(p.beta)) fail("render parameter beta = " + num(p.beta) + " is not finite");
+  check_positive("gamma_p", p.gamma_p);
+}
+
+}  // namespace
+
+void validate(const Mesh& mesh) { validate_mesh(mesh, mesh_label(mesh)); }
+
+void validate(const Scene& scene) {
+  if (scene.meshes.empty()) fail("scene has no meshes");
+  for (size_t i = 0; i < scene.meshes.size(); ++i) {
+    const Mesh& m = scene.meshes[i];
+    validate_mesh(m, "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'"));
+  }
+  if (scene.cameras.empty()) fail("scene has no cameras");
+  for (size_t i = 0; i < scene.cameras.size(); ++i)
+    validate_camera(scene.cameras[i], "camera " + std::to_string(i));
+  for (size_t i = 0; i < scene.lights.size(); ++i)
+    validate_light(scene.lights[i], "light " + std::to_string(i));
+  if (!finite(scene.ambient)) fail("ambient " + vec(scene.ambient) + " is not finite");
+  if (any_negative(scene.ambient)) fail("ambient " + vec(scene.ambient) + " is negative");
+  if (!finite(scene.background)) fail("background " + vec(scene.background) + " is not finite");
+  validate_params(scene.params);
+}
+
+Bounds bounds(const Scene& scene) {
+  Bounds b;
+  b.lo = glm::dvec3(std::numeric_limits<double>::infinity());
+  b.hi = glm::dvec3(-std::numeric_limits<double>::infinity());
+  bool any = false;
+  for (const Mesh& m : scene.meshes)
+    for (const glm::dvec3& v : m.vertices) {
+      b.lo = glm::min(b.lo, v);
+      b.hi = glm::max(b.hi, v);
+      any = true;
+    }
+  if (!any) fail("cannot compute the bounds of a scene with no vertices");
+  return b;
+}
+
+Scene framed_scene(Mesh mesh, int width, int height) {
+  validate(mesh);
+  Scene scene;
+  scene.meshes.push_back(std::move(mesh));
+  const Mesh& m = scene.meshes.front();
+
+  // Bounding sphere: centre of the box, radius to the farthest vertex (tighter than the
+  // half-diagonal for round shapes).
+  const glm::dvec3 center = bounds(scene).center();
+  double r = 0;
+  for (const glm::dvec3& v : m.vertices) r = std::max(r, glm::length(v - center));
+  if (!(r > 0)) r = 1;
+
+  // Camera: fov 40°, elevation 25°, looking at the centre from the front (+z). The distance
+  // makes the sphere's silhouette span ~70% of the narrower image side.
+  Camera cam;
+  cam.projection = Projection::Perspective;
+  cam.fov_deg = 40.0;
+  cam.width = width;
+  cam.height = height;
+  const double half_fov = glm::radians(cam.fov_deg) / 2;
+  const double aspect = (width > 0 && height > 0) ? double(width) / height : 1.0;
+  const double tan_fit = 0.7 * std::tan(half_fov) * std::min(1.0, aspect);
+  const double dist = r * std::sqrt(1 + tan_fit * tan_fit) / tan_fit;  // r / sin(atan(t))
+  const double elev = glm::radians(25.0);
+  cam.target = center;
+  cam.eye = center + dist * glm::dvec3(0, std::sin(elev), std::cos(elev));
+  cam.up = {0, 1, 0};
+  cam.near = std::max(0.01 * r, dist - 2 * r);
+  cam.far = dist + 2 * r;
+  scene.cameras.push_back(cam);
+
+  // One point light above, in front and to the left, three radii from the centre.
+  Light light;
+  light.type = LightType::Point;
+  light.position = center + 3 * r * glm::normalize(glm::dvec3(-1, 1.5, 1));
+  light.color = {1, 1, 1};
+  light.size = 0.2 * r;
+  scene.lights.push_back(light);
+
+  scene.ambient = {0.2, 0.2, 0.2};
+  scene.background = {1, 1, 1};
+  // The depth-unit parameters (SPEC §7) are tuned for a unit sphere: scale them with the mesh.
+  scene.params.gamma_s *= r;
+  scene.params.beta *= r;
+  validate(scene);
+  return scene;
+}
+
+}  // namespace penumbra
