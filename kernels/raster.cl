@@ -3,11 +3,12 @@
 // derivative of all of it (SPEC §5).
 //
 // Three passes, so that shadow terms can be sampled between the second and the third:
-//   raster_count      per pixel: softmax maximum m, Σ log(1 − D), and a bound on the number of
+//   raster_count      per pixel: softmax maxima, Σ log(1 − D), and a bound on the number of
 //                     fragments to keep (those near the running maximum)
-//   raster_fragments  per pixel: the kept fragments — (pixel, face) pairs with
-//                     (z̃ − m)/γ ≥ −ln(1/ε_w) — with their weight, depth, shading terms and
-//                     light-map coordinates, in face order
+//   raster_fragments  per pixel: the kept fragments — (pixel, face) pairs whose aggregation
+//                     weight D·e^{z̃/γ} is at least ε_w times the largest (the background's
+//                     included) — with their weight, depth, shading terms and light-map
+//                     coordinates, in face order
 //   raster_resolve    per pixel: colour, silhouette and soft depth from the fragments and the
 //                     shadow terms s (1 unless shadow.cl has sampled them)
 // Buffers (V vertices, F faces, N = W·H pixels, row 0 at the top, K fragments, nl lights):
@@ -100,10 +101,12 @@ void raster_count(__global const real4* vscreen, __global const real4* vworld,
                   __global real4* aux, __global int* pix_count) {
   int px0 = get_global_id(0) * PPW, py = get_global_id(1);
   if (py >= H || px0 >= W) return;
-  const real gamma = P[P_GAMMA], keep = -P[P_WEIGHT_LOG];
-  real m[PPW], slog[PPW];
+  const real gamma = P[P_GAMMA];
+  // m: running max of z̃ (stabilises the exponentials); M: running max of the log-weights
+  // log D + (z̃ − m)/γ, the background's (ε − m)/γ included, relative to the running m.
+  real m[PPW], M[PPW], slog[PPW];
   int count[PPW];
-  for (int j = 0; j < PPW; ++j) m[j] = P[P_EPS], slog[j] = 0, count[j] = 0;
+  for (int j = 0; j < PPW; ++j) m[j] = P[P_EPS], M[j] = 0, slog[j] = 0, count[j] = 0;
   FACE_LIST_BEGIN(px0, py)
   for (int i = 0; i < list_count; ++i) {
     int f = FACE_AT(i);
@@ -116,14 +119,19 @@ void raster_count(__global const real4* vscreen, __global const real4* vworld,
       slog[j] += log1m_sigmoid(fr.u);
       if (!depth_in_range(fr.z, P)) continue;
       real zt = depth_normalised(fr.z, P);
-      m[j] = fmax(m[j], zt);
-      // The running maximum never exceeds the final one, so this counts a superset of the
-      // fragments raster_fragments keeps.
-      if ((zt - m[j]) / gamma >= keep) ++count[j];
+      if (zt > m[j]) {
+        M[j] -= (zt - m[j]) / gamma;
+        m[j] = zt;
+      }
+      real lw = log1m_sigmoid(-fr.u) + (zt - m[j]) / gamma;
+      M[j] = fmax(M[j], lw);
+      // The running maxima never exceed the final ones, so this counts a superset of the
+      // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
+      if (lw >= M[j] - P[P_WEIGHT_LOG] - 1) ++count[j];
     }
   }
   for (int j = 0; j < PPW && px0 + j < W; ++j) {
-    aux[py * W + px0 + j] = (real4)(0, m[j], 0, slog[j]);
+    aux[py * W + px0 + j] = (real4)(M[j], m[j], 0, slog[j]);
     pix_count[py * W + px0 + j] = count[j];
   }
 }
@@ -139,11 +147,16 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global real4* rec_shade, __global real4* rec_light) {
   int px0 = get_global_id(0) * PPW, py = get_global_id(1);
   if (py >= H || px0 >= W) return;
-  const real gamma = P[P_GAMMA], keep = -P[P_WEIGHT_LOG];
+  const real gamma = P[P_GAMMA];
   const int nl = (int)P[P_NLIGHTS];
-  real m[PPW];
+  real m[PPW], keep[PPW];
   int n[PPW];
-  for (int j = 0; j < PPW && px0 + j < W; ++j) m[j] = aux[py * W + px0 + j].y, n[j] = 0;
+  for (int j = 0; j < PPW && px0 + j < W; ++j) {
+    real4 ax = aux[py * W + px0 + j];
+    m[j] = ax.y;
+    keep[j] = ax.x - P[P_WEIGHT_LOG];
+    n[j] = 0;
+  }
   FACE_LIST_BEGIN(px0, py)
   for (int i = 0; i < list_count; ++i) {
     int f = FACE_AT(i);
@@ -155,11 +168,11 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
       Fragment fr;
       if (!fragment_fwd(pixel_centre(px0 + j, py, W, H), F.p, F.z, F.area, P, &fr)) continue;
       if (!depth_in_range(fr.z, P)) continue;
-      real e = (depth_normalised(fr.z, P) - m[j]) / gamma;
-      if (e < keep || n[j] >= pix_count[pix]) continue;  // (the bound holds by construction)
+      real lw = log1m_sigmoid(-fr.u) + (depth_normalised(fr.z, P) - m[j]) / gamma;
+      if (lw < keep[j] || n[j] >= pix_count[pix]) continue;  // (the bound holds by construction)
       int r = pix_offset[pix] + n[j]++;
       rec_face[r] = f;
-      rec_frag[r] = (real4)(sigmoid(fr.u) * exp(e), fr.z, 0, 0);
+      rec_frag[r] = (real4)(exp(lw), fr.z, 0, 0);
       real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
       real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
       real3 direct[P_MAX_LIGHTS];

@@ -16,18 +16,19 @@ Kernels::Kernels(Context& ctx, Precision precision, RasterTuning tuning)
 
 std::string Kernels::options(const std::string& file) const {
   std::string o = precision_define(precision_);
-  if (file == "bin.cl" || file == "raster.cl") o += " -DTILE=" + std::to_string(tuning_.tile);
   if (file == "raster.cl")
-    o += " -DPPW=" + std::to_string(tuning_.pixels_per_item) +
+    o += " -DTILE=" + std::to_string(tuning_.tile) +
+         " -DPPW=" + std::to_string(tuning_.pixels_per_item) +
          " -DBRUTE_FORCE=" + std::to_string(tuning_.brute_force ? 1 : 0);
   return o;
 }
 
-cl::Kernel& Kernels::get(const std::string& file, const std::string& name) {
-  auto key = file + ":" + name;
+cl::Kernel& Kernels::get(const std::string& file, const std::string& name,
+                         const std::string& variant) {
+  auto key = file + ":" + name + ":" + variant;
   auto it = kernels_.find(key);
   if (it != kernels_.end()) return it->second;
-  cl::Program& program = ctx_.program(file, options(file));
+  cl::Program& program = ctx_.program(file, options(file) + " " + variant);
   return kernels_.emplace(key, cl::Kernel(program, name.c_str())).first->second;
 }
 
@@ -66,42 +67,127 @@ Packed pack(const Scene& s) {
   return p;
 }
 
-std::vector<double> view_params(const Scene& s, const Camera& c) {
-  const auto& r = s.params;
+// A camera's frame: where it is and where it looks (layout.h, FR_*).
+struct Frame {
+  glm::dvec3 eye, fwd, right, up;
+  double scale = 1;
+  bool ortho = false;
+};
+
+Frame make_frame(glm::dvec3 eye, glm::dvec3 fwd, glm::dvec3 up_hint, double scale, bool ortho) {
+  Frame f;
+  f.eye = eye;
+  f.fwd = glm::normalize(fwd);
+  f.right = glm::normalize(glm::cross(f.fwd, up_hint));
+  f.up = glm::cross(f.right, f.fwd);
+  f.scale = scale;
+  f.ortho = ortho;
+  return f;
+}
+
+double tan_half(double fov_deg) { return std::tan(0.5 * fov_deg * 3.14159265358979323846 / 180); }
+
+Frame camera_frame(const Camera& c) {
+  bool ortho = c.projection == Projection::Orthographic;
+  return make_frame(c.eye, c.target - c.eye, c.up, ortho ? c.half_height : tan_half(c.fov_deg),
+                    ortho);
+}
+
+// A point light looks from its position at the frustum's target; a directional light looks
+// along its direction from `distance` before the target.
+Frame light_frame(const Light& L) {
+  const LightFrustum& f = L.frustum;
+  if (L.type == LightType::Point)
+    return make_frame(L.position, f.target - L.position, f.up, tan_half(f.fov_deg), false);
+  glm::dvec3 d = glm::normalize(L.direction);
+  return make_frame(f.target - f.distance * d, d, f.up, f.half_size, true);
+}
+
+// dL/d(light position, or direction) through the light's frame, given dL/d(eye, fwd, right, up).
+glm::dvec3 light_frame_backward(const Light& L, glm::dvec3 g_eye, glm::dvec3 g_fwd,
+                                glm::dvec3 g_right, glm::dvec3 g_up) {
+  const Frame fr = light_frame(L);
+  const LightFrustum& f = L.frustum;
+  // up = right × fwd
+  g_right += glm::cross(fr.fwd, g_up);
+  g_fwd += glm::cross(g_up, fr.right);
+  // right = normalize(w), w = fwd × up_hint
+  glm::dvec3 w = glm::cross(fr.fwd, f.up);
+  glm::dvec3 g_w = (g_right - fr.right * glm::dot(fr.right, g_right)) / glm::length(w);
+  g_fwd += glm::cross(f.up, g_w);
+  if (L.type == LightType::Point) {  // eye = position, fwd = normalize(target − position)
+    glm::dvec3 v = f.target - L.position;
+    return g_eye - (g_fwd - fr.fwd * glm::dot(fr.fwd, g_fwd)) / glm::length(v);
+  }
+  g_fwd -= f.distance * g_eye;  // eye = target − distance·fwd, fwd = normalize(direction)
+  return (g_fwd - fr.fwd * glm::dot(fr.fwd, g_fwd)) / glm::length(L.direction);
+}
+
+void put3(std::vector<double>& P, int at, glm::dvec3 v) {
+  P[at] = v.x;
+  P[at + 1] = v.y;
+  P[at + 2] = v.z;
+}
+
+void put_frame(std::vector<double>& P, int at, const Frame& f) {
+  put3(P, at + FR_EYE, f.eye);
+  put3(P, at + FR_FWD, f.fwd);
+  put3(P, at + FR_RIGHT, f.right);
+  put3(P, at + FR_UP, f.up);
+  P[at + FR_SCALE] = f.scale;
+  P[at + FR_ORTHO] = f.ortho ? 1 : 0;
+}
+
+// Parameters shared by camera and light views.
+std::vector<double> base_params(const RenderParams& r, double sigma, double gamma, double near,
+                                double far, const Frame& frame) {
   std::vector<double> P(P_SIZE, 0.0);
-  P[P_SIGMA] = r.sigma;
-  P[P_GAMMA] = r.gamma;
+  P[P_SIGMA] = sigma;
+  P[P_GAMMA] = gamma;
   P[P_EPS] = r.eps;
-  P[P_CUTOFF_D2] = r.sigma * std::log(1.0 / r.dist_eps - 1.0);
-  P[P_NEAR] = c.near;
-  P[P_FAR] = c.far;
-  P[P_ORTHO] = c.projection == Projection::Orthographic ? 1 : 0;
-  P[P_SCALE] = c.projection == Projection::Orthographic
-                   ? c.half_height
-                   : std::tan(0.5 * c.fov_deg * 3.14159265358979323846 / 180.0);
+  P[P_CUTOFF_D2] = sigma * std::log(1.0 / r.dist_eps - 1.0);
+  P[P_NEAR] = near;
+  P[P_FAR] = far;
   P[P_CULL] = r.cull_backfaces ? 1 : 0;
+  P[P_WEIGHT_LOG] = std::log(1.0 / r.weight_eps);
+  P[P_SHADOWS] = double(int(r.shadows));
+  P[P_SIGMA_S] = r.sigma_s;
+  P[P_LAMBDA_EPS] = r.lambda_eps;
+  P[P_GAMMA_S] = r.gamma_s;
+  P[P_BETA] = r.beta;
+  P[P_GAMMA_P] = r.gamma_p;
+  put_frame(P, P_FRAME, frame);
+  return P;
+}
+
+std::vector<double> view_params(const Scene& s, const Camera& c) {
+  std::vector<double> P =
+      base_params(s.params, s.params.sigma, s.params.gamma, c.near, c.far, camera_frame(c));
   P[P_NLIGHTS] = double(s.lights.size());
-  auto put = [&](int at, glm::dvec3 v) {
-    P[at] = v.x;
-    P[at + 1] = v.y;
-    P[at + 2] = v.z;
-  };
-  glm::dvec3 f = glm::normalize(c.target - c.eye);
-  glm::dvec3 right = glm::normalize(glm::cross(f, c.up));
-  put(P_EYE, c.eye);
-  put(P_RIGHT, right);
-  put(P_UP, glm::cross(right, f));
-  put(P_FWD, f);
-  put(P_AMBIENT, s.ambient);
-  put(P_BACKGROUND, s.background);
+  put3(P, P_AMBIENT, s.ambient);
+  put3(P, P_BACKGROUND, s.background);
   for (size_t i = 0; i < s.lights.size(); ++i) {
     const Light& L = s.lights[i];
     int at = P_LIGHTS + int(i) * P_LIGHT_STRIDE;
-    put(at + L_POS, L.type == LightType::Point ? L.position : L.direction);
+    put3(P, at + L_POS, L.type == LightType::Point ? L.position : L.direction);
     P[at + L_POINT] = L.type == LightType::Point ? 1 : 0;
-    put(at + L_COLOR, L.color);
+    put3(P, at + L_COLOR, L.color);
     P[at + L_SIZE] = L.size;
+    put_frame(P, at + L_FRAME, light_frame(L));
+    P[at + L_MAP_W] = P[at + L_MAP_H] = s.params.shadow_map_size;
   }
+  return P;
+}
+
+// The view of light `i` rendering its shadow map: depth only (no lights, black).
+std::vector<double> light_view_params(const Scene& s, size_t i) {
+  const RenderParams& r = s.params;
+  const LightFrustum& f = s.lights[i].frustum;
+  std::vector<double> P =
+      base_params(r, r.light_sigma > 0 ? r.light_sigma : r.sigma,
+                  r.light_gamma > 0 ? r.light_gamma : r.gamma, f.near, f.far,
+                  light_frame(s.lights[i]));
+  P[P_SHADOWS] = 0;
   return P;
 }
 
@@ -129,12 +215,46 @@ struct Renderer::Impl {
   RasterTuning tuning;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
+  Scene scene;  // as rendered, light frusta fitted
   Packed packed;
   DeviceGeometry geometry;
-  std::vector<ViewState> views;
+  std::vector<ViewState> views;        // one per camera
+  std::vector<ViewState> light_views;  // one per light, when shadows are on
   std::vector<std::vector<double>> view_P;
 
   Impl(Context& c, Precision p, RasterTuning t) : ctx(c), precision(p), tuning(t), kernels(c, p, t) {}
+
+  void render_view(ViewState& v, int W, int H, int nlights, const std::vector<double>& P) {
+    v.W = W;
+    v.H = H;
+    v.nlights = nlights;
+    v.P = detail::upload_reals(ctx, precision, P);
+    detail::transform_forward(kernels, geometry, v);
+    detail::raster_fragments(kernels, geometry, v);
+  }
+
+  // Backward of one view for dL/d(image) and dL/d(depth) already on the device, after the
+  // shadow backward (if any) has run between `resolve` and `faces`: adds dL/d(vertices) and
+  // dL/d(the view's frame) to the host accumulators and returns the per-face light gradients.
+  std::vector<double> backward_faces(ViewState& v, const cl::Buffer& gimage,
+                                     const cl::Buffer& gdepth, std::vector<double>& gvert,
+                                     std::vector<double>& galb, std::vector<double>* gframe) {
+    auto fg = detail::raster_backward(kernels, geometry, v, gimage, gdepth);
+    cl::Buffer gv, gf;
+    detail::transform_backward(kernels, geometry, v, fg, gv, gf);
+    const Packed& p = packed;
+    auto gv_host = detail::download_reals(ctx, precision, gv, size_t(p.nv) * 4);
+    auto ga_host = detail::download_reals(ctx, precision, fg.albedo, size_t(p.nf) * 12);
+    for (size_t i = 0; i < gvert.size(); ++i) gvert[i] += gv_host[i];
+    for (size_t i = 0; i < galb.size(); ++i) galb[i] += ga_host[i];
+    if (gframe) {  // Σ over vertices, in order
+      auto gf_host = detail::download_reals(ctx, precision, gf, size_t(p.nv) * 16);
+      for (int vtx = 0; vtx < p.nv; ++vtx)
+        for (int i = 0; i < 16; ++i) (*gframe)[i] += gf_host[size_t(vtx) * 16 + i];
+    }
+    return detail::download_reals(ctx, precision, fg.light,
+                                  size_t(p.nf) * (6 * v.nlights + 1) * 4);
+  }
 };
 
 Renderer::Renderer(Context& context, Precision precision, RasterTuning tuning) {
@@ -162,9 +282,16 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   if (scene.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(scene.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
+  if (scene.params.shadows == Shadows::Soft)
+    throw Error("soft shadows are not available in this version; use --shadows hard or none");
   Impl& m = *impl_;
   Context& ctx = m.ctx;
-  m.packed = pack(scene);
+  m.scene = scene;
+  fit_light_frusta(m.scene);  // frusta not given are fitted to this scene and then fixed
+  const Scene& s = m.scene;
+  const bool shadows = s.params.shadows != Shadows::None;
+  const int nl = int(s.lights.size());
+  m.packed = pack(s);
   const Packed& p = m.packed;
   DeviceGeometry& g = m.geometry;
   g.nv = p.nv;
@@ -173,51 +300,75 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   g.faces = detail::upload_ints(ctx, p.faces);
   g.albedo = detail::upload_reals(ctx, m.precision, p.albedo);
 
-  m.views.assign(scene.cameras.size(), ViewState{});
+  m.light_views.assign(shadows ? nl : 0, ViewState{});
+  for (size_t l = 0; l < m.light_views.size(); ++l) {  // shadow maps S
+    ViewState& lv = m.light_views[l];
+    const int size = s.params.shadow_map_size;
+    m.render_view(lv, size, size, 0, light_view_params(s, l));
+    detail::raster_resolve(m.kernels, lv);
+  }
+  m.views.assign(s.cameras.size(), ViewState{});
   m.view_P.clear();
   std::vector<RenderOutput> out;
-  for (size_t c = 0; c < scene.cameras.size(); ++c) {
-    const Camera& cam = scene.cameras[c];
+  for (size_t c = 0; c < s.cameras.size(); ++c) {
+    const Camera& cam = s.cameras[c];
     ViewState& v = m.views[c];
-    v.W = cam.width;
-    v.H = cam.height;
-    m.view_P.push_back(view_params(scene, cam));
-    v.P = detail::upload_reals(ctx, m.precision, m.view_P.back());
-    detail::transform_forward(m.kernels, g, v);
-    if (!m.tuning.brute_force) detail::bin_faces(m.kernels, g, v);
-    detail::raster_forward(m.kernels, g, v);
+    m.view_P.push_back(view_params(s, cam));
+    m.render_view(v, cam.width, cam.height, nl, m.view_P.back());
+    for (size_t l = 0; l < m.light_views.size(); ++l)
+      detail::shadow_forward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
+    detail::raster_resolve(m.kernels, v);
     const size_t npix = size_t(v.W) * v.H;
     auto image = detail::download_reals(ctx, m.precision, v.image, npix * 4);
-    auto aux = detail::download_reals(ctx, m.precision, v.aux, npix * 4);
     RenderOutput o;
     o.color = channels(image, v.W, v.H, 0, 3);
     o.silhouette = channels(image, v.W, v.H, 3, 1);
-    o.depth = channels(aux, v.W, v.H, 0, 1);
+    o.depth = Image(v.W, v.H, 1);
+    o.depth.data = detail::download_reals(ctx, m.precision, v.depth, npix);
     out.push_back(std::move(o));
   }
   return out;
 }
 
+std::vector<Image> Renderer::shadow_maps() const {
+  std::vector<Image> maps;
+  for (auto& lv : impl_->light_views) {
+    Image img(lv.W, lv.H, 1);
+    img.data = detail::download_reals(impl_->ctx, impl_->precision, lv.depth, size_t(lv.W) * lv.H);
+    maps.push_back(std::move(img));
+  }
+  return maps;
+}
+
 SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
   Impl& m = *impl_;
   Context& ctx = m.ctx;
-  Packed now = pack(scene);
+  Scene fitted = scene;
+  for (size_t l = 0; l < fitted.lights.size() && l < m.scene.lights.size(); ++l)
+    if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = m.scene.lights[l].frustum;
+  Packed now = pack(fitted);
   bool same = now.vworld == m.packed.vworld && now.faces == m.packed.faces &&
-              now.albedo == m.packed.albedo && scene.cameras.size() == m.views.size();
-  for (size_t c = 0; same && c < scene.cameras.size(); ++c)
-    same = view_params(scene, scene.cameras[c]) == m.view_P[c];
+              now.albedo == m.packed.albedo && fitted.cameras.size() == m.views.size() &&
+              fitted.lights.size() == m.scene.lights.size() &&
+              fitted.params.shadows == m.scene.params.shadows;
+  for (size_t c = 0; same && c < fitted.cameras.size(); ++c)
+    same = view_params(fitted, fitted.cameras[c]) == m.view_P[c];
   if (!same)
     throw Error("backward: the scene differs from the one last rendered; call render() first");
   if (grads.size() != scene.cameras.size())
     throw Error("backward: got gradients for " + std::to_string(grads.size()) +
                 " camera(s), the scene has " + std::to_string(scene.cameras.size()));
 
+  const Scene& s = m.scene;
   const Packed& p = m.packed;
-  const int nl = int(scene.lights.size());
+  const int nl = int(s.lights.size());
+  const bool shadows = !m.light_views.empty();
   std::vector<double> gvert(size_t(p.nv) * 4, 0.0), galb(size_t(p.nf) * 12, 0.0),
-      glight(size_t(2 * nl + 1) * 4, 0.0);
-  // Vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd.
-  {
+      glight(size_t(6 * nl + 1) * 4, 0.0);
+  std::vector<std::vector<double>> gmaps(m.light_views.size());
+  for (size_t l = 0; l < gmaps.size(); ++l)
+    gmaps[l].assign(size_t(m.light_views[l].W) * m.light_views[l].H, 0.0);
+  {  // vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd
     std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
     for (int i = 0; i < p.nf * 3; ++i) ++count[p.faces[(i / 3) * 4 + i % 3] + 1];
     for (int v = 0; v < p.nv; ++v) count[v + 1] += count[v];
@@ -227,53 +378,74 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     m.geometry.adj = detail::upload_ints(ctx, adj);
   }
   for (size_t c = 0; c < m.views.size(); ++c) {
-    const ViewState& v = m.views[c];
+    ViewState& v = m.views[c];
     const OutputGrads& g = grads[c];
     check_grad_image(g.color, v.W, v.H, 3, "color", c);
     check_grad_image(g.silhouette, v.W, v.H, 1, "silhouette", c);
     check_grad_image(g.depth, v.W, v.H, 1, "depth", c);
     const size_t npix = size_t(v.W) * v.H;
-    std::vector<double> gimage(npix * 4, 0.0), gdepth(npix, 0.0);
+    std::vector<double> gimage(npix * 4, 0.0);
     for (size_t i = 0; i < npix; ++i) {
       for (int k = 0; k < 3 && !g.color.data.empty(); ++k) gimage[i * 4 + k] = g.color.data[i * 3 + k];
       if (!g.silhouette.data.empty()) gimage[i * 4 + 3] = g.silhouette.data[i];
-      if (!g.depth.data.empty()) gdepth[i] = g.depth.data[i];
     }
     auto gimage_buf = detail::upload_reals(ctx, m.precision, gimage);
-    auto gdepth_buf = detail::upload_reals(ctx, m.precision, gdepth);
-    auto fg = detail::raster_backward(m.kernels, m.geometry, v, nl, gimage_buf, gdepth_buf);
-    auto gv = detail::transform_backward(m.kernels, m.geometry, v, fg);
-    auto gv_host = detail::download_reals(ctx, m.precision, gv, size_t(p.nv) * 4);
-    auto ga_host = detail::download_reals(ctx, m.precision, fg.albedo, size_t(p.nf) * 12);
-    auto gl_host = detail::download_reals(ctx, m.precision, fg.light, size_t(p.nf) * (2 * nl + 1) * 4);
-    for (size_t i = 0; i < gvert.size(); ++i) gvert[i] += gv_host[i];
-    for (size_t i = 0; i < galb.size(); ++i) galb[i] += ga_host[i];
+    auto gdepth_buf = detail::upload_reals(
+        ctx, m.precision, g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data);
+    detail::raster_resolve_backward(m.kernels, v, gimage_buf, gdepth_buf);
+    for (size_t l = 0; l < m.light_views.size(); ++l) {
+      auto gS = detail::shadow_backward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
+      auto host = detail::download_reals(ctx, m.precision, gS, gmaps[l].size());
+      for (size_t i = 0; i < host.size(); ++i) gmaps[l][i] += host[i];
+    }
+    auto gl = m.backward_faces(v, gimage_buf, gdepth_buf, gvert, galb, nullptr);
     for (int f = 0; f < p.nf; ++f)  // fixed order: reproducible
-      for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl_host[f * glight.size() + i];
+      for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl[f * glight.size() + i];
+  }
+  // Shadow maps back through each light's own raster pass.
+  std::vector<std::vector<double>> gframe(nl, std::vector<double>(16, 0.0));
+  for (size_t l = 0; l < m.light_views.size(); ++l) {
+    ViewState& lv = m.light_views[l];
+    const size_t ntex = size_t(lv.W) * lv.H;
+    auto gimage_buf = detail::upload_reals(ctx, m.precision, std::vector<double>(ntex * 4, 0.0));
+    auto gdepth_buf = detail::upload_reals(ctx, m.precision, gmaps[l]);
+    detail::raster_resolve_backward(m.kernels, lv, gimage_buf, gdepth_buf);
+    m.backward_faces(lv, gimage_buf, gdepth_buf, gvert, galb, &gframe[l]);
   }
 
   SceneGrads out;
-  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-    const Mesh& mesh = scene.meshes[mi];
+  for (size_t mi = 0; mi < s.meshes.size(); ++mi) {
+    const Mesh& mesh = s.meshes[mi];
     std::vector<glm::dvec3> gv(mesh.vertices.size()), ga(mesh.albedo.size(), glm::dvec3(0.0));
     for (size_t i = 0; i < gv.size(); ++i) {
-      const double* s = &gvert[(p.vertex_offset[mi] + i) * 4];
-      gv[i] = {s[0], s[1], s[2]};
+      const double* v = &gvert[(p.vertex_offset[mi] + i) * 4];
+      gv[i] = {v[0], v[1], v[2]};
     }
     for (size_t f = 0; f < mesh.faces.size(); ++f)
       for (int k = 0; k < 3; ++k) {
-        const double* s = &galb[((p.face_offset[mi] + f) * 3 + k) * 4];
+        const double* a = &galb[((p.face_offset[mi] + f) * 3 + k) * 4];
         size_t to = mesh.albedo_mode == AlbedoMode::PerFace ? f : size_t(mesh.faces[f][k]);
-        ga[to] += glm::dvec3(s[0], s[1], s[2]);
+        ga[to] += glm::dvec3(a[0], a[1], a[2]);
       }
     out.vertices.push_back(std::move(gv));
     out.albedo.push_back(std::move(ga));
   }
-  for (int i = 0; i < nl; ++i) {
-    out.light_position.push_back({glight[8 * i], glight[8 * i + 1], glight[8 * i + 2]});
-    out.light_color.push_back({glight[8 * i + 4], glight[8 * i + 5], glight[8 * i + 6]});
+  auto vec = [&](const std::vector<double>& a, size_t at) {
+    return glm::dvec3(a[at], a[at + 1], a[at + 2]);
+  };
+  for (int l = 0; l < nl; ++l) {
+    // Frame gradients from the camera passes (fragments projected into the map) and from the
+    // light's own pass (vertices projected into the map).
+    const size_t fo = size_t(2 * nl + 1 + 4 * l) * 4;
+    glm::dvec3 ge = vec(glight, fo) + vec(gframe[l], 0), gf = vec(glight, fo + 4) + vec(gframe[l], 4),
+               gr = vec(glight, fo + 8) + vec(gframe[l], 8),
+               gu = vec(glight, fo + 12) + vec(gframe[l], 12);
+    glm::dvec3 gpos = vec(glight, size_t(8 * l));
+    if (shadows) gpos += light_frame_backward(s.lights[l], ge, gf, gr, gu);
+    out.light_position.push_back(gpos);
+    out.light_color.push_back(vec(glight, size_t(8 * l + 4)));
   }
-  out.ambient = {glight[8 * nl], glight[8 * nl + 1], glight[8 * nl + 2]};
+  out.ambient = vec(glight, size_t(8 * nl));
   return out;
 }
 

@@ -133,6 +133,22 @@ void validate_light(const Light& l, const std::string& label) {
   if (any_negative(l.color)) fail(label + ": color " + vec(l.color) + " is negative");
   if (!std::isfinite(l.size)) fail(label + ": size " + num(l.size) + " is not finite");
   if (l.size < 0) fail(label + ": size " + num(l.size) + " is negative");
+  const LightFrustum& f = l.frustum;
+  if (!f.fitted) return;
+  if (!finite(f.target) || !finite(f.up))
+    fail(label + ": frustum target/up " + vec(f.target) + " " + vec(f.up) + " is not finite");
+  if (l.type == LightType::Point && !(f.fov_deg > 0 && f.fov_deg < 180))
+    fail(label + ": frustum fov " + num(f.fov_deg) + " must be in (0, 180) degrees");
+  if (l.type == LightType::Directional && !(f.half_size > 0 && f.distance > 0))
+    fail(label + ": frustum half_size " + num(f.half_size) + " and distance " + num(f.distance) +
+         " must be positive");
+  if (!(f.near > 0 && f.far > f.near && std::isfinite(f.far)))
+    fail(label + ": frustum near " + num(f.near) + " and far " + num(f.far) +
+         " must satisfy 0 < near < far");
+  glm::dvec3 dir = l.type == LightType::Point ? f.target - l.position : l.direction;
+  if (!(glm::length(dir) > 0) ||
+      !(glm::length(glm::cross(glm::normalize(dir), f.up)) > 1e-9 * glm::length(f.up)))
+    fail(label + ": frustum up " + vec(f.up) + " is parallel to the light's view direction");
 }
 
 void check_open_unit(const char* name, double v) {
@@ -156,6 +172,12 @@ void validate_params(const RenderParams& p) {
   check_positive("gamma_s", p.gamma_s);
   if (!std::isfinite(p.beta)) fail("render parameter beta = " + num(p.beta) + " is not finite");
   check_positive("gamma_p", p.gamma_p);
+  if (!(p.shadow_map_size >= 1 && p.shadow_map_size <= 8192))
+    fail("render parameter shadow_map_size = " + std::to_string(p.shadow_map_size) +
+         " must be in [1, 8192]");
+  if (p.light_sigma != 0) check_open_unit("light_sigma", p.light_sigma);
+  if (p.light_gamma != 0) check_open_unit("light_gamma", p.light_gamma);
+  check_open_unit("weight_eps", p.weight_eps);
 }
 
 }  // namespace
@@ -192,6 +214,43 @@ Bounds bounds(const Scene& scene) {
     }
   if (!any) fail("cannot compute the bounds of a scene with no vertices");
   return b;
+}
+
+void fit_light_frusta(Scene& scene) {
+  bool any = false;
+  for (const Light& l : scene.lights) any |= !l.frustum.fitted;
+  if (!any) return;
+  const Bounds b = bounds(scene);
+  const glm::dvec3 c = b.center();
+  const double r = 1.05 * std::max(b.radius(), 1e-9);  // a little margin around the scene
+  for (Light& l : scene.lights) {
+    LightFrustum& f = l.frustum;
+    if (f.fitted) continue;
+    f.target = c;
+    glm::dvec3 dir;
+    if (l.type == LightType::Point) {
+      dir = c - l.position;
+      const double dist = glm::length(dir);
+      if (dist > r) {
+        f.fov_deg = 2 * std::asin(r / dist) * 180 / 3.14159265358979323846;
+        f.near = std::max(dist - r, 1e-3 * dist);
+      } else {  // the light is inside the scene: a wide cone; receivers outside it are lit
+        f.fov_deg = 120;
+        f.near = 1e-3 * r;
+      }
+      f.far = dist + r;
+      if (!(dist > 0)) dir = {0, -1, 0}, f.target = l.position + dir;
+    } else {
+      dir = l.direction;
+      f.half_size = r;
+      f.distance = 2 * r;
+      f.near = 0.5 * r;
+      f.far = 3.5 * r;
+    }
+    glm::dvec3 d = glm::normalize(dir);
+    f.up = std::abs(d.y) < 0.99 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    f.fitted = true;
+  }
 }
 
 Scene framed_scene(Mesh mesh, int width, int height) {
@@ -239,6 +298,7 @@ Scene framed_scene(Mesh mesh, int width, int height) {
   // The depth-unit parameters (SPEC §7) are tuned for a unit sphere: scale them with the mesh.
   scene.params.gamma_s *= r;
   scene.params.beta *= r;
+  fit_light_frusta(scene);
   validate(scene);
   return scene;
 }

@@ -43,6 +43,10 @@ class Renderer {
   // the most recent render(), which must have been of this same scene (same sizes and values).
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
 
+  // The shadow map S of every light (SPEC §3) from the most recent render() with shadows on
+  // (empty otherwise), W_s × H_s, light-view depth.
+  std::vector<Image> shadow_maps() const;
+
   Precision precision() const;
   const RasterTuning& tuning() const;
 

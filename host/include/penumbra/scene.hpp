@@ -30,13 +30,33 @@ struct Camera {
 
 enum class LightType { Point, Directional };
 
+// The camera a light renders its shadow map with (SPEC §3). It is fitted once — to the scene's
+// bounds, by fit_light_frusta — and then held fixed: a constant of the render, not a function
+// of the vertices, so that gradients and finite differences see the same function.
+// Point light: eye at the light's position, looking at `target`, perspective with `fov_deg`.
+// Directional light: orthographic with half-size `half_size`, looking along the light's
+// direction at `target` from `distance` away.
+struct LightFrustum {
+  bool fitted = false;
+  glm::dvec3 target{0, 0, 0};
+  glm::dvec3 up{0, 1, 0};
+  double fov_deg = 60.0;
+  double half_size = 1.0;
+  double distance = 10.0;
+  double near = 0.1, far = 100.0;
+};
+
 struct Light {
   LightType type = LightType::Point;
   glm::dvec3 position{0, 5, 5};    // point light
   glm::dvec3 direction{0, -1, 0};  // directional light: direction the light travels
   glm::dvec3 color{1, 1, 1};       // RGB intensity I_L
   double size = 0.0;               // light diameter D_L (soft shadows)
+  LightFrustum frustum;            // fitted by fit_light_frusta when not given
 };
+
+enum class Shadows { None, Hard, Soft };
+enum class Sampling { Truncated, Exact, Gemm };
 
 // SPEC §7, names as in its table.
 struct RenderParams {
@@ -50,6 +70,15 @@ struct RenderParams {
   double beta = 0.05;        // depth bias β (depth units)
   double gamma_p = 10.0;     // penumbra soft-minimum sharpness γ_P
   bool cull_backfaces = false;
+  Shadows shadows = Shadows::None;
+  Sampling sampling = Sampling::Truncated;
+  int shadow_map_size = 256;  // W_s = H_s, texels
+  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ
+  double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ
+  // A fragment whose aggregation weight is below ε_w times the largest (the background's
+  // included) is left out of the colour and depth (but not the silhouette), so
+  // that shadow terms are sampled only where they can show.
+  double weight_eps = 1e-10;
 };
 
 struct Scene {
@@ -73,6 +102,10 @@ struct Bounds {
   double radius() const { return 0.5 * glm::length(hi - lo); }
 };
 Bounds bounds(const Scene& scene);
+
+// Fits the frustum of every light whose frustum is not fitted yet to the scene's bounding
+// sphere, so that every receiver lies inside its shadow map (SPEC §3).
+void fit_light_frusta(Scene& scene);
 
 // A scene around one mesh, with a camera and a light that frame it (for `render --mesh`).
 Scene framed_scene(Mesh mesh, int width = 256, int height = 256);

@@ -198,8 +198,37 @@ Camera parse_camera(const json& j, const std::string& where) {
   return c;
 }
 
+// A string naming one of `names`, as the matching entry of `values`.
+template <class E>
+E get_enum(const json& j, const std::string& where, const std::vector<std::string>& names,
+           const std::vector<E>& values) {
+  const std::string v = get_string(j, where);
+  std::string expected;
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (v == names[i]) return values[i];
+    expected += (i ? ", \"" : "\"") + names[i] + "\"";
+  }
+  fail("'" + where + "' is \"" + v + "\" (expected one of " + expected + ")");
+  return values[0];
+}
+
+LightFrustum parse_frustum(const json& j, const std::string& where) {
+  check_object(j, where, {"target", "up", "fov", "half_size", "distance", "near", "far"});
+  LightFrustum f;
+  f.fitted = true;
+  opt(j, where, "target", f.target, get_vec3);
+  opt(j, where, "up", f.up, get_vec3);
+  opt(j, where, "fov", f.fov_deg, get_number);
+  opt(j, where, "half_size", f.half_size, get_number);
+  opt(j, where, "distance", f.distance, get_number);
+  opt(j, where, "near", f.near, get_number);
+  opt(j, where, "far", f.far, get_number);
+  return f;
+}
+
 Light parse_light(const json& j, const std::string& where) {
-  check_object(j, where, {"type", "position", "direction", "color", "intensity", "size"});
+  check_object(j, where,
+               {"type", "position", "direction", "color", "intensity", "size", "frustum"});
   Light l;
   if (j.contains("type")) {
     const std::string t = get_string(j["type"], child(where, "type"));
@@ -218,12 +247,14 @@ Light parse_light(const json& j, const std::string& where) {
   opt(j, where, "intensity", intensity, get_number);
   l.color *= intensity;
   opt(j, where, "size", l.size, get_number);
+  if (j.contains("frustum")) l.frustum = parse_frustum(j["frustum"], child(where, "frustum"));
   return l;
 }
 
 RenderParams parse_render(const json& j, const std::string& where) {
   check_object(j, where, {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps",
-                          "gamma_s", "beta", "gamma_p", "cull_backfaces"});
+                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling",
+                          "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
   RenderParams p;
   opt(j, where, "sigma", p.sigma, get_number);
   opt(j, where, "gamma", p.gamma, get_number);
@@ -235,6 +266,17 @@ RenderParams parse_render(const json& j, const std::string& where) {
   opt(j, where, "beta", p.beta, get_number);
   opt(j, where, "gamma_p", p.gamma_p, get_number);
   opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
+  if (j.contains("shadows"))
+    p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"), {"none", "hard", "soft"},
+                                  {Shadows::None, Shadows::Hard, Shadows::Soft});
+  if (j.contains("sampling"))
+    p.sampling = get_enum<Sampling>(j["sampling"], child(where, "sampling"),
+                                    {"truncated", "exact", "gemm"},
+                                    {Sampling::Truncated, Sampling::Exact, Sampling::Gemm});
+  opt(j, where, "shadow_map_size", p.shadow_map_size, get_int);
+  opt(j, where, "light_sigma", p.light_sigma, get_number);
+  opt(j, where, "light_gamma", p.light_gamma, get_number);
+  opt(j, where, "weight_eps", p.weight_eps, get_number);
   return p;
 }
 
@@ -258,6 +300,7 @@ Scene parse_document(const json& doc, const std::filesystem::path& base) {
   opt(doc, "", "ambient", scene.ambient, get_scalar_or_vec3);
   opt(doc, "", "background", scene.background, get_scalar_or_vec3);
   if (doc.contains("render")) scene.params = parse_render(doc["render"], "render");
+  fit_light_frusta(scene);
   return scene;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // The pipeline stages on the host side, one file each, mirroring kernels/:
-// transform.cpp ↔ transform.cl, bin.cpp ↔ bin.cl, raster.cpp ↔ raster.cl.
+// transform.cpp ↔ transform.cl, bin.cpp ↔ bin.cl, raster.cpp ↔ raster.cl,
+// shadow.cpp ↔ shadow.cl.
 #include <CL/opencl.hpp>
 #include <map>
 #include <string>
@@ -11,11 +12,12 @@
 namespace penumbra::detail {
 
 // Kernel objects of one precision and tuning, built on first use. This is the one place that
-// decides the -D options of every program.
+// decides the -D options of every program; `variant` adds stage-specific ones (-DEXACT=1).
 class Kernels {
  public:
   Kernels(Context& ctx, Precision precision, RasterTuning tuning);
-  cl::Kernel& get(const std::string& file, const std::string& name);
+  cl::Kernel& get(const std::string& file, const std::string& name,
+                  const std::string& variant = "");
   Context& ctx() { return ctx_; }
   Precision precision() const { return precision_; }
   const RasterTuning& tuning() const { return tuning_; }
@@ -38,37 +40,61 @@ struct DeviceGeometry {
   cl::Buffer adj;
 };
 
+// Items (faces, or shadow-map windows) sorted into screen tiles by bin.cl.
 struct Bins {
-  int tiles_x = 0, tiles_y = 0;
-  size_t total = 0;  // face entries over all tiles
-  cl::Buffer offsets, counts, faces;
+  int tile = 16, tiles_x = 0, tiles_y = 0;
+  size_t total = 0;  // entries over all tiles
+  cl::Buffer offsets, counts, items;
 };
 
-// Per-view device state: parameters, transformed vertices, face setup, bins, outputs.
+// Per-view device state (a camera, or a light rendering its shadow map).
 struct ViewState {
   int W = 0, H = 0;
+  int nlights = 0;              // lights shaded in this view (0 for a light's own view)
   cl::Buffer P;                 // per-view parameters (kernels/common/layout.h)
   cl::Buffer vscreen;           // nv × real4
   cl::Buffer fbbox, fnormal;    // nf × int4, nf × real4
   Bins bins;
-  cl::Buffer image, aux;        // W·H × real4 each
+  // Kept fragments (raster_fragments), see kernels/raster.cl.
+  size_t nrec = 0;              // capacity: Σ pix_count
+  cl::Buffer pix_count, pix_offset, pix_n;
+  cl::Buffer rec_face, rec_frag, rec_shade, rec_light;
+  cl::Buffer rec_wg, rec_lgrad;  // backward
+  cl::Buffer image, aux, depth;  // outputs (depth is the shadow map S of a light's view)
 };
 
 // Per-face-corner gradients written by raster_backward.
 struct FaceGrads {
   cl::Buffer screen, world, albedo;  // 3·nf × real4
-  cl::Buffer light;                  // nf × (2·nlights + 1) × real4
+  cl::Buffer light;                  // nf × (6·nlights + 1) × real4
 };
 
 void transform_forward(Kernels& k, const DeviceGeometry& g, ViewState& v);
-// dL/d world vertex positions (nv × real4) from the per-corner gradients.
-cl::Buffer transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
-                              const FaceGrads& fg);
+// dL/d world vertex positions (nv × real4) and each vertex's share of dL/d(the view's frame)
+// (4·nv × real4: eye, fwd, right, up) from the per-corner gradients.
+void transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
+                        const FaceGrads& fg, cl::Buffer& gvertices, cl::Buffer& gframe);
 
-void bin_faces(Kernels& k, const DeviceGeometry& g, ViewState& v);
+// Sorts `n` items with pixel boxes `boxes` (int4 (x0, y0, x1, y1), empty when x0 > x1) into
+// tiles of `tile` pixels over a W × H grid; each tile's list is in item order.
+Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int tile);
 
-void raster_forward(Kernels& k, const DeviceGeometry& g, ViewState& v);
+// Passes 1–2 of the raster: the kept fragments of the view, with shadow terms s = 1.
+void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v);
+// Pass 3: colour, silhouette and depth from the fragments and their shadow terms.
+void raster_resolve(Kernels& k, ViewState& v);
+// Backward of raster_resolve: per-fragment weights and dL/ds.
+void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
+                             const cl::Buffer& gdepth);
+// Backward of the fragments (after the shadow backward has completed rec_lgrad).
 FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
-                          int nlights, const cl::Buffer& gimage, const cl::Buffer& gdepth);
+                          const cl::Buffer& gimage, const cl::Buffer& gdepth);
+
+// Shadow terms of every fragment of camera view `v` for light `light`, sampled from the
+// light's shadow map `lv.depth` with the scene's sampling method.
+void shadow_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv);
+// Completes rec_lgrad of `v` for `light` and returns dL/d(the light's shadow map).
+cl::Buffer shadow_backward(Kernels& k, Sampling sampling, ViewState& v, int light,
+                           const ViewState& lv);
 
 }  // namespace penumbra::detail

@@ -4,35 +4,92 @@
 
 namespace penumbra::detail {
 
-void raster_forward(Kernels& k, const DeviceGeometry& g, ViewState& v) {
-  Context& ctx = k.ctx();
+namespace {
+// Global and local sizes of the tiled passes (count, fragments).
+void launch_tiled(Kernels& k, cl::Kernel& kernel, const ViewState& v) {
   const auto& t = k.tuning();
-  const size_t npix = size_t(v.W) * v.H;
-  v.image = alloc_reals(ctx, k.precision(), npix * 4);
-  v.aux = alloc_reals(ctx, k.precision(), npix * 4);
-  if (t.brute_force) {  // the kernel ignores the bins; give it valid empty buffers
-    v.bins.tiles_x = 1;
-    v.bins.offsets = v.bins.counts = v.bins.faces = alloc_ints(ctx, 1);
-  }
-  auto& rf = k.get("raster.cl", "raster_fwd");
-  set_args(rf, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H, g.nf,
-           v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.faces, v.image, v.aux);
   const size_t tiles_x = (v.W + t.tile - 1) / t.tile, tiles_y = (v.H + t.tile - 1) / t.tile;
-  launch(ctx, rf, cl::NDRange(tiles_x * t.tile / t.pixels_per_item, tiles_y * t.tile),
+  launch(k.ctx(), kernel, cl::NDRange(tiles_x * t.tile / t.pixels_per_item, tiles_y * t.tile),
          cl::NDRange(t.tile / t.pixels_per_item, t.tile));
 }
+}  // namespace
 
-FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v, int nlights,
+void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
+  Context& ctx = k.ctx();
+  const Precision p = k.precision();
+  const size_t npix = size_t(v.W) * v.H;
+  if (k.tuning().brute_force) {  // the kernels ignore the bins; give them valid empty buffers
+    v.bins = Bins{};
+    v.bins.tiles_x = 1;
+    v.bins.offsets = v.bins.counts = v.bins.items = alloc_ints(ctx, 1);
+  } else {
+    v.bins = bin_boxes(k, v.fbbox, g.nf, v.W, v.H, k.tuning().tile);
+  }
+  v.aux = alloc_reals(ctx, p, npix * 4);
+  v.pix_count = alloc_ints(ctx, npix);
+  auto& count = k.get("raster.cl", "raster_count");
+  set_args(count, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
+           g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
+           v.pix_count);
+  launch_tiled(k, count, v);
+
+  // Fragment storage of exactly the counted size.
+  auto counts = download_ints(ctx, v.pix_count, npix);
+  std::vector<int> offsets(npix);
+  size_t total = 0;
+  for (size_t i = 0; i < npix; ++i) {
+    offsets[i] = int(total);
+    total += size_t(counts[i]);
+  }
+  if (total > size_t(INT32_MAX))
+    throw Error("the view keeps " + std::to_string(total) + " fragments, more than 2^31");
+  v.nrec = total;
+  v.pix_offset = upload_ints(ctx, offsets);
+  v.pix_n = alloc_ints(ctx, npix);
+  v.rec_face = alloc_ints(ctx, total);
+  v.rec_frag = alloc_reals(ctx, p, total * 4);
+  v.rec_shade = alloc_reals(ctx, p, total * 4 * (1 + v.nlights));
+  v.rec_light = alloc_reals(ctx, p, total * 4 * v.nlights);
+  auto& frag = k.get("raster.cl", "raster_fragments");
+  set_args(frag, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
+           g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
+           v.pix_count, v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
+           v.rec_light);
+  launch_tiled(k, frag, v);
+}
+
+void raster_resolve(Kernels& k, ViewState& v) {
+  const size_t npix = size_t(v.W) * v.H;
+  v.image = alloc_reals(k.ctx(), k.precision(), npix * 4);
+  v.depth = alloc_reals(k.ctx(), k.precision(), npix);
+  auto& res = k.get("raster.cl", "raster_resolve");
+  set_args(res, v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade, v.rec_light,
+           v.image, v.aux, v.depth);
+  launch_1d(k.ctx(), res, npix);
+}
+
+void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
+                             const cl::Buffer& gdepth) {
+  v.rec_wg = alloc_reals(k.ctx(), k.precision(), v.nrec * 4);
+  v.rec_lgrad = alloc_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
+  auto& rb = k.get("raster.cl", "raster_resolve_bwd");
+  set_args(rb, v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade, v.rec_light,
+           v.image, v.aux, gimage, gdepth, v.rec_wg, v.rec_lgrad);
+  launch_1d(k.ctx(), rb, size_t(v.W) * v.H);
+}
+
+FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
                           const cl::Buffer& gimage, const cl::Buffer& gdepth) {
   Context& ctx = k.ctx();
   FaceGrads fg;
   fg.screen = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.world = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.albedo = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
-  fg.light = alloc_reals(ctx, k.precision(), size_t(g.nf) * (2 * nlights + 1) * 4);
+  fg.light = alloc_reals(ctx, k.precision(), size_t(g.nf) * (6 * v.nlights + 1) * 4);
   auto& rb = k.get("raster.cl", "raster_bwd");
   set_args(rb, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H, g.nf,
-           v.image, v.aux, gimage, gdepth, fg.screen, fg.world, fg.albedo, fg.light);
+           v.aux, gimage, gdepth, v.pix_offset, v.pix_n, v.rec_face, v.rec_light, v.rec_wg,
+           v.rec_lgrad, fg.screen, fg.world, fg.albedo, fg.light);
   launch_1d(ctx, rb, g.nf, 16);
   return fg;
 }

@@ -16,13 +16,14 @@ void transform_forward(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   launch_1d(ctx, fs, g.nf);
 }
 
-cl::Buffer transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
-                              const FaceGrads& fg) {
-  cl::Buffer gv = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 4);
+void transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
+                        const FaceGrads& fg, cl::Buffer& gvertices, cl::Buffer& gframe) {
+  gvertices = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 4);
+  gframe = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 16);
   auto& tb = k.get("transform.cl", "transform_bwd");
-  set_args(tb, v.vscreen, v.P, g.nv, g.adj_offsets, g.adj, fg.screen, fg.world, gv);
+  set_args(tb, g.vworld, v.vscreen, v.P, g.nv, g.adj_offsets, g.adj, fg.screen, fg.world,
+           gvertices, gframe);
   launch_1d(k.ctx(), tb, g.nv);
-  return gv;
 }
 
 }  // namespace penumbra::detail
