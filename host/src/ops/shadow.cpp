@@ -77,7 +77,6 @@ void shadow_forward(Kernels& k, Sampling sampling, ViewState& v, int light, cons
 cl::Buffer shadow_backward(Kernels& k, Sampling sampling, ViewState& v, int light,
                            const ViewState& lv) {
   Context& ctx = k.ctx();
-  const Precision p = k.precision();
   const int Wm = lv.W, Hm = lv.H;
   const int n = int(v.nrec), nl = v.nlights;
   cl::Buffer gS = zeros(k, size_t(Wm) * Hm);
