@@ -1,0 +1,288 @@
+#include "common.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include "penumbra/error.hpp"
+#include "penumbra/io.hpp"
+
+namespace fs = std::filesystem;
+
+namespace penumbra::cli {
+
+void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh) {
+  CLI::Option* scene =
+      cmd.add_option("scene", source.scene_path,
+                     "scene file (JSON, see docs/scene-format.md); default: the bundled "
+                     "data/scenes/turnaround.json");
+  if (with_mesh) {
+    cmd.add_option("--mesh", source.mesh_path,
+                   "render one OBJ mesh in a framed scene instead of a scene file")
+        ->excludes(scene);
+  }
+}
+
+void add_render_options(CLI::App& cmd, RenderOptions& o) {
+  const std::string group = "Render parameters (override the values of the scene)";
+  o.o_sigma =
+      cmd.add_option("--sigma", o.sigma, "coverage sharpness σ (screen units², > 0)")->group(group);
+  o.o_gamma = cmd.add_option("--gamma", o.gamma, "aggregation sharpness γ (> 0)")->group(group);
+  o.o_eps = cmd.add_option("--eps", o.eps, "background depth ε of the aggregation")->group(group);
+  o.o_dist_eps =
+      cmd.add_option("--dist-eps,--dist_eps", o.dist_eps, "coverage cut-off ε_D, in (0, 0.5)")
+          ->group(group);
+  o.o_sigma_s =
+      cmd.add_option("--sigma-s", o.sigma_s, "shadow-map Gaussian variance σ_s (texel², > 0)")
+          ->group(group);
+  o.o_lambda_eps = cmd.add_option("--lambda-eps", o.lambda_eps,
+                                  "truncation threshold ε_λ of the shadow filter, in (0, 1)")
+                       ->group(group);
+  o.o_gamma_s =
+      cmd.add_option("--gamma-s", o.gamma_s, "depth-compare softness γ_s (> 0)")->group(group);
+  o.o_beta = cmd.add_option("--beta", o.beta, "shadow depth bias β (depth units)")->group(group);
+  o.o_gamma_p = cmd.add_option("--gamma-p", o.gamma_p, "penumbra soft-minimum sharpness γ_P (> 0)")
+                    ->group(group);
+  o.o_width =
+      cmd.add_option("--width", o.width, "image width of every camera (pixels)")->group(group);
+  o.o_height =
+      cmd.add_option("--height", o.height, "image height of every camera (pixels)")->group(group);
+  cmd.add_option("--device", o.device,
+                 "OpenCL device: index from `penumbra devices` or part of its name "
+                 "(default: $PENUMBRA_DEVICE, else the first GPU, else the first device)");
+}
+
+namespace {
+
+bool given(const CLI::Option* option) { return option != nullptr && option->count() > 0; }
+
+std::string number(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+void require(bool ok, const std::string& option, const std::string& what, double value) {
+  if (!ok) throw Error(option + " must be " + what + " (got " + number(value) + ")");
+}
+
+}  // namespace
+
+void apply_render_options(const RenderOptions& o, Scene& scene) {
+  RenderParams& p = scene.params;
+  auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  if (given(o.o_sigma)) {
+    require(positive(o.sigma), "--sigma", "positive", o.sigma);
+    p.sigma = o.sigma;
+  }
+  if (given(o.o_gamma)) {
+    require(positive(o.gamma), "--gamma", "positive", o.gamma);
+    p.gamma = o.gamma;
+  }
+  if (given(o.o_eps)) {
+    require(std::isfinite(o.eps), "--eps", "finite", o.eps);
+    p.eps = o.eps;
+  }
+  if (given(o.o_dist_eps)) {
+    require(positive(o.dist_eps) && o.dist_eps < 0.5, "--dist-eps", "in (0, 0.5)", o.dist_eps);
+    p.dist_eps = o.dist_eps;
+  }
+  if (given(o.o_sigma_s)) {
+    require(positive(o.sigma_s), "--sigma-s", "positive", o.sigma_s);
+    p.sigma_s = o.sigma_s;
+  }
+  if (given(o.o_lambda_eps)) {
+    require(positive(o.lambda_eps) && o.lambda_eps < 1, "--lambda-eps", "in (0, 1)", o.lambda_eps);
+    p.lambda_eps = o.lambda_eps;
+  }
+  if (given(o.o_gamma_s)) {
+    require(positive(o.gamma_s), "--gamma-s", "positive", o.gamma_s);
+    p.gamma_s = o.gamma_s;
+  }
+  if (given(o.o_beta)) {
+    require(std::isfinite(o.beta), "--beta", "finite", o.beta);
+    p.beta = o.beta;
+  }
+  if (given(o.o_gamma_p)) {
+    require(positive(o.gamma_p), "--gamma-p", "positive", o.gamma_p);
+    p.gamma_p = o.gamma_p;
+  }
+  constexpr int kMaxSize = 16384;
+  if (given(o.o_width)) {
+    require(o.width > 0 && o.width <= kMaxSize, "--width",
+            "a positive number of pixels (at most " + std::to_string(kMaxSize) + ")", o.width);
+    for (Camera& cam : scene.cameras) cam.width = o.width;
+  }
+  if (given(o.o_height)) {
+    require(o.height > 0 && o.height <= kMaxSize, "--height",
+            "a positive number of pixels (at most " + std::to_string(kMaxSize) + ")", o.height);
+    for (Camera& cam : scene.cameras) cam.height = o.height;
+  }
+  validate(scene);
+}
+
+void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value) {
+  precision = default_value;
+  cmd.add_option("--precision", precision, "arithmetic of the kernels: float or double")
+      ->check(CLI::IsMember({"float", "double"}))
+      ->capture_default_str();
+}
+
+Precision parse_precision(const std::string& name) {
+  if (name == "float") return Precision::Float;
+  if (name == "double") return Precision::Double;
+  throw Error("--precision must be float or double (got '" + name + "')");
+}
+
+std::string data_dir() {
+  if (const char* env = std::getenv("PENUMBRA_DATA_DIR"); env != nullptr && *env != '\0')
+    return env;
+#ifdef PENUMBRA_SOURCE_DIR
+  {
+    const std::string compiled = std::string(PENUMBRA_SOURCE_DIR) + "/data";
+    std::error_code ec;
+    if (fs::is_directory(compiled, ec)) return compiled;
+  }
+#endif
+  return "data";
+}
+
+std::string default_scene_path() { return data_dir() + "/scenes/turnaround.json"; }
+
+Scene load_scene_source(const SceneSource& source) {
+  if (!source.mesh_path.empty()) return framed_scene(load_obj(source.mesh_path));
+  std::string path = source.scene_path;
+  if (path.empty()) {
+    path = default_scene_path();
+    std::error_code ec;
+    if (!fs::exists(path, ec)) {
+      throw Error("the bundled scene " + path +
+                  " was not found; set PENUMBRA_DATA_DIR to the data folder or name a scene");
+    }
+  }
+  return load_scene(path);
+}
+
+std::string view_path(const std::string& path, size_t view) {
+  if (view == 0) return path;
+  const fs::path p(path);
+  return (p.parent_path() /
+          (p.stem().string() + "_" + std::to_string(view) + p.extension().string()))
+      .string();
+}
+
+std::string view_file(const std::string& dir, const std::string& stem, size_t view) {
+  const std::string name = view == 0 ? stem + ".npy" : stem + "_" + std::to_string(view) + ".npy";
+  return (fs::path(dir) / name).string();
+}
+
+void make_dirs(const std::string& dir) {
+  if (dir.empty()) return;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir)) {
+    throw Error("cannot create the folder " + dir + (ec ? ": " + ec.message() : std::string()));
+  }
+}
+
+void make_parent_dirs(const std::string& file) { make_dirs(fs::path(file).parent_path().string()); }
+
+std::string cl_error_name(int code) {
+#define PENUMBRA_CL_CODE(name) \
+  case name:                   \
+    return #name;
+  switch (code) {
+    PENUMBRA_CL_CODE(CL_SUCCESS)
+    PENUMBRA_CL_CODE(CL_DEVICE_NOT_FOUND)
+    PENUMBRA_CL_CODE(CL_DEVICE_NOT_AVAILABLE)
+    PENUMBRA_CL_CODE(CL_COMPILER_NOT_AVAILABLE)
+    PENUMBRA_CL_CODE(CL_MEM_OBJECT_ALLOCATION_FAILURE)
+    PENUMBRA_CL_CODE(CL_OUT_OF_RESOURCES)
+    PENUMBRA_CL_CODE(CL_OUT_OF_HOST_MEMORY)
+    PENUMBRA_CL_CODE(CL_PROFILING_INFO_NOT_AVAILABLE)
+    PENUMBRA_CL_CODE(CL_MEM_COPY_OVERLAP)
+    PENUMBRA_CL_CODE(CL_IMAGE_FORMAT_MISMATCH)
+    PENUMBRA_CL_CODE(CL_IMAGE_FORMAT_NOT_SUPPORTED)
+    PENUMBRA_CL_CODE(CL_BUILD_PROGRAM_FAILURE)
+    PENUMBRA_CL_CODE(CL_MAP_FAILURE)
+    PENUMBRA_CL_CODE(CL_MISALIGNED_SUB_BUFFER_OFFSET)
+    PENUMBRA_CL_CODE(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST)
+    PENUMBRA_CL_CODE(CL_COMPILE_PROGRAM_FAILURE)
+    PENUMBRA_CL_CODE(CL_LINKER_NOT_AVAILABLE)
+    PENUMBRA_CL_CODE(CL_LINK_PROGRAM_FAILURE)
+    PENUMBRA_CL_CODE(CL_DEVICE_PARTITION_FAILED)
+    PENUMBRA_CL_CODE(CL_KERNEL_ARG_INFO_NOT_AVAILABLE)
+    PENUMBRA_CL_CODE(CL_INVALID_VALUE)
+    PENUMBRA_CL_CODE(CL_INVALID_DEVICE_TYPE)
+    PENUMBRA_CL_CODE(CL_INVALID_PLATFORM)
+    PENUMBRA_CL_CODE(CL_INVALID_DEVICE)
+    PENUMBRA_CL_CODE(CL_INVALID_CONTEXT)
+    PENUMBRA_CL_CODE(CL_INVALID_QUEUE_PROPERTIES)
+    PENUMBRA_CL_CODE(CL_INVALID_COMMAND_QUEUE)
+    PENUMBRA_CL_CODE(CL_INVALID_HOST_PTR)
+    PENUMBRA_CL_CODE(CL_INVALID_MEM_OBJECT)
+    PENUMBRA_CL_CODE(CL_INVALID_IMAGE_FORMAT_DESCRIPTOR)
+    PENUMBRA_CL_CODE(CL_INVALID_IMAGE_SIZE)
+    PENUMBRA_CL_CODE(CL_INVALID_SAMPLER)
+    PENUMBRA_CL_CODE(CL_INVALID_BINARY)
+    PENUMBRA_CL_CODE(CL_INVALID_BUILD_OPTIONS)
+    PENUMBRA_CL_CODE(CL_INVALID_PROGRAM)
+    PENUMBRA_CL_CODE(CL_INVALID_PROGRAM_EXECUTABLE)
+    PENUMBRA_CL_CODE(CL_INVALID_KERNEL_NAME)
+    PENUMBRA_CL_CODE(CL_INVALID_KERNEL_DEFINITION)
+    PENUMBRA_CL_CODE(CL_INVALID_KERNEL)
+    PENUMBRA_CL_CODE(CL_INVALID_ARG_INDEX)
+    PENUMBRA_CL_CODE(CL_INVALID_ARG_VALUE)
+    PENUMBRA_CL_CODE(CL_INVALID_ARG_SIZE)
+    PENUMBRA_CL_CODE(CL_INVALID_KERNEL_ARGS)
+    PENUMBRA_CL_CODE(CL_INVALID_WORK_DIMENSION)
+    PENUMBRA_CL_CODE(CL_INVALID_WORK_GROUP_SIZE)
+    PENUMBRA_CL_CODE(CL_INVALID_WORK_ITEM_SIZE)
+    PENUMBRA_CL_CODE(CL_INVALID_GLOBAL_OFFSET)
+    PENUMBRA_CL_CODE(CL_INVALID_EVENT_WAIT_LIST)
+    PENUMBRA_CL_CODE(CL_INVALID_EVENT)
+    PENUMBRA_CL_CODE(CL_INVALID_OPERATION)
+    PENUMBRA_CL_CODE(CL_INVALID_GL_OBJECT)
+    PENUMBRA_CL_CODE(CL_INVALID_BUFFER_SIZE)
+    PENUMBRA_CL_CODE(CL_INVALID_MIP_LEVEL)
+    PENUMBRA_CL_CODE(CL_INVALID_GLOBAL_WORK_SIZE)
+    PENUMBRA_CL_CODE(CL_INVALID_PROPERTY)
+    PENUMBRA_CL_CODE(CL_INVALID_IMAGE_DESCRIPTOR)
+    PENUMBRA_CL_CODE(CL_INVALID_COMPILER_OPTIONS)
+    PENUMBRA_CL_CODE(CL_INVALID_LINKER_OPTIONS)
+    PENUMBRA_CL_CODE(CL_INVALID_DEVICE_PARTITION_COUNT)
+    // OpenCL 2.x codes, by value: the headers define them only for newer target versions.
+    case -69:
+      return "CL_INVALID_PIPE_SIZE";
+    case -70:
+      return "CL_INVALID_DEVICE_QUEUE";
+    case -71:
+      return "CL_INVALID_SPEC_ID";
+    case -72:
+      return "CL_MAX_SIZE_RESTRICTION_EXCEEDED";
+    case -1001:
+      return "CL_PLATFORM_NOT_FOUND_KHR";
+    default:
+      break;
+  }
+#undef PENUMBRA_CL_CODE
+  return "CL_ERROR(" + std::to_string(code) + ")";
+}
+
+std::string one_line(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    if (c == '\r') continue;
+    if (c == '\n') {
+      if (!out.empty() && out.back() != ' ') out += "; ";
+      continue;
+    }
+    out += c;
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+  return out;
+}
+
+}  // namespace penumbra::cli

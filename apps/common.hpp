@@ -1,0 +1,73 @@
+#pragma once
+// Shared pieces of the `penumbra` command-line tool: the scene argument, the render-parameter
+// options of SPEC §7 (each defined once, here), device and precision options, file helpers.
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+
+namespace penumbra::cli {
+
+// A subcommand: its CLI11 parser and the function that runs it after parsing (exit code).
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+Command add_devices_command(CLI::App& root);
+Command add_render_command(CLI::App& root);
+Command add_backward_command(CLI::App& root);
+Command add_gradcheck_command(CLI::App& root);
+
+// Where the scene comes from: a positional SCENE.json, or --mesh FILE.obj; neither means the
+// bundled data/scenes/turnaround.json.
+struct SceneSource {
+  std::string scene_path;
+  std::string mesh_path;
+};
+void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh = true);
+
+// SPEC §7 parameters, image size and device. Only options given on the command line override
+// the scene's values.
+struct RenderOptions {
+  double sigma = 0, gamma = 0, eps = 0, dist_eps = 0, sigma_s = 0, lambda_eps = 0, gamma_s = 0,
+         beta = 0, gamma_p = 0;
+  int width = 0, height = 0;
+  std::string device;
+  // The parsed options, to tell "given" from "left at the default".
+  CLI::Option *o_sigma = nullptr, *o_gamma = nullptr, *o_eps = nullptr, *o_dist_eps = nullptr,
+              *o_sigma_s = nullptr, *o_lambda_eps = nullptr, *o_gamma_s = nullptr,
+              *o_beta = nullptr, *o_gamma_p = nullptr, *o_width = nullptr, *o_height = nullptr;
+};
+void add_render_options(CLI::App& cmd, RenderOptions& options);
+// Applies the given overrides to every camera / the scene parameters; throws penumbra::Error for
+// values that make no sense (zero image size, non-positive σ, ...), then validates the scene.
+void apply_render_options(const RenderOptions& options, Scene& scene);
+
+// --precision float|double.
+void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value);
+Precision parse_precision(const std::string& name);
+
+// The data folder: $PENUMBRA_DATA_DIR, else <source tree>/data when it exists, else ./data.
+std::string data_dir();
+std::string default_scene_path();
+// Loads (and validates) the scene named by `source`.
+Scene load_scene_source(const SceneSource& source);
+
+// "out.png" for view 0, "out_1.png", "out_2.png", ... for the others.
+std::string view_path(const std::string& path, size_t view);
+// "color.npy" for view 0, "color_1.npy", ... inside `dir`.
+std::string view_file(const std::string& dir, const std::string& stem, size_t view);
+// Creates the folder (and its parents) if needed; throws penumbra::Error on failure.
+void make_dirs(const std::string& dir);
+void make_parent_dirs(const std::string& file);
+
+// Name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(<code>)".
+std::string cl_error_name(int code);
+// Replaces line breaks so that an error message prints as one line.
+std::string one_line(const std::string& text);
+
+}  // namespace penumbra::cli

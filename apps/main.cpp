@@ -1,0 +1,78 @@
+// `penumbra`: the command-line tool. One file per subcommand; shared options in common.cpp.
+// Every failure prints one line `penumbra: error: <message>` to stderr and exits with 1
+// (2 for usage errors).
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "common.hpp"
+#include "penumbra/error.hpp"
+
+namespace {
+
+int fail(const std::string& message, int code = 1) {
+  std::cerr << "penumbra: error: " << penumbra::cli::one_line(message) << std::endl;
+  return code;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace penumbra::cli;
+  CLI::App app{
+      "penumbra: differentiable soft rasterization on OpenCL (render, gradients, "
+      "gradient checks)",
+      "penumbra"};
+  // Set before the subcommands are added: they inherit it.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return "penumbra: error: " + one_line(e.what()) + " (see penumbra --help)\n";
+  });
+  app.require_subcommand(1);
+
+  std::vector<Command> commands;
+  try {
+    commands.push_back(add_devices_command(app));
+    commands.push_back(add_render_command(app));
+    commands.push_back(add_backward_command(app));
+    commands.push_back(add_gradcheck_command(app));
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+
+  // A first word that is neither an option nor a subcommand: name it (CLI11 would only say that
+  // a subcommand is required).
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    for (const Command& command : commands) known = known || command.app->check_name(argv[1]);
+    if (!known) {
+      return fail(std::string("unknown command '") + argv[1] +
+                      "' (commands: devices, render, backward, gradcheck; see penumbra --help)",
+                  2);
+    }
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+
+  try {
+    for (const Command& command : commands) {
+      if (command.app->parsed()) return command.run();
+    }
+    return fail("no subcommand given", 2);
+  } catch (const penumbra::Error& e) {
+    return fail(e.what());
+  } catch (const cl::Error& e) {
+    return fail("OpenCL error " + cl_error_name(e.err()) + " (" + std::to_string(e.err()) +
+                ") in " + e.what());
+  } catch (const CLI::ParseError& e) {
+    return fail(e.what(), 2);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  } catch (...) {
+    return fail("unknown exception");
+  }
+}

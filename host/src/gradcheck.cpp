@@ -1,0 +1,501 @@
+// Gradient check of Renderer::backward against central finite differences of Renderer::render.
+#include "penumbra/gradcheck.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra {
+
+namespace {
+
+constexpr const char* kAxis[3] = {"x", "y", "z"};
+constexpr const char* kChannel[3] = {"r", "g", "b"};
+
+// One scalar parameter of the scene.
+struct Param {
+  enum Kind { Vertex, Albedo, LightPosition, LightColor, Ambient } kind = Ambient;
+  int mesh = 0;   // Vertex, Albedo
+  int index = 0;  // vertex / albedo entry / light
+  int axis = 0;   // coordinate or colour channel
+  std::string name;
+  bool positional() const { return kind == Vertex || kind == LightPosition; }
+};
+
+double& parameter(Scene& scene, const Param& p) {
+  switch (p.kind) {
+    case Param::Vertex:
+      return scene.meshes[p.mesh].vertices[p.index][p.axis];
+    case Param::Albedo:
+      return scene.meshes[p.mesh].albedo[p.index][p.axis];
+    case Param::LightPosition:
+      return scene.lights[p.index].position[p.axis];
+    case Param::LightColor:
+      return scene.lights[p.index].color[p.axis];
+    case Param::Ambient:
+      break;
+  }
+  return scene.ambient[p.axis];
+}
+
+template <class T>
+const T& checked_at(const std::vector<T>& v, size_t i, const char* what) {
+  if (i >= v.size()) {
+    std::ostringstream msg;
+    msg << "gradcheck: the gradient has " << v.size() << " " << what << " entries, entry " << i
+        << " was asked for";
+    throw Error(msg.str());
+  }
+  return v[i];
+}
+
+double gradient(const SceneGrads& g, const Param& p) {
+  switch (p.kind) {
+    case Param::Vertex:
+      return checked_at(checked_at(g.vertices, p.mesh, "mesh (vertices)"), p.index,
+                        "vertex")[p.axis];
+    case Param::Albedo:
+      return checked_at(checked_at(g.albedo, p.mesh, "mesh (albedo)"), p.index, "albedo")[p.axis];
+    case Param::LightPosition:
+      return checked_at(g.light_position, p.index, "light position")[p.axis];
+    case Param::LightColor:
+      return checked_at(g.light_color, p.index, "light colour")[p.axis];
+    case Param::Ambient:
+      break;
+  }
+  return g.ambient[p.axis];
+}
+
+// Whether a face may show in a view: every vertex in front of the near plane, some vertex
+// before the far plane, and its projected bounding box overlapping the image (SPEC §0 units).
+// `facing` tells whether its counter-clockwise side faces the camera (for a closed mesh the
+// other faces are hidden behind it).
+bool face_in_view(const Camera& cam, const glm::dvec3 (&p)[3], bool* facing) {
+  const glm::dmat4 view = glm::lookAt(cam.eye, cam.target, cam.up);
+  const double aspect = double(cam.width) / std::max(cam.height, 1);
+  const double t = std::tan(glm::radians(cam.fov_deg) * 0.5);
+  double xlo = 1e300, xhi = -1e300, ylo = 1e300, yhi = -1e300, zlo = 1e300;
+  for (const auto& v : p) {
+    const glm::dvec4 q = view * glm::dvec4(v, 1.0);
+    const double z = -q.z;
+    if (!(z >= cam.near)) return false;
+    zlo = std::min(zlo, z);
+    double x, y;
+    if (cam.projection == Projection::Perspective) {
+      x = q.x / (z * t);
+      y = q.y / (z * t);
+    } else {
+      x = q.x / cam.half_height;
+      y = q.y / cam.half_height;
+    }
+    xlo = std::min(xlo, x), xhi = std::max(xhi, x);
+    ylo = std::min(ylo, y), yhi = std::max(yhi, y);
+  }
+  const glm::dvec3 n = glm::cross(p[1] - p[0], p[2] - p[0]);
+  const glm::dvec3 to_camera = cam.projection == Projection::Perspective
+                                   ? cam.eye - (p[0] + p[1] + p[2]) / 3.0
+                                   : cam.eye - cam.target;
+  *facing = glm::dot(n, to_camera) > 0;
+  return zlo <= cam.far && xhi >= -aspect && xlo <= aspect && yhi >= -1.0 && ylo <= 1.0;
+}
+
+struct FaceRef {
+  int mesh, face;
+};
+
+// Faces likely to show: per mesh, the faces in some view that face that camera, else the faces
+// in some view; every face when no mesh has one in view.
+std::vector<FaceRef> candidate_faces(const Scene& scene) {
+  std::vector<FaceRef> all, chosen;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    std::vector<FaceRef> front, in_view;
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+      const glm::ivec3 F = mesh.faces[f];
+      const glm::dvec3 p[3] = {mesh.vertices[F.x], mesh.vertices[F.y], mesh.vertices[F.z]};
+      all.push_back({int(m), int(f)});
+      bool seen = false, seen_front = false;
+      for (const Camera& cam : scene.cameras) {
+        bool facing = false;
+        if (face_in_view(cam, p, &facing)) {
+          seen = true;
+          seen_front = seen_front || facing;
+        }
+      }
+      if (seen) in_view.push_back({int(m), int(f)});
+      if (seen_front) front.push_back({int(m), int(f)});
+    }
+    const auto& use = front.empty() ? in_view : front;
+    chosen.insert(chosen.end(), use.begin(), use.end());
+  }
+  return chosen.empty() ? all : chosen;
+}
+
+// Chooses `samples` distinct parameters spread over vertices of every mesh (at corners of
+// visible faces), albedo entries, point-light positions, light colours and the ambient term.
+std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt19937_64& rng) {
+  const std::vector<FaceRef> faces = candidate_faces(scene);
+  std::map<int, std::vector<FaceRef>> faces_of_mesh;
+  for (const FaceRef& f : faces) faces_of_mesh[f.mesh].push_back(f);
+  std::vector<int> point_lights;
+  for (size_t l = 0; l < scene.lights.size(); ++l)
+    if (scene.lights[l].type == LightType::Point) point_lights.push_back(int(l));
+
+  auto uniform = [&rng](size_t n) { return std::uniform_int_distribution<size_t>(0, n - 1)(rng); };
+  std::vector<int> meshes_with_faces;
+  for (const auto& kv : faces_of_mesh) meshes_with_faces.push_back(kv.first);
+
+  // The mix of kinds, repeated: half vertices, then albedo, light position, light colour, ambient.
+  const Param::Kind pattern[] = {
+      Param::Vertex,     Param::Albedo, Param::Vertex,  Param::LightPosition, Param::Vertex,
+      Param::LightColor, Param::Vertex, Param::Ambient, Param::Vertex,        Param::Albedo};
+  std::vector<Param> chosen;
+  std::set<std::string> names;
+  int vertex_samples = 0;
+  for (int i = 0; i < samples; ++i) {
+    Param::Kind kind = pattern[i % 10];
+    if (kind == Param::LightPosition && point_lights.empty()) kind = Param::Vertex;
+    if (kind == Param::LightColor && scene.lights.empty()) kind = Param::Vertex;
+    if (kind == Param::Vertex && faces.empty()) kind = Param::Ambient;
+    if (kind == Param::Albedo && faces.empty()) kind = Param::Ambient;
+    Param p;
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      // Kinds with few entries (ambient, a single light) run out: take a vertex instead.
+      if (attempt == 32 && !faces.empty()) kind = Param::Vertex;
+      p = Param();
+      p.kind = kind;
+      std::ostringstream name;
+      switch (kind) {
+        case Param::Vertex:
+        case Param::Albedo: {
+          FaceRef f;
+          if (kind == Param::Vertex && vertex_samples < int(meshes_with_faces.size())) {
+            // The first vertex samples visit every mesh once.
+            const auto& list = faces_of_mesh[meshes_with_faces[vertex_samples]];
+            f = list[uniform(list.size())];
+          } else {
+            f = faces[uniform(faces.size())];
+          }
+          const Mesh& mesh = scene.meshes[f.mesh];
+          const int corner = int(uniform(3));
+          const int vertex = mesh.faces[f.face][corner];
+          p.mesh = f.mesh;
+          p.axis = int(uniform(3));
+          if (kind == Param::Vertex) {
+            p.index = vertex;
+            name << "mesh" << p.mesh << ".v" << p.index << "." << kAxis[p.axis];
+          } else {
+            p.index = mesh.albedo_mode == AlbedoMode::PerFace ? f.face : vertex;
+            name << "mesh" << p.mesh << ".albedo" << p.index << "." << kChannel[p.axis];
+          }
+          break;
+        }
+        case Param::LightPosition:
+          p.index = point_lights[uniform(point_lights.size())];
+          p.axis = int(uniform(3));
+          name << "light" << p.index << ".position." << kAxis[p.axis];
+          break;
+        case Param::LightColor:
+          p.index = int(uniform(scene.lights.size()));
+          p.axis = int(uniform(3));
+          name << "light" << p.index << ".color." << kChannel[p.axis];
+          break;
+        case Param::Ambient:
+          p.axis = int(uniform(3));
+          name << "ambient." << kChannel[p.axis];
+          break;
+      }
+      p.name = name.str();
+      if (!names.count(p.name)) break;
+    }
+    if (kind == Param::Vertex) ++vertex_samples;
+    if (names.insert(p.name).second) chosen.push_back(p);
+  }
+  return chosen;
+}
+
+double default_step(Precision precision) { return precision == Precision::Double ? 1e-6 : 1e-3; }
+double default_rtol(Precision precision) { return precision == Precision::Double ? 1e-3 : 5e-2; }
+
+}  // namespace
+
+bool gradients_agree(double analytic, double numeric, double atol, double rtol) {
+  if (!std::isfinite(analytic) || !std::isfinite(numeric)) return false;
+  return std::abs(analytic - numeric) <=
+         atol + rtol * std::max(std::abs(analytic), std::abs(numeric));
+}
+
+double gradient_relative_error(double analytic, double numeric, double atol) {
+  const double diff = std::abs(analytic - numeric);
+  if (!std::isfinite(diff)) return std::numeric_limits<double>::infinity();
+  const double denom = std::max({std::abs(analytic), std::abs(numeric), atol});
+  return denom > 0 ? diff / denom : 0.0;
+}
+
+std::vector<OutputGrads> random_loss_weights(const Scene& scene, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<OutputGrads> weights;
+  weights.reserve(scene.cameras.size());
+  for (const Camera& cam : scene.cameras) {
+    OutputGrads g;
+    g.color = Image(cam.width, cam.height, 3);
+    g.silhouette = Image(cam.width, cam.height, 1);
+    g.depth = Image(cam.width, cam.height, 1);
+    for (double& v : g.color.data) v = normal(rng);
+    for (double& v : g.silhouette.data) v = normal(rng);
+    for (double& v : g.depth.data) v = normal(rng) / cam.far;
+    weights.push_back(std::move(g));
+  }
+  return weights;
+}
+
+double linear_loss(const std::vector<RenderOutput>& outputs,
+                   const std::vector<OutputGrads>& weights) {
+  if (outputs.size() != weights.size()) {
+    throw Error("gradcheck: " + std::to_string(outputs.size()) + " rendered views but " +
+                std::to_string(weights.size()) + " sets of loss weights");
+  }
+  long double sum = 0.0L;
+  auto dot = [&sum](const Image& out, const Image& w, const char* what, size_t view) {
+    if (w.size() == 0) return;
+    if (out.size() != w.size()) {
+      throw Error("gradcheck: view " + std::to_string(view) + " " + what + " has " +
+                  std::to_string(out.size()) + " values, its loss weights " +
+                  std::to_string(w.size()));
+    }
+    for (size_t i = 0; i < w.size(); ++i) sum += (long double)w.data[i] * out.data[i];
+  };
+  for (size_t v = 0; v < outputs.size(); ++v) {
+    dot(outputs[v].color, weights[v].color, "colour", v);
+    dot(outputs[v].silhouette, weights[v].silhouette, "silhouette", v);
+    dot(outputs[v].depth, weights[v].depth, "depth", v);
+  }
+  return double(sum);
+}
+
+double max_abs_gradient(const SceneGrads& g) {
+  double m = 0.0;
+  auto take = [&m](const glm::dvec3& v) {
+    for (int k = 0; k < 3; ++k)
+      if (std::isfinite(v[k])) m = std::max(m, std::abs(v[k]));
+  };
+  for (const auto& mesh : g.vertices)
+    for (const auto& v : mesh) take(v);
+  for (const auto& mesh : g.albedo)
+    for (const auto& v : mesh) take(v);
+  for (const auto& v : g.light_position) take(v);
+  for (const auto& v : g.light_color) take(v);
+  take(g.ambient);
+  return m;
+}
+
+GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene& scene,
+                                                const std::vector<OutputGrads>& weights,
+                                                const SceneGrads& analytic,
+                                                const GradCheckOptions& options) {
+  if (options.samples < 0) throw Error("gradcheck: samples must be non-negative");
+  validate(scene);
+  const double step = options.step > 0 ? options.step : default_step(renderer.precision());
+  const double rtol = options.rtol > 0 ? options.rtol : default_rtol(options.precision);
+  const double radius = bounds(scene).radius();
+  const double scale = radius > 0 && std::isfinite(radius) ? radius : 1.0;
+
+  GradCheckResult result;
+  result.rtol = rtol;
+  result.atol = options.atol_fraction * max_abs_gradient(analytic);
+  result.max_failure_fraction = options.max_failure_fraction;
+
+  // A separate stream from the loss weights, so that the entries do not depend on image size.
+  std::mt19937_64 rng(options.seed ^ 0x9e3779b97f4a7c15ULL);
+  const std::vector<Param> params = choose_parameters(scene, options.samples, rng);
+  Scene perturbed = scene;
+  for (const Param& p : params) {
+    const double h = p.positional() ? step * scale : step;
+    double& x = parameter(perturbed, p);
+    const double x0 = x;
+    double xp = x0 + h, xm = x0 - h;
+    if (!p.positional() && xm < 0) {
+      // Colours may not go negative. The outputs are linear in albedo, light colour and
+      // ambient, so a one-sided difference over [x0, x0 + 2h] is as exact as a central one.
+      xm = x0;
+      xp = x0 + 2 * h;
+    }
+    x = xp;
+    const double lp = linear_loss(renderer.render(perturbed), weights);
+    x = xm;
+    const double lm = linear_loss(renderer.render(perturbed), weights);
+    x = x0;
+
+    GradCheckEntry e;
+    e.name = p.name;
+    e.analytic = gradient(analytic, p);
+    e.numeric = (lp - lm) / (xp - xm);
+    e.rel_err = gradient_relative_error(e.analytic, e.numeric, result.atol);
+    e.ok = gradients_agree(e.analytic, e.numeric, result.atol, rtol);
+    result.checked += 1;
+    result.failed += e.ok ? 0 : 1;
+    result.max_rel_err = std::max(result.max_rel_err, e.rel_err);
+    result.entries.push_back(std::move(e));
+  }
+  return result;
+}
+
+GradCheckResult gradcheck(Renderer& renderer, const Scene& scene, const GradCheckOptions& options) {
+  GradCheckOptions o = options;
+  o.precision = renderer.precision();
+  const std::vector<OutputGrads> weights = random_loss_weights(scene, o.seed);
+  renderer.render(scene);
+  const SceneGrads analytic = renderer.backward(scene, weights);
+  return compare_with_finite_differences(renderer, scene, weights, analytic, o);
+}
+
+GradCheckResult gradcheck(Context& context, const Scene& scene, const GradCheckOptions& options) {
+  Renderer renderer(context, options.precision, options.tuning);
+  if (options.precision == Precision::Double || !options.double_differences ||
+      !context.info().fp64) {
+    return gradcheck(renderer, scene, options);
+  }
+  const std::vector<OutputGrads> weights = random_loss_weights(scene, options.seed);
+  renderer.render(scene);
+  const SceneGrads analytic = renderer.backward(scene, weights);
+  Renderer reference(context, Precision::Double, options.tuning);
+  return compare_with_finite_differences(reference, scene, weights, analytic, options);
+}
+
+// --- random scenes ---------------------------------------------------------------------------
+
+namespace {
+
+// Icosahedron subdivided once: 42 vertices, 80 faces, counter-clockwise seen from outside.
+Mesh unit_icosphere() {
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  std::vector<glm::dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                               {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                               {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (auto& p : v) p = glm::normalize(p);
+  std::vector<glm::ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                               {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                               {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                               {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  std::map<std::pair<int, int>, int> midpoint;
+  auto mid = [&](int a, int b) {
+    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+    const auto it = midpoint.find(key);
+    if (it != midpoint.end()) return it->second;
+    v.push_back(glm::normalize(v[a] + v[b]));
+    return midpoint[key] = int(v.size()) - 1;
+  };
+  std::vector<glm::ivec3> g;
+  for (const auto& F : f) {
+    const int a = mid(F.x, F.y), b = mid(F.y, F.z), c = mid(F.z, F.x);
+    g.push_back({F.x, a, c});
+    g.push_back({F.y, b, a});
+    g.push_back({F.z, c, b});
+    g.push_back({a, b, c});
+  }
+  Mesh mesh;
+  mesh.vertices = std::move(v);
+  mesh.faces = std::move(g);
+  return mesh;
+}
+
+}  // namespace
+
+Scene random_scene(uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  auto U = [&rng](double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(rng);
+  };
+  auto chance = [&rng](double p) { return std::uniform_real_distribution<double>(0, 1)(rng) < p; };
+  auto random_colour = [&U](double lo, double hi) {
+    const double r = U(lo, hi), g = U(lo, hi), b = U(lo, hi);
+    return glm::dvec3(r, g, b);
+  };
+
+  Scene scene;
+  // Occluder: a jittered icosphere floating a little above the ground.
+  Mesh ball = unit_icosphere();
+  ball.name = "occluder";
+  const double radius = U(0.4, 0.7);
+  const glm::dvec3 centre(U(-0.3, 0.3), radius + U(0.05, 0.3), U(-0.3, 0.3));
+  for (auto& p : ball.vertices) p = centre + radius * U(0.95, 1.05) * p;
+  ball.albedo_mode = AlbedoMode::PerVertex;
+  ball.albedo.clear();
+  for (size_t i = 0; i < ball.vertices.size(); ++i) ball.albedo.push_back(random_colour(0.2, 0.9));
+
+  // Ground: a quad in y = 0, normal +y.
+  Mesh ground;
+  ground.name = "ground";
+  const double s = U(1.2, 1.8);
+  ground.vertices = {{-s, 0, -s}, {-s, 0, s}, {s, 0, s}, {s, 0, -s}};
+  ground.faces = {{0, 1, 2}, {0, 2, 3}};
+  if (chance(0.5)) {
+    ground.albedo_mode = AlbedoMode::PerFace;
+    for (size_t i = 0; i < ground.faces.size(); ++i)
+      ground.albedo.push_back(random_colour(0.3, 0.9));
+  } else {
+    ground.albedo_mode = AlbedoMode::PerVertex;
+    for (size_t i = 0; i < ground.vertices.size(); ++i)
+      ground.albedo.push_back(random_colour(0.3, 0.9));
+  }
+  scene.meshes = {std::move(ball), std::move(ground)};
+
+  // Camera: looks at the occluder from a random direction above the ground, far enough that
+  // every vertex lies well in front of the near plane.
+  Camera cam;
+  const double elevation = glm::radians(U(15.0, 55.0));
+  const double azimuth = U(0.0, 2.0 * glm::pi<double>());
+  const double dist = U(4.0, 6.0);
+  cam.target = glm::dvec3(0.0, U(0.3, 0.6), 0.0);
+  cam.eye =
+      cam.target + dist * glm::dvec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
+                                     std::cos(elevation) * std::cos(azimuth));
+  cam.up = {0, 1, 0};
+  if (chance(0.6)) {
+    cam.projection = Projection::Perspective;
+    cam.fov_deg = U(35.0, 50.0);
+  } else {
+    cam.projection = Projection::Orthographic;
+    cam.half_height = U(1.2, 1.8);
+  }
+  cam.near = 0.1;
+  cam.far = 20.0;
+  cam.width = 40 + int(U(0, 16));
+  cam.height = 32 + int(U(0, 16));
+  scene.cameras = {cam};
+
+  // One or two lights above the scene.
+  const int lights = chance(0.5) ? 1 : 2;
+  for (int l = 0; l < lights; ++l) {
+    Light light;
+    const double el = glm::radians(U(30.0, 75.0));
+    const double az = U(0.0, 2.0 * glm::pi<double>());
+    const glm::dvec3 dir(std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az));
+    if (chance(0.65)) {
+      light.type = LightType::Point;
+      light.position = U(4.0, 8.0) * dir;
+    } else {
+      light.type = LightType::Directional;
+      light.direction = -dir;
+    }
+    light.color = random_colour(0.4, 1.0);
+    light.size = U(0.1, 0.5);
+    scene.lights.push_back(light);
+  }
+  scene.ambient = random_colour(0.05, 0.3);
+  scene.background = random_colour(0.0, 1.0);
+
+  scene.params.sigma = 3e-4 * U(0.7, 1.3);
+  scene.params.gamma = 3e-3 * U(0.7, 1.3);
+  return scene;
+}
+
+}  // namespace penumbra

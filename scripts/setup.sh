@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs the Debian packages penumbra builds and runs with (PoCL gives an OpenCL CPU device).
+# Skips apt entirely when every package is already installed, so re-runs are fast.
+set -euo pipefail
+
+PACKAGES=(
+  pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
+  libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev
+  libcli11-dev nlohmann-json3-dev cmake ninja-build g++ pkg-config clinfo
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  status=$(dpkg-query -W -f='${db:Status-Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "installed" ]] || missing+=("$p")
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  echo "setup: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}"
+SUDO=()
+if [[ $(id -u) -ne 0 ]]; then
+  if command -v sudo >/dev/null 2>&1; then
+    SUDO=(sudo)
+  else
+    echo "setup: not root and no sudo; install as root: apt-get install ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${SUDO[@]}" apt-get update
+"${SUDO[@]}" apt-get install -y --no-install-recommends "${missing[@]}"

@@ -1,0 +1,305 @@
+// The `penumbra` command-line tool (PENUMBRA_CLI), run as a child process.
+//
+// Bad inputs must end with a non-zero exit code (not a signal) and exactly one line on stderr
+// starting with "penumbra: error:"; good inputs must produce their files.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "penumbra/image.hpp"
+#include "penumbra/io.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RunResult {
+  bool signaled = false;  // killed by a signal (directly, or as reported by the shell)
+  int exit_code = -1;
+  std::string out, err;
+  std::string command;
+};
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "penumbra_cli_" + name;
+}
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> result;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) result.push_back(line);
+  return result;
+}
+
+// Runs `penumbra <args>` with stdout and stderr captured in files.
+RunResult run_cli(const std::string& args, const std::string& tag) {
+  RunResult r;
+  const std::string out = temp_path(tag + ".stdout"), err = temp_path(tag + ".stderr");
+  r.command = quote(PENUMBRA_CLI) + " " + args;
+  const int status = std::system((r.command + " >" + quote(out) + " 2>" + quote(err)).c_str());
+  if (status == -1) {
+    r.signaled = true;
+  } else if (WIFSIGNALED(status)) {
+    r.signaled = true;
+  } else if (WIFEXITED(status)) {
+    r.exit_code = WEXITSTATUS(status);
+    // A shell reports a child killed by signal N as exit status 128 + N.
+    r.signaled = r.exit_code >= 128;
+  }
+  r.out = read_text(out);
+  r.err = read_text(err);
+  return r;
+}
+
+std::string show(const RunResult& r) {
+  return "command: " + r.command + "\nexit: " + std::to_string(r.exit_code) +
+         (r.signaled ? " (signal)" : "") + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
+}
+
+// The contract for every failure.
+void expect_clean_error(const RunResult& r, const std::string& mentions = "") {
+  EXPECT_FALSE(r.signaled) << show(r);
+  EXPECT_NE(r.exit_code, 0) << show(r);
+  const auto err = lines(r.err);
+  ASSERT_EQ(err.size(), 1u) << "expected exactly one line on stderr\n" << show(r);
+  EXPECT_EQ(err[0].rfind("penumbra: error:", 0), 0u) << show(r);
+  if (!mentions.empty()) {
+    EXPECT_NE(err[0].find(mentions), std::string::npos)
+        << "the message should mention '" << mentions << "'\n"
+        << show(r);
+  }
+}
+
+std::string obj_file(const std::string& name, const std::string& text) {
+  const std::string path = temp_path(name + ".obj");
+  write_text(path, text);
+  return path;
+}
+
+RunResult render_obj(const std::string& name, const std::string& text) {
+  const std::string path = obj_file(name, text);
+  return run_cli("render --mesh " + quote(path) + " -o " + quote(temp_path(name + ".png")),
+                 "obj_" + name);
+}
+
+const std::string kBundled = std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json";
+
+// ---------------------------------------------------------------------------------------------
+// Bad inputs.
+
+TEST(Cli, MalformedObj) {
+  expect_clean_error(render_obj("malformed", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 zz\n"));
+}
+
+TEST(Cli, EmptyObj) { expect_clean_error(render_obj("empty", "# no geometry at all\n")); }
+
+TEST(Cli, NanVertex) {
+  expect_clean_error(render_obj("nan", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+}
+
+TEST(Cli, OutOfRangeIndex) {
+  expect_clean_error(render_obj("range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n"));
+}
+
+TEST(Cli, DegenerateTriangle) {
+  expect_clean_error(render_obj("degenerate", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"));
+}
+
+TEST(Cli, MissingObj) {
+  expect_clean_error(run_cli("render --mesh " + quote(temp_path("does_not_exist.obj")) + " -o " +
+                                 quote(temp_path("missing.png")),
+                             "missing_obj"));
+}
+
+TEST(Cli, ZeroSizeImage) {
+  expect_clean_error(
+      run_cli("render -o " + quote(temp_path("zero.png")) + " --width 0", "zero_width"), "--width");
+}
+
+TEST(Cli, NonPositiveSigma) {
+  expect_clean_error(
+      run_cli("render -o " + quote(temp_path("sigma.png")) + " --sigma 0", "sigma_zero"),
+      "--sigma");
+  expect_clean_error(
+      run_cli("render -o " + quote(temp_path("sigma.png")) + " --sigma -1e-5", "sigma_neg"),
+      "--sigma");
+}
+
+TEST(Cli, NonPositiveGamma) {
+  expect_clean_error(
+      run_cli("render -o " + quote(temp_path("gamma.png")) + " --gamma -1", "gamma_neg"),
+      "--gamma");
+  expect_clean_error(run_cli("gradcheck --samples 2 --gamma 0", "gamma_zero_gradcheck"), "--gamma");
+}
+
+TEST(Cli, UnknownDevice) {
+  expect_clean_error(run_cli("render -o " + quote(temp_path("device.png")) +
+                                 " --width 16 --height 16 --device no-such-device-xyz",
+                             "device"));
+}
+
+TEST(Cli, UsageErrorsExitWithTwo) {
+  RunResult r = run_cli("render --width 16", "usage_no_output");  // -o is required
+  expect_clean_error(r);
+  EXPECT_EQ(r.exit_code, 2);
+  r = run_cli("no-such-command", "usage_command");
+  expect_clean_error(r);
+  EXPECT_EQ(r.exit_code, 2);
+  r = run_cli("render -o x.png --precision quad", "usage_precision");
+  expect_clean_error(r);
+  EXPECT_EQ(r.exit_code, 2);
+  r = run_cli("render -o x.png --sigma abc", "usage_number");
+  expect_clean_error(r);
+  EXPECT_EQ(r.exit_code, 2);
+}
+
+TEST(Cli, BackwardRejectsWrongGradientShape) {
+  const std::string dir = temp_path("bad_grads");
+  fs::create_directories(dir);
+  penumbra::save_npy(penumbra::Image(8, 8, 3, 0.5), dir + "/color.npy");
+  const RunResult r = run_cli("backward --width 16 --height 12 --grad-in " + quote(dir) + " -o " +
+                                  quote(temp_path("bad_grads_out")),
+                              "backward_shape");
+  expect_clean_error(r, "color.npy");
+  EXPECT_NE(r.err.find("(12, 16, 3)"), std::string::npos) << show(r);
+  EXPECT_NE(r.err.find("(8, 8, 3)"), std::string::npos) << show(r);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Good inputs.
+
+TEST(Cli, Help) {
+  const RunResult r = run_cli("--help", "help");
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  for (const char* word : {"devices", "render", "backward", "gradcheck"})
+    EXPECT_NE(r.out.find(word), std::string::npos) << word;
+  const RunResult sub = run_cli("render --help", "help_render");
+  EXPECT_EQ(sub.exit_code, 0) << show(sub);
+  for (const char* option :
+       {"--sigma", "--gamma", "--eps", "--dist-eps", "--sigma-s", "--lambda-eps", "--gamma-s",
+        "--beta", "--gamma-p", "--width", "--height", "--device", "--raw", "--precision", "--mesh"})
+    EXPECT_NE(sub.out.find(option), std::string::npos) << option;
+}
+
+TEST(Cli, Devices) {
+  const RunResult r = run_cli("devices", "devices");
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  EXPECT_GE(lines(r.out).size(), 2u) << show(r);  // header + at least one device
+}
+
+TEST(Cli, RenderBundledSceneWritesPng) {
+  const std::string png = temp_path("render/turnaround.png");
+  const std::string raw = temp_path("render_raw");
+  fs::remove_all(temp_path("render"));
+  fs::remove_all(raw);
+  const RunResult r = run_cli("render " + quote(kBundled) + " -o " + quote(png) +
+                                  " --width 64 --height 48 --raw " + quote(raw),
+                              "render");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  EXPECT_EQ(lines(r.out).size(), 1u) << "one summary line\n" << show(r);
+  const std::string bytes = read_text(png);
+  ASSERT_GE(bytes.size(), 8u) << png;
+  EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  const penumbra::Image image = penumbra::load_image(png);
+  EXPECT_EQ(image.width, 64);
+  EXPECT_EQ(image.height, 48);
+
+  const penumbra::Image color = penumbra::load_npy(raw + "/color.npy");
+  EXPECT_EQ(color.width, 64);
+  EXPECT_EQ(color.height, 48);
+  EXPECT_EQ(color.channels, 3);
+  for (const char* name : {"silhouette", "depth"}) {
+    const penumbra::Image x = penumbra::load_npy(raw + "/" + name + ".npy");
+    EXPECT_EQ(x.width, 64) << name;
+    EXPECT_EQ(x.height, 48) << name;
+    EXPECT_EQ(x.channels, 1) << name;
+  }
+}
+
+TEST(Cli, RenderDefaultsToBundledScene) {
+  const std::string png = temp_path("default.png");
+  fs::remove(png);
+  const RunResult r = run_cli("render -o " + quote(png) + " --width 32 --height 32", "default");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  EXPECT_TRUE(fs::exists(png));
+}
+
+TEST(Cli, BackwardWritesGradients) {
+  // Incoming gradients: ones on the colour (a sum-of-colour loss), silhouette and depth missing.
+  const std::string in = temp_path("grads_in"), out = temp_path("grads_out");
+  fs::remove_all(in);
+  fs::remove_all(out);
+  fs::create_directories(in);
+  penumbra::save_npy(penumbra::Image(32, 24, 3, 1.0), in + "/color.npy");
+  const RunResult r = run_cli("backward " + quote(kBundled) + " --width 32 --height 24 --grad-in " +
+                                  quote(in) + " -o " + quote(out),
+                              "backward");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  for (const char* file : {"vertices_sphere.npy", "vertices_ground.npy", "albedo_sphere.npy",
+                           "albedo_ground.npy", "lights.npy", "ambient.npy"}) {
+    EXPECT_TRUE(fs::exists(out + "/" + file)) << file << "\n" << show(r);
+  }
+  // (N, 3), (L, 6), (1, 3); a 2-D array loads as height = rows, width = columns.
+  const penumbra::Image v = penumbra::load_npy(out + "/vertices_sphere.npy");
+  EXPECT_EQ(v.width, 3);
+  EXPECT_EQ(v.height, 642);
+  const penumbra::Image lights = penumbra::load_npy(out + "/lights.npy");
+  EXPECT_EQ(lights.width, 6);
+  EXPECT_EQ(lights.height, 1);
+  const penumbra::Image ambient = penumbra::load_npy(out + "/ambient.npy");
+  EXPECT_EQ(ambient.width, 3);
+  EXPECT_EQ(ambient.height, 1);
+  // d(Σ colour)/d(ambient) = Σ over pixels of the ambient albedo factor: positive.
+  EXPECT_GT(ambient.data[0], 0.0);
+  // float64 on disk: header says <f8.
+  EXPECT_NE(read_text(out + "/ambient.npy").find("<f8"), std::string::npos);
+}
+
+TEST(Cli, GradcheckBundledScene) {
+  const RunResult r =
+      run_cli("gradcheck " + quote(kBundled) + " --samples 8 --width 48 --height 48", "gradcheck");
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  const auto out = lines(r.out);
+  ASSERT_FALSE(out.empty()) << show(r);
+  const std::regex format(R"(^gradcheck: checked=8 failed=\d+ max_rel_err=\S+$)");
+  EXPECT_TRUE(std::regex_match(out.back(), format)) << "last line: " << out.back();
+}
+
+TEST(Cli, GradcheckRandomSceneVerbose) {
+  const RunResult r =
+      run_cli("gradcheck --random-scene --seed 4 --samples 6 --verbose", "gradcheck_random");
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  const auto out = lines(r.out);
+  ASSERT_GE(out.size(), 7u) << show(r);  // per-entry lines, then the summary
+  const std::regex format(R"(^gradcheck: checked=6 failed=\d+ max_rel_err=\S+$)");
+  EXPECT_TRUE(std::regex_match(out.back(), format)) << "last line: " << out.back();
+}
+
+}  // namespace

@@ -1,0 +1,657 @@
+// Raster stage (SPEC §1–§2 without shadows): the OpenCL renderer against the plain C++
+// double-precision reference (host/reference/reference.cpp), on small scenes built here.
+//
+//   RasterReference.*  the reference itself against closed-form values (no device needed)
+//   RasterDouble.*     double kernels vs reference, ~1e-9
+//   RasterFloat.*      float kernels vs reference, ~1e-4
+//   RasterTuning.*     brute force and every tile / pixels-per-item variant agree bit for bit
+//   RasterDeterminism  rendering twice gives the same bits
+// Every comparison also checks that no output holds NaN or inf.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/reference.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+
+namespace {
+
+using glm::dvec3;
+using penumbra::AlbedoMode;
+using penumbra::Camera;
+using penumbra::Context;
+using penumbra::Image;
+using penumbra::Light;
+using penumbra::LightType;
+using penumbra::Mesh;
+using penumbra::Precision;
+using penumbra::Projection;
+using penumbra::RasterTuning;
+using penumbra::Renderer;
+using penumbra::RenderOutput;
+using penumbra::Scene;
+
+// ---------------------------------------------------------------------------------------------
+// Device: one Context for the whole binary (programs are built once per process). A missing
+// OpenCL device is a failure, not a skip: these tests are the kernels' correctness check.
+
+Context* shared_context(std::string* error) {
+  static std::unique_ptr<Context> context;
+  static std::string message;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    try {
+      context = std::make_unique<Context>();
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+  }
+  *error = message;
+  return context.get();
+}
+
+#define REQUIRE_CONTEXT(ctx)                   \
+  std::string ctx##_error;                     \
+  Context* ctx = shared_context(&ctx##_error); \
+  ASSERT_NE(ctx, nullptr) << "cannot create an OpenCL context: " << ctx##_error
+
+// ---------------------------------------------------------------------------------------------
+// Geometry builders.
+
+// Unit icosahedron subdivided `levels` times, scaled and moved; counter-clockwise seen from
+// outside. Per-vertex albedo varies smoothly over the sphere.
+Mesh icosphere(int levels, dvec3 center, double radius) {
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (dvec3& p : v) p = glm::normalize(p);
+  std::vector<glm::ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                               {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                               {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                               {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  for (int level = 0; level < levels; ++level) {
+    std::map<std::pair<int, int>, int> midpoint;
+    auto mid = [&](int a, int b) {
+      const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+      auto it = midpoint.find(key);
+      if (it != midpoint.end()) return it->second;
+      v.push_back(glm::normalize(v[size_t(a)] + v[size_t(b)]));
+      const int index = int(v.size()) - 1;
+      midpoint[key] = index;
+      return index;
+    };
+    std::vector<glm::ivec3> next;
+    for (const glm::ivec3& tri : f) {
+      const int a = mid(tri.x, tri.y), b = mid(tri.y, tri.z), c = mid(tri.z, tri.x);
+      next.push_back({tri.x, a, c});
+      next.push_back({tri.y, b, a});
+      next.push_back({tri.z, c, b});
+      next.push_back({a, b, c});
+    }
+    f = std::move(next);
+  }
+  Mesh mesh;
+  mesh.name = "sphere";
+  for (const dvec3& p : v) {
+    mesh.vertices.push_back(center + radius * p);
+    mesh.albedo.push_back(dvec3(0.55, 0.5, 0.45) + dvec3(0.35 * p.x, 0.3 * p.y, -0.3 * p.z));
+  }
+  mesh.faces = f;
+  mesh.albedo_mode = AlbedoMode::PerVertex;
+  return mesh;
+}
+
+// Horizontal n×n grid at height y over [x0,x1]×[z0,z1], facing +y, checkered per-face albedo.
+Mesh ground(double y, double x0, double x1, double z0, double z1, int n) {
+  Mesh mesh;
+  mesh.name = "ground";
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i)
+      mesh.vertices.push_back({x0 + (x1 - x0) * i / n, y, z0 + (z1 - z0) * j / n});
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
+      const dvec3 col = (i + j) % 2 ? dvec3(0.7, 0.65, 0.6) : dvec3(0.4, 0.45, 0.5);
+      mesh.faces.push_back({a, c, b});  // (c−a)×(b−a) points along +y
+      mesh.albedo.push_back(col);
+      mesh.faces.push_back({b, c, d});
+      mesh.albedo.push_back(col * 0.9);
+    }
+  }
+  mesh.albedo_mode = AlbedoMode::PerFace;
+  return mesh;
+}
+
+Camera perspective_camera(dvec3 eye, dvec3 target, int w, int h, double fov, double near,
+                          double far) {
+  Camera c;
+  c.eye = eye;
+  c.target = target;
+  c.up = {0, 1, 0};
+  c.projection = Projection::Perspective;
+  c.fov_deg = fov;
+  c.near = near;
+  c.far = far;
+  c.width = w;
+  c.height = h;
+  return c;
+}
+
+Camera orthographic_camera(dvec3 eye, dvec3 target, int w, int h, double half_height, double near,
+                           double far) {
+  Camera c = perspective_camera(eye, target, w, h, 40.0, near, far);
+  c.projection = Projection::Orthographic;
+  c.half_height = half_height;
+  return c;
+}
+
+Light point_light(dvec3 position, dvec3 color) {
+  Light l;
+  l.type = LightType::Point;
+  l.position = position;
+  l.color = color;
+  return l;
+}
+
+Light directional_light(dvec3 direction, dvec3 color) {
+  Light l;
+  l.type = LightType::Directional;
+  l.direction = direction;
+  l.color = color;
+  return l;
+}
+
+// View depth of a world point for a camera (SPEC §0), used to check that the scenes below
+// really contain the cases they are meant to exercise.
+double view_depth(const Camera& cam, dvec3 p) {
+  return glm::dot(p - cam.eye, glm::normalize(cam.target - cam.eye));
+}
+
+// Number of faces with at least one vertex in front of the near plane (dropped by the
+// renderer) and at least one vertex beyond it (so they would otherwise be visible).
+int faces_straddling_near(const Scene& scene, const Camera& cam) {
+  int count = 0;
+  for (const Mesh& m : scene.meshes)
+    for (const glm::ivec3& f : m.faces) {
+      int behind = 0;
+      for (int k = 0; k < 3; ++k) behind += view_depth(cam, m.vertices[size_t(f[k])]) < cam.near;
+      count += behind > 0 && behind < 3;
+    }
+  return count;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes.
+
+// A handful of loose triangles, perspective, W > H: overlapping faces at different depths
+// (two of them close enough in depth to blend), both windings on screen, a face running off
+// the right edge of the image, a tilted face with per-vertex albedo (perspective-correct
+// interpolation), a face with one vertex behind the eye and one with a vertex between the eye
+// and the near plane (both dropped), a face entirely behind the camera, and a face crossing the
+// far plane (silhouette only beyond it). One point light.
+Scene triangles_scene() {
+  Scene s;
+  Mesh flat;
+  flat.name = "flat";
+  flat.albedo_mode = AlbedoMode::PerFace;
+  auto add = [&flat](dvec3 a, dvec3 b, dvec3 c, dvec3 albedo) {
+    const int base = int(flat.vertices.size());
+    flat.vertices.insert(flat.vertices.end(), {a, b, c});
+    flat.faces.push_back({base, base + 1, base + 2});
+    flat.albedo.push_back(albedo);
+  };
+  add({-1.2, -0.8, 0.0}, {0.9, -0.7, 0.0}, {-0.2, 0.9, 0.0}, {0.8, 0.2, 0.2});    // back, CCW
+  add({-0.3, -0.5, 0.4}, {0.2, 0.6, 0.4}, {0.8, -0.3, 0.4}, {0.2, 0.8, 0.2});     // front, CW
+  add({-0.6, 0.0, 0.43}, {0.3, -0.9, 0.43}, {0.4, 0.3, 0.43}, {0.2, 0.3, 0.9});   // blends with ↑
+  add({0.9, 0.2, -0.5}, {3.5, 0.6, -0.5}, {1.5, 1.4, -0.5}, {0.9, 0.8, 0.1});     // off the right
+  add({-1.5, 0.6, -1.0}, {-0.6, 0.9, 5.0}, {-0.9, 1.2, -1.0}, {0.5, 0.5, 0.5});   // vertex behind
+  add({-1.4, -1.0, 0.0}, {-0.5, -0.3, 3.8}, {-0.4, -1.2, 0.0}, {0.1, 0.9, 0.9});  // inside near
+  add({-1.0, -1.0, 6.0}, {1.0, -1.0, 6.0}, {0.0, 1.0, 6.0}, {0.9, 0.9, 0.9});     // all behind
+  add({0.2, -1.3, -2.0}, {1.6, -0.9, -9.0}, {1.4, -0.2, -2.0}, {0.6, 0.4, 0.8});  // crosses far
+  s.meshes.push_back(flat);
+
+  Mesh tilted;
+  tilted.name = "tilted";
+  tilted.vertices = {{-1.4, 0.2, -1.5}, {-0.2, 0.5, 1.2}, {-0.9, 1.3, 0.3}};
+  tilted.faces = {{0, 1, 2}};
+  tilted.albedo = {{0.9, 0.1, 0.1}, {0.1, 0.9, 0.1}, {0.1, 0.1, 0.9}};
+  tilted.albedo_mode = AlbedoMode::PerVertex;
+  s.meshes.push_back(tilted);
+
+  s.cameras.push_back(perspective_camera({0.0, 0.0, 4.0}, {0.0, 0.0, 0.0}, 48, 32, 45.0, 0.5, 9.0));
+  s.lights.push_back(point_light({1.5, 2.0, 3.0}, {0.9, 0.85, 0.8}));
+  s.ambient = {0.15, 0.15, 0.2};
+  s.background = {0.3, 0.5, 0.7};
+  s.params.sigma = 5e-4;
+  s.params.gamma = 3e-3;
+  return s;
+}
+
+// An icosphere on a ground grid with two lights (point + directional). The ground reaches behind
+// the perspective camera (faces straddling the near plane) and past its far plane. Two views:
+// perspective with H > W and orthographic with W > H.
+Scene sphere_scene(int levels = 1) {
+  Scene s;
+  s.meshes.push_back(icosphere(levels, {0.0, 0.0, 0.0}, 1.0));
+  s.meshes.push_back(ground(-1.0, -4.0, 4.0, -14.0, 7.0, 6));
+  s.cameras.push_back(
+      perspective_camera({0.6, 1.2, 4.0}, {0.0, -0.2, 0.0}, 32, 48, 50.0, 0.3, 12.0));
+  s.cameras.push_back(
+      orthographic_camera({4.0, 3.0, 3.0}, {0.0, -0.3, 0.0}, 40, 24, 1.8, 0.1, 20.0));
+  s.lights.push_back(point_light({2.0, 4.0, 3.0}, {0.7, 0.7, 0.6}));
+  s.lights.push_back(directional_light({-0.3, -1.0, -0.5}, {0.3, 0.35, 0.4}));
+  s.ambient = {0.1, 0.1, 0.1};
+  s.background = {0.9, 0.95, 1.0};
+  s.params.sigma = 1e-3;
+  s.params.gamma = 1e-2;
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Comparison helpers.
+
+// Every value finite.
+void expect_finite(const Image& img, const std::string& what) {
+  size_t bad = 0;
+  for (double v : img.data) bad += !std::isfinite(v);
+  EXPECT_EQ(bad, 0u) << what << ": " << bad << " NaN/inf values";
+}
+
+// max |got − want| (or max |got − want| / max(|want|, 1e-300) when `relative`) ≤ tol, with the
+// worst pixel named in the message.
+void expect_close(const Image& got, const Image& want, double tol, bool relative,
+                  const std::string& what) {
+  ASSERT_EQ(got.width, want.width) << what;
+  ASSERT_EQ(got.height, want.height) << what;
+  ASSERT_EQ(got.channels, want.channels) << what;
+  ASSERT_EQ(got.data.size(), want.data.size()) << what;
+  expect_finite(got, what);
+  double worst = 0.0;
+  size_t worst_i = 0, over = 0;
+  for (size_t i = 0; i < got.data.size(); ++i) {
+    double err = std::abs(got.data[i] - want.data[i]);
+    if (relative) err /= std::max(std::abs(want.data[i]), 1e-300);
+    if (!(err <= tol)) ++over;
+    if (!(err <= worst)) {
+      worst = err;
+      worst_i = i;
+    }
+  }
+  const size_t pixel = worst_i / size_t(got.channels);
+  EXPECT_LE(worst, tol) << what << ": " << over
+                        << " values over tolerance; worst at (x=" << pixel % size_t(got.width)
+                        << ", y=" << pixel / size_t(got.width)
+                        << ", c=" << worst_i % size_t(got.channels) << "): got "
+                        << got.data[worst_i] << ", reference " << want.data[worst_i];
+}
+
+struct Tolerance {
+  double color, silhouette, depth_rel;
+};
+
+// Double kernels: the same formulas in the same precision; only evaluation order differs.
+constexpr Tolerance kDoubleTol{1e-9, 1e-9, 1e-9};
+// Float kernels: screen positions and depths carry ~1e-7 relative error; the aggregation
+// exponent (z̃ − m)/γ divides depth errors by γ (down to 3e-3 here) and the coverage exponent
+// d²/σ divides squared-distance errors by σ, so colour and silhouette errors of ~1e-5 are
+// expected (PoCL measured ≤ 8e-6 colour, ≤ 3e-6 silhouette, ≤ 6e-7 relative depth).
+constexpr Tolerance kFloatTol{1e-4, 1e-4, 1e-5};
+
+// Renders `scene` with the given renderer and compares every view with the reference.
+void expect_matches_reference(Renderer& renderer, const Scene& scene, Tolerance tol,
+                              const std::string& name) {
+  std::vector<RenderOutput> got;
+  ASSERT_NO_THROW(got = renderer.render(scene)) << name;
+  ASSERT_EQ(got.size(), scene.cameras.size()) << name;
+  for (size_t v = 0; v < scene.cameras.size(); ++v) {
+    const RenderOutput want = penumbra::reference::render(scene, v);
+    const std::string tag = name + " view " + std::to_string(v);
+    const Camera& cam = scene.cameras[v];
+    EXPECT_EQ(got[v].color.width, cam.width) << tag;
+    EXPECT_EQ(got[v].color.height, cam.height) << tag;
+    EXPECT_EQ(got[v].color.channels, 3) << tag;
+    EXPECT_EQ(got[v].silhouette.channels, 1) << tag;
+    EXPECT_EQ(got[v].depth.channels, 1) << tag;
+    expect_finite(want.color, tag + " reference colour");
+    expect_close(got[v].color, want.color, tol.color, false, tag + " colour");
+    expect_close(got[v].silhouette, want.silhouette, tol.silhouette, false, tag + " silhouette");
+    expect_close(got[v].depth, want.depth, tol.depth_rel, true, tag + " depth");
+  }
+}
+
+void expect_identical(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b,
+                      const std::string& what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  for (size_t v = 0; v < a.size(); ++v) {
+    EXPECT_EQ(a[v].color.data, b[v].color.data) << what << " view " << v << " colour";
+    EXPECT_EQ(a[v].silhouette.data, b[v].silhouette.data) << what << " view " << v << " silhouette";
+    EXPECT_EQ(a[v].depth.data, b[v].depth.data) << what << " view " << v << " depth";
+    expect_finite(a[v].color, what + " colour");
+    expect_finite(a[v].silhouette, what + " silhouette");
+    expect_finite(a[v].depth, what + " depth");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The reference against closed-form values.
+
+// A large triangle in the plane z = 0 seen head-on: the centre pixel is fully covered, its
+// depth is the plane's, its colour is albedo ⊙ (light · cosθ + ambient); a pixel of a small
+// triangle's far corner shows the background at depth `far`.
+TEST(RasterReference, HeadOnTriangle) {
+  Scene s;
+  Mesh m;
+  m.vertices = {{-10, -10, 0}, {10, -10, 0}, {0, 10, 0}};
+  m.faces = {{0, 1, 2}};
+  m.albedo = {{0.5, 0.6, 0.7}};
+  m.albedo_mode = AlbedoMode::PerFace;
+  s.meshes.push_back(m);
+  s.cameras.push_back(perspective_camera({0, 0, 5}, {0, 0, 0}, 33, 21, 40.0, 0.1, 20.0));
+  s.lights.push_back(point_light({0, 0, 3}, {2, 2, 2}));
+  s.ambient = {0.2, 0.2, 0.2};
+  s.background = {0.1, 0.2, 0.3};
+  s.params.sigma = 1e-3;
+  s.params.gamma = 1e-2;
+
+  RenderOutput out = penumbra::reference::render(s, 0);
+  ASSERT_EQ(out.color.channels, 3);
+  // Pixel (16, 10) is the image centre: X = (0,0,0), n·l = 1.
+  EXPECT_NEAR(out.silhouette.at(16, 10), 1.0, 1e-12);
+  EXPECT_NEAR(out.depth.at(16, 10), 5.0, 1e-12);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(out.color.at(16, 10, c), m.albedo[0][c] * 2.2, 1e-12);
+  // A pixel off the centre: point light at distance, cosθ = 3/|X − L|.
+  {
+    const double tan_half = std::tan(20.0 * 3.14159265358979323846 / 180.0);
+    const double x = (2.0 * 20 + 1 - 33) / 21.0, y = (21 - 2.0 * 4 - 1) / 21.0;
+    const dvec3 X(x * tan_half * 5.0, y * tan_half * 5.0, 0.0);
+    const double cos_theta = 3.0 / glm::length(dvec3(0, 0, 3) - X);
+    EXPECT_NEAR(out.color.at(20, 4, 1), 0.6 * (2.0 * cos_theta + 0.2), 1e-12);
+  }
+
+  s.meshes[0].vertices = {{-0.1, -0.1, 0}, {0.1, -0.1, 0}, {0, 0.1, 0}};
+  out = penumbra::reference::render(s, 0);
+  EXPECT_EQ(out.silhouette.at(0, 0), 0.0);
+  EXPECT_EQ(out.depth.at(0, 0), 20.0);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(out.color.at(0, 0, c), s.background[c]);
+  EXPECT_GT(out.silhouette.at(16, 10), 0.5);
+}
+
+// A tilted plane: inside the face, depth equals the ray–plane intersection (perspective-correct
+// interpolation), and with albedo = position + const, no lights and ambient 1, the colour is
+// the 3D point X hit by the pixel's ray. Orthographic: the same with parallel rays.
+TEST(RasterReference, TiltedPlaneIsPerspectiveCorrect) {
+  for (Projection proj : {Projection::Perspective, Projection::Orthographic}) {
+    Scene s;
+    Mesh m;
+    m.vertices = {{-6, -4, -3}, {5, -5, 1}, {0, 6, -1}};
+    m.faces = {{0, 1, 2}};
+    const dvec3 offset(10, 10, 10);
+    for (const dvec3& p : m.vertices) m.albedo.push_back(p + offset);
+    s.meshes.push_back(m);
+    Camera cam = perspective_camera({0.5, 0.3, 6}, {0, 0, 0}, 24, 30, 50.0, 0.1, 50.0);
+    if (proj == Projection::Orthographic) {
+      cam.projection = proj;
+      cam.half_height = 2.0;
+    }
+    s.cameras.push_back(cam);
+    s.ambient = {1, 1, 1};
+    s.params.sigma = 1e-4;
+    s.params.gamma = 1e-3;
+    const RenderOutput out = penumbra::reference::render(s, 0);
+
+    const dvec3 f = glm::normalize(cam.target - cam.eye);
+    const dvec3 r = glm::normalize(glm::cross(f, cam.up));
+    const dvec3 u = glm::cross(r, f);
+    const dvec3 n = glm::cross(m.vertices[1] - m.vertices[0], m.vertices[2] - m.vertices[0]);
+    const double tan_half = std::tan(25.0 * 3.14159265358979323846 / 180.0);
+    for (int py = 6; py < 24; py += 5) {
+      for (int px = 5; px < 20; px += 4) {
+        const double x = (2.0 * px + 1 - cam.width) / cam.height;
+        const double y = (cam.height - 2.0 * py - 1) / cam.height;
+        dvec3 origin, dir;
+        if (proj == Projection::Perspective) {
+          origin = cam.eye;
+          dir = f + x * tan_half * r + y * tan_half * u;  // view depth 1 per unit of t
+        } else {
+          origin = cam.eye + x * cam.half_height * r + y * cam.half_height * u;
+          dir = f;
+        }
+        const double t = glm::dot(m.vertices[0] - origin, n) / glm::dot(dir, n);
+        const dvec3 X = origin + t * dir;
+        ASSERT_NEAR(out.silhouette.at(px, py), 1.0, 1e-9) << px << "," << py;
+        EXPECT_NEAR(out.depth.at(px, py), t, 1e-9 * t) << px << "," << py;
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(out.color.at(px, py, c), X[c] + offset[c], 1e-9) << px << "," << py;
+      }
+    }
+  }
+}
+
+// Faces with a vertex in front of the near plane vanish entirely; a face crossing the far
+// plane keeps its silhouette beyond it but adds no colour there; culling drops back faces.
+TEST(RasterReference, NearFarAndCulling) {
+  Scene s;
+  Mesh m;
+  m.vertices = {{-3, -3, 0}, {3, -3, 0}, {0, 3, 0}};
+  m.faces = {{0, 1, 2}};
+  m.albedo = {{0.5, 0.5, 0.5}};
+  m.albedo_mode = AlbedoMode::PerFace;
+  s.meshes.push_back(m);
+  s.cameras.push_back(perspective_camera({0, 0, 5}, {0, 0, 0}, 16, 16, 60.0, 1.0, 20.0));
+  s.params.sigma = 1e-3;
+  s.params.gamma = 1e-2;
+  s.background = {0.25, 0.25, 0.25};
+
+  RenderOutput out = penumbra::reference::render(s, 0);
+  EXPECT_NEAR(out.silhouette.at(8, 8), 1.0, 1e-12);
+
+  s.meshes[0].vertices[2] = {0, 3, 4.5};  // view depth 0.5 < near
+  out = penumbra::reference::render(s, 0);
+  for (double v : out.silhouette.data) EXPECT_EQ(v, 0.0);
+  for (double v : out.color.data) EXPECT_EQ(v, 0.25);
+
+  s.meshes[0].vertices[2] = {0, 3, 0};
+  s.cameras[0].far = 4.0;  // the whole face lies beyond far
+  out = penumbra::reference::render(s, 0);
+  EXPECT_NEAR(out.silhouette.at(8, 8), 1.0, 1e-12);
+  EXPECT_EQ(out.depth.at(8, 8), 4.0);
+  EXPECT_EQ(out.color.at(8, 8, 0), 0.25);
+
+  s.cameras[0].far = 20.0;
+  s.params.cull_backfaces = true;
+  out = penumbra::reference::render(s, 0);
+  EXPECT_NEAR(out.silhouette.at(8, 8), 1.0, 1e-12);  // CCW towards the camera: kept
+  std::swap(s.meshes[0].faces[0].y, s.meshes[0].faces[0].z);
+  out = penumbra::reference::render(s, 0);
+  for (double v : out.silhouette.data) EXPECT_EQ(v, 0.0);  // turned away: culled
+}
+
+// Huge |d²/σ| must not produce NaN or inf anywhere.
+TEST(RasterReference, ExtremeSharpnessStaysFinite) {
+  Scene s = sphere_scene();
+  s.params.sigma = 1e-14;
+  s.params.gamma = 1e-8;
+  for (size_t v = 0; v < s.cameras.size(); ++v) {
+    const RenderOutput out = penumbra::reference::render(s, v);
+    expect_finite(out.color, "colour");
+    expect_finite(out.silhouette, "silhouette");
+    expect_finite(out.depth, "depth");
+  }
+}
+
+// The scenes contain what their comments promise.
+TEST(RasterReference, ScenesExerciseTheirCases) {
+  const Scene tri = triangles_scene();
+  EXPECT_GE(faces_straddling_near(tri, tri.cameras[0]), 2);
+  const Scene sph = sphere_scene();
+  EXPECT_GE(faces_straddling_near(sph, sph.cameras[0]), 1);
+  // Some ground vertices lie beyond the far plane of the perspective view.
+  int beyond_far = 0;
+  for (const dvec3& p : sph.meshes[1].vertices)
+    beyond_far += view_depth(sph.cameras[0], p) > sph.cameras[0].far;
+  EXPECT_GT(beyond_far, 0);
+  // Partly off-screen: the reference shows the right-edge face touching the image border.
+  const RenderOutput out = penumbra::reference::render(tri, 0);
+  double edge = 0.0;
+  for (int y = 0; y < tri.cameras[0].height; ++y)
+    edge = std::max(edge, out.silhouette.at(tri.cameras[0].width - 1, y));
+  EXPECT_GT(edge, 0.99);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Kernels against the reference.
+
+Scene ortho_triangles_scene() {
+  Scene s = triangles_scene();
+  s.cameras[0] = orthographic_camera({0.3, 0.2, 4.0}, {0.0, 0.0, 0.0}, 30, 40, 1.6, 0.5, 9.0);
+  s.lights = {directional_light({0.4, -0.5, -1.0}, {0.8, 0.8, 0.8})};
+  return s;
+}
+
+Scene culled_sphere_scene() {
+  Scene s = sphere_scene();
+  s.params.cull_backfaces = true;
+  return s;
+}
+
+Scene one_light_sphere_scene() {
+  Scene s = sphere_scene(2);
+  s.lights = {directional_light({0.2, -1.0, -0.3}, {1.0, 0.9, 0.8})};
+  s.cameras.resize(1);
+  s.cameras[0].width = 40;
+  s.cameras[0].height = 40;
+  s.params.sigma = 3e-4;
+  s.params.gamma = 5e-3;
+  return s;
+}
+
+const std::vector<std::pair<std::string, Scene (*)()>>& all_scenes() {
+  static const std::vector<std::pair<std::string, Scene (*)()>> scenes = {
+      {"triangles", &triangles_scene},
+      {"ortho_triangles", &ortho_triangles_scene},
+      {"sphere", [] { return sphere_scene(); }},
+      {"culled_sphere", &culled_sphere_scene},
+      {"one_light_sphere", &one_light_sphere_scene},
+  };
+  return scenes;
+}
+
+TEST(RasterDouble, MatchesReference) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer renderer(*ctx, Precision::Double);
+  for (const auto& [name, make] : all_scenes())
+    expect_matches_reference(renderer, make(), kDoubleTol, name);
+}
+
+TEST(RasterFloat, MatchesReference) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer renderer(*ctx, Precision::Float);
+  for (const auto& [name, make] : all_scenes())
+    expect_matches_reference(renderer, make(), kFloatTol, name);
+}
+
+// The brute-force path (no bins) against the reference as well.
+TEST(RasterDouble, BruteForceMatchesReference) {
+  REQUIRE_CONTEXT(ctx);
+  RasterTuning tuning;
+  tuning.brute_force = true;
+  Renderer renderer(*ctx, Precision::Double, tuning);
+  expect_matches_reference(renderer, triangles_scene(), kDoubleTol, "triangles brute force");
+  expect_matches_reference(renderer, sphere_scene(), kDoubleTol, "sphere brute force");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Schedules: brute force and every binned variant give the same bits.
+
+std::vector<RasterTuning> all_tunings() {
+  std::vector<RasterTuning> tunings;
+  RasterTuning brute;
+  brute.brute_force = true;
+  tunings.push_back(brute);
+  for (int tile : {8, 16, 32})
+    for (int ppi : {1, 4, 8}) {
+      RasterTuning t;
+      t.tile = tile;
+      t.pixels_per_item = ppi;
+      tunings.push_back(t);
+    }
+  return tunings;
+}
+
+std::string describe(const RasterTuning& t) {
+  std::ostringstream os;
+  if (t.brute_force)
+    os << "brute force";
+  else
+    os << "tile " << t.tile << ", pixels/item " << t.pixels_per_item;
+  return os.str();
+}
+
+// Sizes that no tile or pixels-per-item value divides, W > H and H > W, many faces per tile.
+Scene tuning_scene() {
+  Scene s = sphere_scene(2);
+  s.cameras[0].width = 37;
+  s.cameras[0].height = 53;
+  s.cameras[1].width = 61;
+  s.cameras[1].height = 43;
+  s.params.sigma = 3e-4;
+  s.params.gamma = 5e-3;
+  return s;
+}
+
+void expect_all_tunings_identical(Precision precision) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = tuning_scene();
+  const std::vector<RasterTuning> tunings = all_tunings();
+  std::vector<RenderOutput> first;
+  {
+    Renderer renderer(*ctx, precision, tunings[0]);
+    ASSERT_NO_THROW(first = renderer.render(scene));
+  }
+  for (size_t i = 1; i < tunings.size(); ++i) {
+    Renderer renderer(*ctx, precision, tunings[i]);
+    std::vector<RenderOutput> out;
+    ASSERT_NO_THROW(out = renderer.render(scene)) << describe(tunings[i]);
+    expect_identical(out, first, describe(tunings[i]) + " vs " + describe(tunings[0]));
+  }
+}
+
+TEST(RasterTuning, AllSchedulesBitIdenticalDouble) {
+  expect_all_tunings_identical(Precision::Double);
+}
+
+TEST(RasterTuning, AllSchedulesBitIdenticalFloat) {
+  expect_all_tunings_identical(Precision::Float);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rendering twice, with the same renderer or a fresh one, gives the same bits.
+
+TEST(RasterDeterminism, RepeatedRendersIdentical) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = tuning_scene();
+  for (Precision precision : {Precision::Float, Precision::Double}) {
+    const std::string p = precision == Precision::Float ? "float" : "double";
+    Renderer renderer(*ctx, precision);
+    std::vector<RenderOutput> a, b, c;
+    ASSERT_NO_THROW(a = renderer.render(scene));
+    ASSERT_NO_THROW(b = renderer.render(scene));
+    expect_identical(a, b, p + " same renderer");
+    Renderer other(*ctx, precision);
+    ASSERT_NO_THROW(c = other.render(scene));
+    expect_identical(a, c, p + " fresh renderer");
+  }
+}
+
+}  // namespace
