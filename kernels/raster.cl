@@ -184,7 +184,17 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
       }
     }
   }
-  for (int j = 0; j < PPW && px0 + j < W; ++j) pix_n[py * W + px0 + j] = n[j];
+  for (int j = 0; j < PPW && px0 + j < W; ++j) {
+    int pix = py * W + px0 + j;
+    pix_n[pix] = n[j];
+    // Slots the bound reserved but no fragment took: weight 0, outside every light's map, so
+    // that kernels running over all slots (shadow sampling) read nothing undefined.
+    for (int r = pix_offset[pix] + n[j]; r < pix_offset[pix] + pix_count[pix]; ++r) {
+      rec_face[r] = -1;
+      rec_frag[r] = 0;
+      for (int l = 0; l < nl; ++l) rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
+    }
+  }
 }
 
 inline real3 fragment_colour(int r, int nl, __global const real4* rec_shade,

@@ -1,42 +1,39 @@
 // Stage 4 — shadow: the shadow term s of every kept fragment for one light (SPEC §4, hard
 // shadows, eq. 7: filter then compare), forward and backward, with Gaussian-weighted sampling
 // of the light's shadow map S:
-//   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ))
-//   exact      g over the whole map (EXACT=1 builds of the same kernels)
-//   gemm       g over the whole map as matrix products (gemm_* kernels + CLBlast on the host)
+//   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ)),
+//              one work-item per fragment (shadow_sample*, shadow_boxes, shadow_gather)
+//   exact      g over the whole map; since g_ij = gx_i·gy_j the sums are matrix products
+//              (exact_* kernels here, the products by matmul.cl or by CLBlast's GEMM)
 // Buffers (K fragments, nl lights, this light l, map W_s × H_s row-major, row 0 at the top):
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
 // Launch: one work-item per fragment (shadow_sample, shadow_sample_bwd, shadow_boxes,
-// gemm_*), one per texel (shadow_gather).
+// exact_*), one per texel (shadow_gather).
 #include "common/real.clh"
-
-#ifndef EXACT
-#define EXACT 0  // 1: sum over the whole map (no truncation)
-#endif
 
 typedef struct {
   int x0, y0, x1, y1;  // texel window, inclusive
-  real eps;            // subtracted from every weight (ε_λ, or 0 when exact)
+  real eps;            // ε_λ, subtracted from every weight
 } Window;
 
-// Where μ lies outside the map rectangle the fragment is lit (s = 1): an empty window.
+// Where μ lies outside the map rectangle the fragment is lit (s = 1).
+inline int inside_map(real2 mu, int Wm, int Hm) {
+  return mu.x >= -R(0.5) && mu.x < Wm - R(0.5) && mu.y >= -R(0.5) && mu.y < Hm - R(0.5);
+}
+
+// The truncated window around μ (empty outside the map).
 inline Window sample_window(real2 mu, __global const real* P, int Wm, int Hm) {
   Window w = {1, 1, 0, 0, 0};
-  if (!(mu.x >= -R(0.5) && mu.x < Wm - R(0.5) && mu.y >= -R(0.5) && mu.y < Hm - R(0.5)))
-    return w;
-#if EXACT
-  w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
-#else
+  if (!inside_map(mu, Wm, Hm)) return w;
   w.eps = P[P_LAMBDA_EPS];
   real radius = sqrt(2 * P[P_SIGMA_S] * log(1 / w.eps));
   w.x0 = max((int)ceil(mu.x - radius), 0);
   w.x1 = min((int)floor(mu.x + radius), Wm - 1);
   w.y0 = max((int)ceil(mu.y - radius), 0);
   w.y1 = min((int)floor(mu.y + radius), Hm - 1);
-#endif
   return w;
 }
 
@@ -110,8 +107,7 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
 }
 
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in
-// fragment order (no atomics). With bins (truncated) a texel visits its tile's list; without
-// (exact) every fragment.
+// fragment order (no atomics): a texel visits the fragments binned into its tile.
 __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real4* rec_light, __global const real4* rec_lgrad,
                             int tile, int tiles_x, __global const int* tile_offsets,
@@ -119,19 +115,11 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
                             __global real* gS) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= Wm || j >= Hm) return;
-#if EXACT
-  int begin = 0, count = nrec;
-#else
   int t = (i / tile) + (j / tile) * tiles_x;
   int begin = tile_offsets[t], count = tile_counts[t];
-#endif
   real acc = 0;
   for (int k = 0; k < count; ++k) {
-#if EXACT
-    int r = k;
-#else
     int r = tile_recs[begin + k];
-#endif
     real4 x = rec_light[r * nl + light];
     Window w = sample_window(x.xy, P, Wm, Hm);
     if (i < w.x0 || i > w.x1 || j < w.y0 || j > w.y1) continue;
@@ -145,16 +133,15 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
 // T = Gx·Sᵀ (n × H_s) and v_r = Σ_j T_rj·Gy_rj / (Σgx_r·Σgy_r). -------------------------------
 // Gx n × W_s, Gy n × H_s; Gxd (backward only) = Gx ⊙ (i − μx)/σ_s; norm n × real4
 // (Σgx, Σgy, inside?, 0).
-__kernel void gemm_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
+__kernel void exact_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
                            int Hm, __global const real4* rec_light, __global real* Gx,
                            __global real* Gxd, int with_derivative, __global real* Gy,
                            __global real4* norm) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 x = rec_light[(r0 + k) * nl + light];
-  Window w = sample_window(x.xy, P, Wm, Hm);
   real sx = 0, sy = 0, ss = P[P_SIGMA_S];
-  int inside = w.x0 <= w.x1;
+  int inside = inside_map(x.xy, Wm, Hm);
   for (int i = 0; i < Wm; ++i) {
     real d = i - x.x, g = inside ? exp(-d * d / (2 * ss)) : 0;
     Gx[(size_t)k * Wm + i] = g;
@@ -169,7 +156,7 @@ __kernel void gemm_weights(__global const real* P, int r0, int n, int light, int
   norm[k] = (real4)(sx, sy, inside, 0);
 }
 
-__kernel void gemm_finish(__global const real* P, int r0, int n, int light, int nl, int Hm,
+__kernel void exact_finish(__global const real* P, int r0, int n, int light, int nl, int Hm,
                           __global const real* T, __global const real* Gy,
                           __global const real4* norm, __global real4* rec_light) {
   int k = get_global_id(0);
@@ -187,7 +174,7 @@ __kernel void gemm_finish(__global const real* P, int r0, int n, int light, int 
 
 // Backward: T and Td = Gxd·Sᵀ are given; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in
 // place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
-__kernel void gemm_finish_bwd(__global const real* P, int r0, int n, int light, int nl, int Wm,
+__kernel void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl, int Wm,
                               int Hm, __global const real* T, __global const real* Td,
                               __global const real* Gx, __global real* Gy,
                               __global const real4* norm, __global const real4* rec_light,

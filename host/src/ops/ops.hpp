@@ -1,7 +1,7 @@
 #pragma once
 // The pipeline stages on the host side, one file each, mirroring kernels/:
 // transform.cpp ↔ transform.cl, bin.cpp ↔ bin.cl, raster.cpp ↔ raster.cl,
-// shadow.cpp ↔ shadow.cl.
+// shadow.cpp ↔ shadow.cl, matmul.cpp ↔ matmul.cl.
 #include <CL/opencl.hpp>
 #include <map>
 #include <string>
@@ -89,6 +89,15 @@ void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
 // Backward of the fragments (after the shadow backward has completed rec_lgrad).
 FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
                           const cl::Buffer& gimage, const cl::Buffer& gdepth);
+
+// Row-major products by matmul.cl or (clblast) by CLBlast:
+// C (m × n) = A (m × k)·Bᵀ (B is n × k) + beta·C, and C (m × n) = Aᵀ (A is k × m)·B + beta·C.
+void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
+               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
+               size_t ldc);
+void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
+               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
+               size_t ldc);
 
 // Shadow terms of every fragment of camera view `v` for light `light`, sampled from the
 // light's shadow map `lv.depth` with the scene's sampling method.

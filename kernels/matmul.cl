@@ -1,0 +1,101 @@
+// Dense matrix products for the exact-sum shadow sampling (SPEC §4), the direct-kernel
+// alternative to CLBlast's GEMM. Row-major matrices with leading dimensions:
+//   matmul_nt  C (M × N) = A (M × K) · Bᵀ (B is N × K)  + beta·C   (T = Gx·Sᵀ)
+//   matmul_tn  C (M × N) = Aᵀ (A is K × M) · B (K × N)  + beta·C   (dL/dS = Gyᵀ·Gx)
+// Both run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs (PoCL);
+// each work-item computes an MM_RB × MM_RB block (nt) or MM_RB rows × MM_VW columns (tn).
+// Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/MM_VW), ceil(M/MM_RB)).
+#include "common/real.clh"
+
+#ifndef MM_VW
+#define MM_VW 8  // vector width along rows: 1, 2, 4, 8 or 16
+#endif
+#ifndef MM_RB
+#define MM_RB 4  // rows of C per work-item
+#endif
+
+#if MM_VW == 1
+#define realV real
+#define VLOAD(i, p) (p)[i]
+#define VSTORE(v, p) ((p)[0] = (v))
+#define HSUM(v) (v)
+#else
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+#define realV CAT(real, MM_VW)
+#define VLOAD(i, p) CAT(vload, MM_VW)(i, p)
+#define VSTORE(v, p) CAT(vstore, MM_VW)(v, 0, p)
+#endif
+#if MM_VW == 2
+#define HSUM(v) ((v).s0 + (v).s1)
+#elif MM_VW == 4
+#define HSUM(v) ((v).s0 + (v).s1 + (v).s2 + (v).s3)
+#elif MM_VW == 8
+#define HSUM(v) (HSUM4((v).lo) + HSUM4((v).hi))
+#elif MM_VW == 16
+#define HSUM(v) (HSUM4((v).lo.lo) + HSUM4((v).lo.hi) + HSUM4((v).hi.lo) + HSUM4((v).hi.hi))
+#endif
+#define HSUM4(v) ((v).s0 + (v).s1 + (v).s2 + (v).s3)
+
+inline void store(__global real* C, int ldc, int row, int col, real v, real beta) {
+  __global real* c = C + (size_t)row * ldc + col;
+  *c = beta == 0 ? v : v + beta * *c;
+}
+
+__kernel void matmul_nt(int M, int N, int K, __global const real* A, int lda,
+                        __global const real* B, int ldb, real beta, __global real* C, int ldc) {
+  int n0 = get_global_id(0) * MM_RB, m0 = get_global_id(1) * MM_RB;
+  if (m0 >= M || n0 >= N) return;
+  // Rows past the edge repeat the last row (their results are not stored).
+  __global const real* a[MM_RB];
+  __global const real* b[MM_RB];
+  for (int r = 0; r < MM_RB; ++r) {
+    a[r] = A + (size_t)min(m0 + r, M - 1) * lda;
+    b[r] = B + (size_t)min(n0 + r, N - 1) * ldb;
+  }
+  realV acc[MM_RB][MM_RB];
+  for (int i = 0; i < MM_RB; ++i)
+    for (int j = 0; j < MM_RB; ++j) acc[i][j] = 0;
+  int kv = K / MM_VW;
+  for (int k = 0; k < kv; ++k) {
+    realV bv[MM_RB];
+    for (int j = 0; j < MM_RB; ++j) bv[j] = VLOAD(k, b[j]);
+    for (int i = 0; i < MM_RB; ++i) {
+      realV av = VLOAD(k, a[i]);
+      for (int j = 0; j < MM_RB; ++j) acc[i][j] += av * bv[j];
+    }
+  }
+  for (int i = 0; i < MM_RB && m0 + i < M; ++i)
+    for (int j = 0; j < MM_RB && n0 + j < N; ++j) {
+      real s = HSUM(acc[i][j]);
+      for (int k = kv * MM_VW; k < K; ++k) s += a[i][k] * b[j][k];
+      store(C, ldc, m0 + i, n0 + j, s, beta);
+    }
+}
+
+__kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
+                        __global const real* B, int ldb, real beta, __global real* C, int ldc) {
+  int n0 = get_global_id(0) * MM_VW, m0 = get_global_id(1) * MM_RB;
+  if (m0 >= M || n0 >= N) return;
+  if (n0 + MM_VW <= N) {
+    realV acc[MM_RB];
+    for (int i = 0; i < MM_RB; ++i) acc[i] = 0;
+    for (int k = 0; k < K; ++k) {
+      realV bv = VLOAD(0, B + (size_t)k * ldb + n0);
+      __global const real* a = A + (size_t)k * lda;
+      for (int i = 0; i < MM_RB; ++i) acc[i] += a[min(m0 + i, M - 1)] * bv;
+    }
+    for (int i = 0; i < MM_RB && m0 + i < M; ++i) {
+      real out[MM_VW];
+      VSTORE(acc[i], out);
+      for (int j = 0; j < MM_VW; ++j) store(C, ldc, m0 + i, n0 + j, out[j], beta);
+    }
+    return;
+  }
+  for (int i = 0; i < MM_RB && m0 + i < M; ++i)  // the ragged right edge, column by column
+    for (int j = n0; j < N; ++j) {
+      real s = 0;
+      for (int k = 0; k < K; ++k) s += A[(size_t)k * lda + m0 + i] * B[(size_t)k * ldb + j];
+      store(C, ldc, m0 + i, j, s, beta);
+    }
+}
