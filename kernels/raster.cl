@@ -20,6 +20,7 @@
 //   rec_face K × int; rec_frag K × real4 (D·e^{(z̃−m)/γ}, z, 0, 0)
 //   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
+//   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
 //   image N × real4 (R, G, B, silhouette A); aux N × real4 (I_z, m, Z, Σ log(1 − D));
 //   depth N × real (I_z again, densely, as the shadow map S when rendering from a light)
 // Launch of count/fragments: global (ceil(W/TILE)·TILE/PPW, ceil(H/TILE)·TILE), local
@@ -65,10 +66,6 @@ inline Face load_face(int f, __global const real4* vscreen, __global const real4
   F.n = fnormal[f].xyz;
   F.area = fnormal[f].w;
   return F;
-}
-
-inline real2 pixel_centre(int px, int py, int W, int H) {
-  return (real2)((real)(2 * px + 1 - W) / H, (real)(H - 2 * py - 1) / H);
 }
 
 inline int depth_in_range(real z, __global const real* P) {
@@ -144,7 +141,8 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global const real4* aux, __global const int* pix_count,
                       __global const int* pix_offset, __global int* pix_n,
                       __global int* rec_face, __global real4* rec_frag,
-                      __global real4* rec_shade, __global real4* rec_light) {
+                      __global real4* rec_shade, __global real4* rec_light,
+                      __global real4* rec_light2) {
   int px0 = get_global_id(0) * PPW, py = get_global_id(1);
   if (py >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA];
@@ -180,7 +178,10 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
           (real4)(shade_terms(X, facing_sign(F.n, X, P) * F.n, a, P, direct), 0);
       for (int l = 0; l < nl; ++l) {
         rec_shade[r * (1 + nl) + 1 + l] = (real4)(direct[l], 0);
-        rec_light[r * nl + l] = (real4)(light_project(l, X, P), 1);
+        real3 mu = light_project(l, X, P);
+        rec_light[r * nl + l] = (real4)(mu, 1);
+        rec_light2[r * nl + l] =
+            (real4)(P[P_SHADOWS] > 1 ? receiver_gradient(l, F.V, mu.z, P) : 0, 0, 0);
       }
     }
   }
@@ -192,7 +193,10 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     for (int r = pix_offset[pix] + n[j]; r < pix_offset[pix] + pix_count[pix]; ++r) {
       rec_face[r] = -1;
       rec_frag[r] = 0;
-      for (int l = 0; l < nl; ++l) rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
+      for (int l = 0; l < nl; ++l) {
+        rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
+        rec_light2[r * nl + l] = 0;
+      }
     }
   }
 }
@@ -269,7 +273,7 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
 
 // Backward of count/fragments/resolve and of the shading, per face. Inputs: aux, gimage (its
 // .w is dL/dA), rec_wg and rec_lgrad (the latter as completed by the shadow backward:
-// (dL/ds, dL/dμx, dL/dμy, dL/dd)). Outputs per face corner (3F × real4): gface_screen (dL/d
+// (dL/ds, dL/dμx, dL/dμy, dL/dd)), rec_lgrad2 (dL/d∇_μ d, soft shadows). Outputs per face corner (3F × real4): gface_screen (dL/d
 // screen x, y, depth z), gface_world (dL/d world position), gface_albedo; per face
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
@@ -281,7 +285,7 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
                          __global const real* gdepth, __global const int* pix_offset, __global const int* pix_n,
                          __global const int* rec_face, __global const real4* rec_light,
                          __global const real4* rec_wg, __global const real4* rec_lgrad,
-                         __global real4* gface_screen, __global real4* gface_world,
+                         __global const real4* rec_lgrad2, __global real4* gface_screen, __global real4* gface_world,
                          __global real4* gface_albedo, __global real4* gface_light) {
   int f = get_global_id(0);
   if (f >= nf) return;
@@ -325,9 +329,14 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
         for (int l = 0; l < nl; ++l) s[l] = rec_light[r * nl + l].w;
         real3 gX = 0, gnf = 0, gaf = 0;
         shade_bwd(X, sign * F.n, a, s, P, gimg.xyz * w, &gX, &gnf, &gaf, &gl);
-        if (P[P_SHADOWS] > 0)  // s depends on X through (μ, d)
-          for (int l = 0; l < nl; ++l)
-            gX += light_project_bwd(l, X, rec_lgrad[r * nl + l].yzw, P, &gframe[l]);
+        for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
+          // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
+          real3 g = rec_lgrad[r * nl + l].yzw;
+          if (P[P_SHADOWS] > 1)
+            g.z += receiver_gradient_bwd(l, F.V, rec_light[r * nl + l].z,
+                                         rec_lgrad2[r * nl + l].xy, P, gV, &gframe[l]);
+          gX += light_project_bwd(l, X, g, P, &gframe[l]);
+        }
         gn += sign * gnf;
         for (int k = 0; k < 3; ++k) {
           gb[k] = dot(gX, F.V[k]) + dot(gaf, F.a[k]);

@@ -204,3 +204,130 @@ __kernel void exact_finish_bwd(__global const real* P, int r0, int n, int light,
   *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);
   for (int j = 0; j < Hm; ++j) Gy[(size_t)k * Hm + j] *= gv / nrm;
 }
+
+// ---- soft shadows (SPEC §4, eq. 11 with a receiver-plane depth bias; compare then filter) ---
+//   d_ij = d + ∇_μ d·((i, j) − μ),  front_ij = sigmoid((S_ij − d_ij + β)/γ_s),
+//   at_ij = sigmoid((d_ij − S_ij + β)/γ_s),  s = Σ λ_ij·front_ij·(1 − at_ij·(1 − P_ij)).
+// rec_light2 K·nl × real4 holds ∇_μ d (.xy); rec_lgrad2 receives dL/d∇_μ d (.xy).
+// EXACT=1 builds sum over the whole map (O(W_s·H_s) sigmoids per fragment).
+#ifndef EXACT
+#define EXACT 0
+#endif
+
+inline Window soft_window(real2 mu, __global const real* P, int Wm, int Hm) {
+#if EXACT
+  Window w = {1, 1, 0, 0, 0};
+  if (inside_map(mu, Wm, Hm)) w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
+  return w;
+#else
+  return sample_window(mu, P, Wm, Hm);
+#endif
+}
+
+// front·(1 − at·(1 − P)) at one texel, with its derivatives by d_ij and by P_ij
+// (its derivative by S_ij is minus the one by d_ij).
+inline real soft_term(real S, real Pv, real dij, __global const real* P, real* dd, real* dP) {
+  real gs = P[P_GAMMA_S];
+  real front = sigmoid((S - dij + P[P_BETA]) / gs), at = sigmoid((dij - S + P[P_BETA]) / gs);
+  real lit = 1 - at * (1 - Pv);
+  *dd = -front * (1 - front) / gs * lit - front * at * (1 - at) / gs * (1 - Pv);
+  *dP = front * at;
+  return front * lit;
+}
+
+__kernel void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                          __global const real* S, __global const real* Pmap,
+                          __global real4* rec_light, __global const real4* rec_light2) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  real4 x = rec_light[r * nl + light];
+  real2 grad = rec_light2[r * nl + light].xy;
+  Window w = soft_window(x.xy, P, Wm, Hm);
+  real sum = 0, acc = 0, dd, dP;
+  for (int j = w.y0; j <= w.y1; ++j)
+    for (int i = w.x0; i <= w.x1; ++i) {
+      real g = gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps;
+      if (g <= 0) continue;
+      real dij = x.z + dot(grad, (real2)(i, j) - x.xy);
+      sum += g;
+      acc += g * soft_term(S[j * Wm + i], Pmap[j * Wm + i], dij, P, &dd, &dP);
+    }
+  rec_light[r * nl + light].w = sum > 0 ? acc / sum : 1;
+}
+
+__kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
+                              int Hm, __global const real* S, __global const real* Pmap,
+                              __global const real4* rec_light,
+                              __global const real4* rec_light2, __global real4* rec_lgrad,
+                              __global real4* rec_lgrad2) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  real4 x = rec_light[r * nl + light];
+  real2 grad = rec_light2[r * nl + light].xy;
+  real gs = rec_lgrad[r * nl + light].x, s = x.w;
+  Window w = soft_window(x.xy, P, Wm, Hm);
+  real sum = 0, dd, dP;
+  for (int j = w.y0; j <= w.y1; ++j)
+    for (int i = w.x0; i <= w.x1; ++i) sum += fmax(gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps, R(0));
+  if (sum <= 0) {
+    rec_lgrad[r * nl + light] = 0;
+    rec_lgrad2[r * nl + light] = 0;
+    return;
+  }
+  // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s) and through d_ij.
+  real2 gmu = 0, ggrad = 0;
+  real gd = 0;
+  for (int j = w.y0; j <= w.y1; ++j)
+    for (int i = w.x0; i <= w.x1; ++i) {
+      real g = gauss(i, j, x.xy, P[P_SIGMA_S]);
+      if (g - w.eps <= 0) continue;
+      real2 off = (real2)(i, j) - x.xy;
+      real term = soft_term(S[j * Wm + i], Pmap[j * Wm + i], x.z + dot(grad, off), P, &dd, &dP);
+      gmu += g * (term - s) * off / P[P_SIGMA_S];
+      real lam = g - w.eps;
+      gd += lam * dd;
+      gmu -= lam * dd * grad;
+      ggrad += lam * dd * off;
+    }
+  rec_lgrad[r * nl + light] = (real4)(gs / sum, gs * gmu / sum, gs * gd / sum);
+  rec_lgrad2[r * nl + light] = (real4)(gs * ggrad / sum, 0, 0);
+}
+
+// dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (binned by
+// tile when truncated; every fragment when exact), in fragment order.
+__kernel void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                          __global const real* S, __global const real* Pmap,
+                          __global const real4* rec_light, __global const real4* rec_light2,
+                          __global const real4* rec_lgrad, int tile, int tiles_x,
+                          __global const int* tile_offsets, __global const int* tile_counts,
+                          __global const int* tile_recs, __global real* gS,
+                          __global real* gPmap) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= Wm || j >= Hm) return;
+#if EXACT
+  int begin = 0, count = nrec;
+#else
+  int t = (i / tile) + (j / tile) * tiles_x;
+  int begin = tile_offsets[t], count = tile_counts[t];
+#endif
+  real accS = 0, accP = 0, Sv = S[j * Wm + i], Pv = Pmap[j * Wm + i], dd, dP;
+  for (int k = 0; k < count; ++k) {
+#if EXACT
+    int r = k;
+#else
+    int r = tile_recs[begin + k];
+#endif
+    real4 x = rec_light[r * nl + light];
+    Window w = soft_window(x.xy, P, Wm, Hm);
+    if (i < w.x0 || i > w.x1 || j < w.y0 || j > w.y1) continue;
+    real g = gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps;
+    if (g <= 0) continue;
+    real dij = x.z + dot(rec_light2[r * nl + light].xy, (real2)(i, j) - x.xy);
+    soft_term(Sv, Pv, dij, P, &dd, &dP);
+    real a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
+    accS -= a * dd;
+    accP += a * dP;
+  }
+  gS[j * Wm + i] = accS;
+  gPmap[j * Wm + i] = accP;
+}

@@ -6,7 +6,7 @@
 //   faces    F × int4    vertex indices (w unused)
 //   fbbox    F × int4    pixel bounding box (x0, y0, x1, y1) of the face's coverage, widened by
 //                        the coverage cut-off radius; empty (x0 > x1) for a dropped face
-//   fnormal  F × real4   unit world normal (xyz) and signed screen area (w)
+//   fnormal  F × real4   unit world normal (xyz) and signed screen area (w; 0 if dropped)
 // Launch: one work-item per vertex (transform_fwd, transform_bwd) or per face (face_setup).
 #include "common/geometry.clh"
 
@@ -59,7 +59,7 @@ __kernel void face_setup(__global const real4* vworld, __global const real4* vsc
     if (box.x > box.z || box.y > box.w) box = (int4)(1, 1, 0, 0);
   }
   fbbox[f] = box;
-  fnormal[f] = (real4)(n, area);
+  fnormal[f] = (real4)(n, valid ? area : 0);  // area 0 marks a dropped face
 }
 
 // Backward: each vertex gathers, in a fixed order, the per-corner gradients its faces wrote

@@ -188,6 +188,7 @@ std::vector<double> light_view_params(const Scene& s, size_t i) {
                   r.light_gamma > 0 ? r.light_gamma : r.gamma, f.near, f.far,
                   light_frame(s.lights[i]));
   P[P_SHADOWS] = 0;
+  P[P_LIGHT_SIZE] = s.lights[i].size;
   return P;
 }
 
@@ -238,8 +239,10 @@ struct Renderer::Impl {
   // dL/d(the view's frame) to the host accumulators and returns the per-face light gradients.
   std::vector<double> backward_faces(ViewState& v, const cl::Buffer& gimage,
                                      const cl::Buffer& gdepth, std::vector<double>& gvert,
-                                     std::vector<double>& galb, std::vector<double>* gframe) {
+                                     std::vector<double>& galb, std::vector<double>* gframe,
+                                     const cl::Buffer* gpenumbra = nullptr) {
     auto fg = detail::raster_backward(kernels, geometry, v, gimage, gdepth);
+    if (gpenumbra) detail::penumbra_backward_faces(kernels, geometry, v, *gpenumbra, fg);
     cl::Buffer gv, gf;
     detail::transform_backward(kernels, geometry, v, fg, gv, gf);
     const Packed& p = packed;
@@ -282,8 +285,9 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   if (scene.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(scene.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
-  if (scene.params.shadows == Shadows::Soft)
-    throw Error("soft shadows are not available in this version; use --shadows hard or none");
+  if (scene.params.shadows == Shadows::Soft && scene.params.sampling == Sampling::Gemm)
+    throw Error("soft shadows sample with 'truncated' or 'exact'; their sum does not factor "
+                "into matrix products ('gemm')");
   Impl& m = *impl_;
   Context& ctx = m.ctx;
   m.scene = scene;
@@ -306,6 +310,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     const int size = s.params.shadow_map_size;
     m.render_view(lv, size, size, 0, light_view_params(s, l));
     detail::raster_resolve(m.kernels, lv);
+    if (s.params.shadows == Shadows::Soft) detail::penumbra_forward(m.kernels, g, lv);
   }
   m.views.assign(s.cameras.size(), ViewState{});
   m.view_P.clear();
@@ -316,7 +321,8 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     m.view_P.push_back(view_params(s, cam));
     m.render_view(v, cam.width, cam.height, nl, m.view_P.back());
     for (size_t l = 0; l < m.light_views.size(); ++l)
-      detail::shadow_forward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
+      detail::shadow_forward(m.kernels, s.params.shadows, s.params.sampling, v, int(l),
+                             m.light_views[l]);
     detail::raster_resolve(m.kernels, v);
     const size_t npix = size_t(v.W) * v.H;
     auto image = detail::download_reals(ctx, m.precision, v.image, npix * 4);
@@ -330,14 +336,26 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   return out;
 }
 
-std::vector<Image> Renderer::shadow_maps() const {
+namespace {
+std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<ViewState>& views,
+                              cl::Buffer ViewState::*map) {
   std::vector<Image> maps;
-  for (auto& lv : impl_->light_views) {
+  for (auto& lv : views) {
+    if (!(lv.*map)()) continue;
     Image img(lv.W, lv.H, 1);
-    img.data = detail::download_reals(impl_->ctx, impl_->precision, lv.depth, size_t(lv.W) * lv.H);
+    img.data = detail::download_reals(ctx, p, lv.*map, size_t(lv.W) * lv.H);
     maps.push_back(std::move(img));
   }
   return maps;
+}
+}  // namespace
+
+std::vector<Image> Renderer::shadow_maps() const {
+  return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::depth);
+}
+
+std::vector<Image> Renderer::penumbra_maps() const {
+  return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::pen_map);
 }
 
 SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
@@ -365,9 +383,16 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   const bool shadows = !m.light_views.empty();
   std::vector<double> gvert(size_t(p.nv) * 4, 0.0), galb(size_t(p.nf) * 12, 0.0),
       glight(size_t(6 * nl + 1) * 4, 0.0);
-  std::vector<std::vector<double>> gmaps(m.light_views.size());
-  for (size_t l = 0; l < gmaps.size(); ++l)
+  // dL/d(shadow map S) and dL/d(penumbra map P) of each light, summed over the cameras.
+  std::vector<std::vector<double>> gmaps(m.light_views.size()), gpens(m.light_views.size());
+  for (size_t l = 0; l < gmaps.size(); ++l) {
     gmaps[l].assign(size_t(m.light_views[l].W) * m.light_views[l].H, 0.0);
+    gpens[l].assign(gmaps[l].size(), 0.0);
+  }
+  auto accumulate = [&](std::vector<double>& into, const cl::Buffer& buf) {
+    auto host = detail::download_reals(ctx, m.precision, buf, into.size());
+    for (size_t i = 0; i < host.size(); ++i) into[i] += host[i];
+  };
   {  // vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd
     std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
     for (int i = 0; i < p.nf * 3; ++i) ++count[p.faces[(i / 3) * 4 + i % 3] + 1];
@@ -394,23 +419,31 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
         ctx, m.precision, g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data);
     detail::raster_resolve_backward(m.kernels, v, gimage_buf, gdepth_buf);
     for (size_t l = 0; l < m.light_views.size(); ++l) {
-      auto gS = detail::shadow_backward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
-      auto host = detail::download_reals(ctx, m.precision, gS, gmaps[l].size());
-      for (size_t i = 0; i < host.size(); ++i) gmaps[l][i] += host[i];
+      auto gm = detail::shadow_backward(m.kernels, s.params.shadows, s.params.sampling, v, int(l),
+                                        m.light_views[l]);
+      accumulate(gmaps[l], gm.S);
+      if (gm.P()) accumulate(gpens[l], gm.P);
     }
     auto gl = m.backward_faces(v, gimage_buf, gdepth_buf, gvert, galb, nullptr);
     for (int f = 0; f < p.nf; ++f)  // fixed order: reproducible
       for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl[f * glight.size() + i];
   }
-  // Shadow maps back through each light's own raster pass.
+  // Penumbra maps back to their shadow maps, the light sizes and the occluders; then the
+  // shadow maps back through each light's own raster pass.
   std::vector<std::vector<double>> gframe(nl, std::vector<double>(16, 0.0));
+  std::vector<double> gsize(nl, 0.0);
   for (size_t l = 0; l < m.light_views.size(); ++l) {
     ViewState& lv = m.light_views[l];
     const size_t ntex = size_t(lv.W) * lv.H;
-    auto gimage_buf = detail::upload_reals(ctx, m.precision, std::vector<double>(ntex * 4, 0.0));
+    cl::Buffer gpen;
+    if (s.params.shadows == Shadows::Soft) {
+      gpen = detail::upload_reals(ctx, m.precision, gpens[l]);
+      accumulate(gmaps[l], detail::penumbra_backward_texels(m.kernels, m.geometry, lv, gpen, &gsize[l]));
+    }
+    auto gimage_buf = detail::zero_reals(ctx, m.precision, ntex * 4);
     auto gdepth_buf = detail::upload_reals(ctx, m.precision, gmaps[l]);
     detail::raster_resolve_backward(m.kernels, lv, gimage_buf, gdepth_buf);
-    m.backward_faces(lv, gimage_buf, gdepth_buf, gvert, galb, &gframe[l]);
+    m.backward_faces(lv, gimage_buf, gdepth_buf, gvert, galb, &gframe[l], gpen() ? &gpen : nullptr);
   }
 
   SceneGrads out;
@@ -444,6 +477,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     if (shadows) gpos += light_frame_backward(s.lights[l], ge, gf, gr, gu);
     out.light_position.push_back(gpos);
     out.light_color.push_back(vec(glight, size_t(8 * l + 4)));
+    out.light_size.push_back(gsize[l]);
   }
   out.ambient = vec(glight, size_t(8 * nl));
   return out;

@@ -29,6 +29,7 @@
 #define P_GAMMA_S 12     /* depth-compare softness γ_s */
 #define P_BETA 13        /* depth bias β */
 #define P_GAMMA_P 14     /* penumbra soft-minimum sharpness γ_P */
+#define P_LIGHT_SIZE 15  /* a light's own view: its diameter D_L (penumbra map) */
 #define P_AMBIENT 16     /* RGB */
 #define P_BACKGROUND 19  /* RGB */
 #define P_FRAME 24       /* the view's camera frame (FR_SIZE reals) */

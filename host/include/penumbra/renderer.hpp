@@ -25,6 +25,7 @@ struct SceneGrads {
   std::vector<std::vector<glm::dvec3>> albedo;    // [mesh][albedo entry]
   std::vector<glm::dvec3> light_position;         // [light] (direction for directional lights)
   std::vector<glm::dvec3> light_color;            // [light]
+  std::vector<double> light_size;                 // [light] D_L (soft shadows)
   glm::dvec3 ambient{0.0};
 };
 
@@ -46,6 +47,9 @@ class Renderer {
   // The shadow map S of every light (SPEC §3) from the most recent render() with shadows on
   // (empty otherwise), W_s × H_s, light-view depth.
   std::vector<Image> shadow_maps() const;
+  // The penumbra map P of every light (SPEC §3) from the most recent render() with soft shadows
+  // (empty otherwise).
+  std::vector<Image> penumbra_maps() const;
 
   Precision precision() const;
   const RasterTuning& tuning() const;

@@ -64,6 +64,12 @@ cl::Buffer alloc_ints(Context& ctx, size_t count) {
   return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE, std::max<size_t>(count, 1) * sizeof(int));
 }
 
+cl::Buffer zero_reals(Context& ctx, Precision p, size_t count) {
+  cl::Buffer b = alloc_reals(ctx, p, count);
+  ctx.queue().enqueueFillBuffer(b, cl_uchar(0), 0, std::max<size_t>(count, 1) * real_size(p));
+  return b;
+}
+
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) {
   size_t g[3] = {1, 1, 1};
   for (cl_uint d = 0; d < global.dimensions(); ++d) {

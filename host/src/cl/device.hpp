@@ -25,6 +25,9 @@ std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count
 // Uninitialised device buffer of `count` reals (at least one element).
 cl::Buffer alloc_reals(Context& ctx, Precision p, size_t count);
 cl::Buffer alloc_ints(Context& ctx, size_t count);
+// Zero-filled buffer of `count` reals (for accumulators, and for products that must never read
+// NaN from old memory).
+cl::Buffer zero_reals(Context& ctx, Precision p, size_t count);
 
 template <class... Args>
 void set_args(cl::Kernel& k, const Args&... args) {

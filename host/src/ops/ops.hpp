@@ -58,9 +58,12 @@ struct ViewState {
   // Kept fragments (raster_fragments), see kernels/raster.cl.
   size_t nrec = 0;              // capacity: Σ pix_count
   cl::Buffer pix_count, pix_offset, pix_n;
-  cl::Buffer rec_face, rec_frag, rec_shade, rec_light;
-  cl::Buffer rec_wg, rec_lgrad;  // backward
+  cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
+  cl::Buffer rec_wg, rec_lgrad, rec_lgrad2;  // backward
   cl::Buffer image, aux, depth;  // outputs (depth is the shadow map S of a light's view)
+  // A light's view with soft shadows: its penumbra map (penumbra.cl).
+  cl::Buffer pen_boxes, pen_map, pen_sums;
+  Bins pen_bins;
 };
 
 // Per-face-corner gradients written by raster_backward.
@@ -100,10 +103,24 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t ldc);
 
 // Shadow terms of every fragment of camera view `v` for light `light`, sampled from the
-// light's shadow map `lv.depth` with the scene's sampling method.
-void shadow_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv);
-// Completes rec_lgrad of `v` for `light` and returns dL/d(the light's shadow map).
-cl::Buffer shadow_backward(Kernels& k, Sampling sampling, ViewState& v, int light,
-                           const ViewState& lv);
+// light's shadow map `lv.depth` (and penumbra map `lv.pen_map` for soft shadows).
+void shadow_forward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
+                    const ViewState& lv);
+// Completes rec_lgrad (and rec_lgrad2) of `v` for `light` and returns dL/d(the light's shadow
+// map) and, for soft shadows, dL/d(its penumbra map).
+struct MapGrads {
+  cl::Buffer S, P;
+};
+MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
+                         const ViewState& lv);
+
+// The penumbra map of a light's view `lv` (after raster_resolve gave its shadow map).
+void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv);
+// Backward for dL/dP = gP: returns dL/dS through P (W·H reals) and adds dL/dD_L to *gsize.
+cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewState& lv,
+                                    const cl::Buffer& gP, double* gsize);
+// Adds P's gradient by the light-screen positions and depths of the face corners to fg.screen.
+void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, ViewState& lv,
+                             const cl::Buffer& gP, FaceGrads& fg);
 
 }  // namespace penumbra::detail

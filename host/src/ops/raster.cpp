@@ -50,11 +50,12 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   v.rec_frag = alloc_reals(ctx, p, total * 4);
   v.rec_shade = alloc_reals(ctx, p, total * 4 * (1 + v.nlights));
   v.rec_light = alloc_reals(ctx, p, total * 4 * v.nlights);
+  v.rec_light2 = alloc_reals(ctx, p, total * 4 * v.nlights);
   auto& frag = k.get("raster.cl", "raster_fragments");
   set_args(frag, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
            g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
            v.pix_count, v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
-           v.rec_light);
+           v.rec_light, v.rec_light2);
   launch_tiled(k, frag, v);
 }
 
@@ -72,6 +73,7 @@ void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
                              const cl::Buffer& gdepth) {
   v.rec_wg = alloc_reals(k.ctx(), k.precision(), v.nrec * 4);
   v.rec_lgrad = alloc_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
+  v.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
   auto& rb = k.get("raster.cl", "raster_resolve_bwd");
   set_args(rb, v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade, v.rec_light,
            v.image, v.aux, gimage, gdepth, v.rec_wg, v.rec_lgrad);
@@ -89,7 +91,7 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& 
   auto& rb = k.get("raster.cl", "raster_bwd");
   set_args(rb, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H, g.nf,
            v.aux, gimage, gdepth, v.pix_offset, v.pix_n, v.rec_face, v.rec_light, v.rec_wg,
-           v.rec_lgrad, fg.screen, fg.world, fg.albedo, fg.light);
+           v.rec_lgrad, v.rec_lgrad2, fg.screen, fg.world, fg.albedo, fg.light);
   launch_1d(ctx, rb, g.nf, 16);
   return fg;
 }

@@ -1,0 +1,206 @@
+// Stage 5 — penumbra map P of one light (SPEC §3, paper eqs. 9–10, outer penumbra only),
+// rendered in the light's own view after its shadow map S; forward and backward.
+// For texel q with receiver depth S_q and each face t in front of it (z_t < S_q):
+//   d_t distance from q to t (screen units, 0 inside), z_t its depth at q,
+//   b_t = D_L·(S_q − z_t)/S_q cone width, r_t = d_t·z_t·tan(θ/2) (or d_t·h), τ_t = r_t/b_t < 1,
+//   m_t soft membership, v_t = 1 − m_t·(1 − τ_t), weight a_t = (1 − v_t)·e^{−γ_P v_t},
+//   P_q = (e^{−γ_P} + Σ a_t v_t) / (e^{−γ_P} + Σ a_t).
+// The membership is sigmoid((S_q − β − z_t)/γ_s) less its value at z_t = S_q, rescaled to
+// reach 1: m_t = max(0, σ(x) − σ₀)/(1 − σ₀), σ₀ = σ(−β/γ_s). As printed it would stay at σ₀
+// where a face covering the texel (τ_t = 0) meets the receiver depth and is dropped, and P
+// would jump there; this way m_t, hence 1 − v_t and the face's weight, reach 0 first.
+// Culling: τ_t < 1 needs d_t < D_L/(z_t·scale), so each face is binned into the map tiles its
+// box widened by D_L/(min z·scale) (or D_L/h) touches, and a texel visits only its tile's list.
+// Buffers (light view; V vertices, F faces, map W × H): vscreen V × real4, faces F × int4,
+// fnormal F × real4 (.w = screen area, 0 for a dropped face), S W·H × real;
+// P W·H × real (output), pen_sums W·H × real2 (Σ a·v, Σ a), gP W·H × real (backward input).
+// Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd and
+// penumbra_bwd_texel one per texel (2-D).
+#include "common/geometry.clh"
+
+typedef struct {
+  real2 p[3];
+  real z[3];
+  real area;
+} LightFace;
+
+inline LightFace load_light_face(int f, __global const real4* vscreen, __global const int4* faces,
+                                 __global const real4* fnormal) {
+  LightFace F;
+  int4 idx = faces[f];
+  int id[3] = {idx.x, idx.y, idx.z};
+  for (int k = 0; k < 3; ++k) {
+    F.p[k] = vscreen[id[k]].xy;
+    F.z[k] = vscreen[id[k]].z;
+  }
+  F.area = fnormal[f].w;
+  return F;
+}
+
+// World units per screen unit at depth z in the light's view.
+inline real world_per_screen(real z, __global const real* P) {
+  return P[P_FRAME + FR_ORTHO] > 0 ? P[P_FRAME + FR_SCALE] : z * P[P_FRAME + FR_SCALE];
+}
+
+// One occluder's term at texel q. Returns 0 if the face does not count (behind the receiver,
+// or q outside its cone).
+typedef struct {
+  Fragment fr;
+  real d, b, r, tau, sig, m, v, a;
+} Occluder;
+
+inline int occluder_fwd(real2 q, real S, const LightFace* F, __global const real* P,
+                        Occluder* o) {
+  fragment_shape(q, F->p, F->area, &o->fr);
+  fragment_depth(F->z, P, &o->fr);
+  real z = o->fr.z, DL = P[P_LIGHT_SIZE];
+  if (!(z < S) || !(DL > 0)) return 0;
+  o->d = o->fr.inside ? 0 : sqrt(o->fr.d2);
+  o->b = DL * (S - z) / S;
+  o->r = o->d * world_per_screen(z, P);
+  o->tau = o->r / o->b;
+  if (!(o->tau < 1)) return 0;
+  real s0 = sigmoid(-P[P_BETA] / P[P_GAMMA_S]);
+  o->sig = sigmoid((S - P[P_BETA] - z) / P[P_GAMMA_S]);
+  o->m = fmax(o->sig - s0, R(0)) / (1 - s0);
+  o->v = 1 - o->m * (1 - o->tau);
+  o->a = (1 - o->v) * exp(-P[P_GAMMA_P] * o->v);
+  return 1;
+}
+
+// Backward of one occluder's v_t for dL/dv = gv: adds dL/dS_q and dL/dD_L, and returns
+// dL/dz_t and dL/dd²_t through `gz`, `gd2`.
+inline void occluder_bwd(real S, const Occluder* o, __global const real* P, real gv, real* gS,
+                         real* gDL, real* gz, real* gd2) {
+  real z = o->fr.z, DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S];
+  real gm = -gv * (1 - o->tau), gtau = gv * o->m;
+  real s0 = sigmoid(-P[P_BETA] / gs);  // m = max(0, σ((S − β − z)/γ_s) − σ₀)/(1 − σ₀)
+  real gsig = o->m > 0 ? gm * o->sig * (1 - o->sig) / (gs * (1 - s0)) : R(0);
+  *gS += gsig;
+  *gz -= gsig;
+  real gr = gtau / o->b, gb = -gtau * o->tau / o->b;  // τ = r/b
+  *gS += gb * DL * z / (S * S);                          // b = D_L·(1 − z/S)
+  *gz -= gb * DL / S;
+  *gDL += gb * (S - z) / S;
+  real k = world_per_screen(z, P);                       // r = d·k(z)
+  if (P[P_FRAME + FR_ORTHO] == 0) *gz += gr * o->d * P[P_FRAME + FR_SCALE];
+  if (!o->fr.inside && o->d > 0) *gd2 += gr * k / (2 * o->d);
+}
+
+// dP/dv_t for P = N/Dn with a = (1 − v)·e^{−γ_P v}.
+inline real penumbra_dv(const Occluder* o, real Pq, real den, __global const real* P) {
+  real gp = P[P_GAMMA_P], e = exp(-gp * o->v);
+  real da = -e * (1 + gp * (1 - o->v));
+  return (o->a + (o->v - Pq) * da) / den;
+}
+
+__kernel void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
+                             __global const real4* fnormal, __global const real* P, int nf,
+                             int W, int H, __global int4* boxes) {
+  int f = get_global_id(0);
+  if (f >= nf) return;
+  boxes[f] = (int4)(1, 1, 0, 0);
+  if (fnormal[f].w == 0 || !(P[P_LIGHT_SIZE] > 0)) return;
+  LightFace F = load_light_face(f, vscreen, faces, fnormal);
+  real zmin = fmin(F.z[0], fmin(F.z[1], F.z[2]));
+  real radius = P[P_LIGHT_SIZE] / world_per_screen(zmin, P);
+  real xlo = fmin(F.p[0].x, fmin(F.p[1].x, F.p[2].x)) - radius;
+  real xhi = fmax(F.p[0].x, fmax(F.p[1].x, F.p[2].x)) + radius;
+  real ylo = fmin(F.p[0].y, fmin(F.p[1].y, F.p[2].y)) - radius;
+  real yhi = fmax(F.p[0].y, fmax(F.p[1].y, F.p[2].y)) + radius;
+  // Texel centres x = (2i + 1 − W)/H, y = (H − 2j − 1)/H, with a texel of margin.
+  real fx0 = clamp((xlo * H + W - 1) / 2 - 1, R(-1), (real)W);
+  real fx1 = clamp((xhi * H + W - 1) / 2 + 1, R(-1), (real)W);
+  real fy0 = clamp((H - 1 - yhi * H) / 2 - 1, R(-1), (real)H);
+  real fy1 = clamp((H - 1 - ylo * H) / 2 + 1, R(-1), (real)H);
+  int4 box = (int4)(max((int)ceil(fx0), 0), max((int)ceil(fy0), 0), min((int)floor(fx1), W - 1),
+                    min((int)floor(fy1), H - 1));
+  if (box.x <= box.z && box.y <= box.w) boxes[f] = box;
+}
+
+#define TEXEL_FACES                                                              \
+  int tile, int tiles_x, __global const int *tile_offsets,                       \
+      __global const int *tile_counts, __global const int *tile_faces
+
+__kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* faces,
+                           __global const real4* fnormal, __global const int4* boxes,
+                           __global const real* P, int W, int H, __global const real* S,
+                           TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= W || j >= H) return;
+  real2 q = pixel_centre(i, j, W, H);
+  real Sq = S[j * W + i], num = 0, den = 0;
+  int t = (i / tile) + (j / tile) * tiles_x;
+  for (int k = 0; k < tile_counts[t]; ++k) {
+    int f = tile_faces[tile_offsets[t] + k];
+    int4 bb = boxes[f];
+    if (i < bb.x || i > bb.z || j < bb.y || j > bb.w) continue;
+    LightFace F = load_light_face(f, vscreen, faces, fnormal);
+    Occluder o;
+    if (!occluder_fwd(q, Sq, &F, P, &o)) continue;
+    num += o.a * o.v;
+    den += o.a;
+  }
+  real lit = exp(-P[P_GAMMA_P]);
+  Pmap[j * W + i] = (lit + num) / (lit + den);
+  pen_sums[j * W + i] = (real2)(num, den);
+}
+
+// Backward, per texel: dL/dS_q and dL/dD_L (summed over texels on the host) from dL/dP_q.
+__kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const int4* faces,
+                                 __global const real4* fnormal, __global const int4* boxes,
+                                 __global const real* P, int W, int H, __global const real* S,
+                                 TEXEL_FACES, __global const real* Pmap,
+                                 __global const real2* pen_sums, __global const real* gP,
+                                 __global real* gS, __global real* gDL) {
+  int i = get_global_id(0), j = get_global_id(1);
+  if (i >= W || j >= H) return;
+  int tex = j * W + i;
+  real2 q = pixel_centre(i, j, W, H);
+  real Sq = S[tex], gPq = gP[tex], gs = 0, gd = 0;
+  real den = exp(-P[P_GAMMA_P]) + pen_sums[tex].y;
+  int t = (i / tile) + (j / tile) * tiles_x;
+  for (int k = 0; gPq != 0 && k < tile_counts[t]; ++k) {
+    int f = tile_faces[tile_offsets[t] + k];
+    int4 bb = boxes[f];
+    if (i < bb.x || i > bb.z || j < bb.y || j > bb.w) continue;
+    LightFace F = load_light_face(f, vscreen, faces, fnormal);
+    Occluder o;
+    if (!occluder_fwd(q, Sq, &F, P, &o)) continue;
+    real gz = 0, gd2 = 0;
+    occluder_bwd(Sq, &o, P, gPq * penumbra_dv(&o, Pmap[tex], den, P), &gs, &gd, &gz, &gd2);
+  }
+  gS[tex] = gs;
+  gDL[tex] = gd;
+}
+
+// Backward, per face: dL/d(light-screen position, depth) of its corners, added to
+// gface_screen (3F × real4) in a fixed texel order.
+__kernel void penumbra_bwd_face(__global const real4* vscreen, __global const int4* faces,
+                                __global const real4* fnormal, __global const int4* boxes,
+                                __global const real* P, int nf, int W, int H,
+                                __global const real* S, __global const real* Pmap,
+                                __global const real2* pen_sums, __global const real* gP,
+                                __global real4* gface_screen) {
+  int f = get_global_id(0);
+  if (f >= nf) return;
+  int4 bb = boxes[f];
+  if (bb.x > bb.z) return;
+  LightFace F = load_light_face(f, vscreen, faces, fnormal);
+  real2 gp[3] = {0, 0, 0};
+  real gzk[3] = {0, 0, 0};
+  real lit = exp(-P[P_GAMMA_P]), zero[3] = {0, 0, 0};
+  for (int j = bb.y; j <= bb.w; ++j)
+    for (int i = bb.x; i <= bb.z; ++i) {
+      int tex = j * W + i;
+      if (gP[tex] == 0) continue;
+      real2 q = pixel_centre(i, j, W, H);
+      Occluder o;
+      if (!occluder_fwd(q, S[tex], &F, P, &o)) continue;
+      real gz = 0, gd2 = 0, unused = 0, unused2 = 0;
+      real gv = gP[tex] * penumbra_dv(&o, Pmap[tex], lit + pen_sums[tex].y, P);
+      occluder_bwd(S[tex], &o, P, gv, &unused, &unused2, &gz, &gd2);
+      fragment_geometry_bwd(q, F.p, F.z, F.area, P, &o.fr, gd2, gz, zero, gp, gzk);
+    }
+  for (int k = 0; k < 3; ++k) gface_screen[3 * f + k] += (real4)(gp[k], gzk[k], 0);
+}
