@@ -222,33 +222,45 @@ void fit_light_frusta(Scene& scene) {
   if (!any) return;
   const Bounds b = bounds(scene);
   const glm::dvec3 c = b.center();
-  const double r = 1.05 * std::max(b.radius(), 1e-9);  // a little margin around the scene
+  const double r = std::max(b.radius(), 1e-9);
+  const double margin = 1.02;  // a little room around the outermost vertex
   for (Light& l : scene.lights) {
     LightFrustum& f = l.frustum;
     if (f.fitted) continue;
-    f.target = c;
-    glm::dvec3 dir;
-    if (l.type == LightType::Point) {
-      dir = c - l.position;
-      const double dist = glm::length(dir);
-      if (dist > r) {
-        f.fov_deg = 2 * std::asin(r / dist) * 180 / 3.14159265358979323846;
-        f.near = std::max(dist - r, 1e-3 * dist);
-      } else {  // the light is inside the scene: a wide cone; receivers outside it are lit
-        f.fov_deg = 120;
-        f.near = 1e-3 * r;
+    // The light looks at the centre of the scene's bounds; the frustum is then fitted to the
+    // vertices, which for a large ground plane is much tighter than the bounding sphere.
+    const glm::dvec3 eye = l.type == LightType::Point ? l.position : c - 2 * r * glm::normalize(l.direction);
+    glm::dvec3 fwd = l.type == LightType::Point ? c - eye : l.direction;
+    if (!(glm::length(fwd) > 1e-12 * r)) fwd = {0, -1, 0};
+    fwd = glm::normalize(fwd);
+    f.target = eye + fwd * std::max(glm::length(c - eye), r);
+    f.up = std::abs(fwd.y) < 0.99 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
+    const glm::dvec3 right = glm::normalize(glm::cross(fwd, f.up)), up = glm::cross(right, fwd);
+    double zmin = std::numeric_limits<double>::infinity(), zmax = 0, extent = 0, slope = 0;
+    bool behind = false;
+    for (const Mesh& m : scene.meshes)
+      for (const glm::dvec3& v : m.vertices) {
+        const glm::dvec3 d = v - eye;
+        const double z = glm::dot(d, fwd), x = std::abs(glm::dot(d, right)),
+                     y = std::abs(glm::dot(d, up));
+        zmin = std::min(zmin, z);
+        zmax = std::max(zmax, z);
+        extent = std::max({extent, x, y});
+        if (z > 1e-3 * r) slope = std::max(slope, std::max(x, y) / z);
+        else behind = true;
       }
-      f.far = dist + r;
-      if (!(dist > 0)) dir = {0, -1, 0}, f.target = l.position + dir;
+    if (l.type == LightType::Point) {
+      // A light among the geometry sees part of it behind itself: a wide cone, and receivers
+      // outside it are lit.
+      f.fov_deg = behind ? 120.0 : std::min(2 * std::atan(margin * slope) * 180 / 3.14159265358979323846, 120.0);
+      f.near = std::max(zmin / margin, 1e-3 * r);
+      f.far = std::max(zmax * margin, f.near * 2);
     } else {
-      dir = l.direction;
-      f.half_size = r;
-      f.distance = 2 * r;
-      f.near = 0.5 * r;
-      f.far = 3.5 * r;
+      f.half_size = margin * extent;
+      f.distance = glm::length(f.target - eye);
+      f.near = std::max(zmin - 0.05 * r, 1e-3 * r);
+      f.far = zmax + 0.05 * r;
     }
-    glm::dvec3 d = glm::normalize(dir);
-    f.up = std::abs(d.y) < 0.99 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1);
     f.fitted = true;
   }
 }

@@ -73,7 +73,7 @@ struct RenderParams {
   Shadows shadows = Shadows::None;
   Sampling sampling = Sampling::Truncated;
   int shadow_map_size = 256;  // W_s = H_s, texels
-  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ
+  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/10 (see docs/shadows.md)
   double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ
   // A fragment whose aggregation weight is below ε_w times the largest (the background's
   // included) is left out of the colour and depth (but not the silhouette), so
