@@ -179,20 +179,12 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
   return P;
 }
 
-// σ_L when not given, as a fraction of σ. A face's soft depth just outside its edge is taken at
-// its nearest boundary point (clamped barycentrics, SPEC §1), so S is biased near the edges of
-// coplanar neighbours by about (√σ_L in texels) × (depth slope per texel); on a ground plane
-// seen at a grazing angle from the light that reached β and drew faint lines along every edge
-// at σ_L = σ. A tenth of σ keeps it well under β.
-constexpr double kLightSigmaRatio = 0.1;
-
 // The view of light `i` rendering its shadow map: depth only (no lights, black).
 std::vector<double> light_view_params(const Scene& s, size_t i) {
   const RenderParams& r = s.params;
   const LightFrustum& f = s.lights[i].frustum;
   std::vector<double> P =
-      base_params(r, r.light_sigma > 0 ? r.light_sigma : kLightSigmaRatio * r.sigma,
-                  r.light_gamma > 0 ? r.light_gamma : r.gamma, f.near, f.far,
+      base_params(r, light_pass_sigma(r), light_pass_gamma(r), f.near, f.far,
                   light_frame(s.lights[i]));
   P[P_SHADOWS] = 0;
   P[P_LIGHT_SIZE] = s.lights[i].size;

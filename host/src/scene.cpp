@@ -216,6 +216,13 @@ Bounds bounds(const Scene& scene) {
   return b;
 }
 
+double light_pass_sigma(const RenderParams& p) {
+  return p.light_sigma > 0 ? p.light_sigma : 0.1 * p.sigma;
+}
+double light_pass_gamma(const RenderParams& p) {
+  return p.light_gamma > 0 ? p.light_gamma : p.gamma;
+}
+
 void fit_light_frusta(Scene& scene) {
   bool any = false;
   for (const Light& l : scene.lights) any |= !l.frustum.fitted;

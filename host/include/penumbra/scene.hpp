@@ -73,8 +73,8 @@ struct RenderParams {
   Shadows shadows = Shadows::None;
   Sampling sampling = Sampling::Truncated;
   int shadow_map_size = 256;  // W_s = H_s, texels
-  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/10 (see docs/shadows.md)
-  double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ
+  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/10 (light_pass_sigma)
+  double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ (light_pass_gamma)
   // A fragment whose aggregation weight is below ε_w times the largest (the background's
   // included) is left out of the colour and depth (but not the silhouette), so
   // that shadow terms are sampled only where they can show.
@@ -102,6 +102,14 @@ struct Bounds {
   double radius() const { return 0.5 * glm::length(hi - lo); }
 };
 Bounds bounds(const Scene& scene);
+
+// σ_L and γ_L of the light pass (SPEC §3): light_sigma / light_gamma when set, else σ/10 and γ.
+// A face's soft depth just outside its edge is taken at its nearest boundary point (clamped
+// barycentrics, SPEC §1), which biases S near the edges of coplanar neighbours by about
+// (√σ_L in texels) × (depth slope per texel); at σ_L = σ a ground plane seen at a grazing angle
+// showed faint lines along every edge. A tenth of σ keeps the bias well under β.
+double light_pass_sigma(const RenderParams& p);
+double light_pass_gamma(const RenderParams& p);
 
 // Fits the frustum of every light whose frustum is not fitted yet to the scene's bounding
 // sphere, so that every receiver lies inside its shadow map (SPEC §3).
