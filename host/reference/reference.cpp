@@ -1,8 +1,10 @@
-// Plain double-precision reference of the forward pass without shadows (SPEC §0–§2, s = 1).
+// Plain double-precision reference of the forward pass (SPEC §0–§2) with hard shadows (SPEC §3–§4,
+// eq. 7: filter then compare; truncated or exact Gaussian sampling of the shadow map).
 //
 // Written for clarity, not speed: every pixel of the view visits every face of every mesh, with
 // no tiling, no cut-off shortcuts beyond the SoftRas cut-off the SPEC defines, and no shared
-// code with the OpenCL kernels. Tests compare the kernels against this file.
+// code with the OpenCL kernels. Tests compare the kernels against this file. The light pass
+// (shadow map S) is the same raster as the camera's, run from the light's frame.
 //
 // Conventions (the kernels follow the same ones):
 //   camera basis   f = normalize(target − eye), r = normalize(f × up), u = r × f;
@@ -10,14 +12,28 @@
 //   screen         perspective x = x_c / (z·tan(fov/2)), y = y_c / (z·tan(fov/2));
 //                  orthographic x = x_c / h, y = y_c / h (depth z as above);
 //   pixel centres  x = (2px + 1 − W)/H, y = (H − 2py − 1)/H, row 0 at the top.
+//   light frames   point light: eye = position, f = normalize(frustum.target − position),
+//                  perspective with the frustum's fov; directional: f = normalize(direction),
+//                  eye = frustum.target − distance·f, orthographic with half-height half_size;
+//                  r and u from frustum.up as for a camera; near/far from the frustum.
+//   shadow map     μx = (x·H_s + W_s − 1)/2, μy = (H_s − 1 − y·H_s)/2 (texel centres at
+//                  integers, row 0 at the top), d = the light-view depth z.
+//
+// The kernels also leave out of colour and depth a fragment whose aggregation weight is below
+// weight_eps times the pixel's largest; the reference keeps every fragment (the difference is
+// at most ~weight_eps relative).
 #include "penumbra/reference.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <glm/glm.hpp>
 #include <limits>
+#include <string>
 #include <vector>
+
+#include "penumbra/error.hpp"
 
 namespace penumbra::reference {
 namespace {
@@ -54,7 +70,7 @@ double point_segment_dist2(dvec2 q, dvec2 a, dvec2 b) {
   return glm::dot(p, p);
 }
 
-// The view transform of one camera.
+// The view transform of one camera or light.
 struct View {
   dvec3 eye, f, r, u;
   bool perspective;
@@ -62,17 +78,39 @@ struct View {
   double near, far;
   int width, height;
 
-  explicit View(const Camera& cam)
-      : eye(cam.eye),
-        perspective(cam.projection == Projection::Perspective),
-        near(cam.near),
-        far(cam.far),
-        width(cam.width),
-        height(cam.height) {
-    f = glm::normalize(cam.target - cam.eye);
-    r = glm::normalize(glm::cross(f, cam.up));
+  // eye, viewing direction `fwd` (any length), up hint; scale as above.
+  View(const dvec3& eye_, const dvec3& fwd, const dvec3& up_hint, bool perspective_,
+       double scale_, double near_, double far_, int width_, int height_)
+      : eye(eye_),
+        perspective(perspective_),
+        scale(scale_),
+        near(near_),
+        far(far_),
+        width(width_),
+        height(height_) {
+    f = glm::normalize(fwd);
+    r = glm::normalize(glm::cross(f, up_hint));
     u = glm::cross(r, f);
-    scale = perspective ? std::tan(0.5 * cam.fov_deg * kPi / 180.0) : cam.half_height;
+  }
+
+  static double tan_half(double fov_deg) { return std::tan(0.5 * fov_deg * kPi / 180.0); }
+
+  static View of_camera(const Camera& cam) {
+    const bool persp = cam.projection == Projection::Perspective;
+    return View(cam.eye, cam.target - cam.eye, cam.up, persp,
+                persp ? tan_half(cam.fov_deg) : cam.half_height, cam.near, cam.far, cam.width,
+                cam.height);
+  }
+
+  // The frame a light renders its shadow map with (SPEC §3), map_size² texels.
+  static View of_light(const Light& light, int map_size) {
+    const LightFrustum& fr = light.frustum;
+    if (light.type == LightType::Point)
+      return View(light.position, fr.target - light.position, fr.up, true, tan_half(fr.fov_deg),
+                  fr.near, fr.far, map_size, map_size);
+    const dvec3 d = glm::normalize(light.direction);
+    return View(fr.target - fr.distance * d, d, fr.up, false, fr.half_size, fr.near, fr.far,
+                map_size, map_size);
   }
 
   double depth(const dvec3& p) const { return glm::dot(p - eye, f); }
@@ -128,37 +166,24 @@ std::vector<Face> setup_faces(const Scene& scene, const View& view) {
   return faces;
 }
 
-// Colour of face `face` at perspective-correct barycentrics b (SPEC §2, no shadows).
-dvec3 shade(const Scene& scene, const View& view, const Face& face, const dvec3& b) {
-  const dvec3 X = b[0] * face.V[0] + b[1] * face.V[1] + b[2] * face.V[2];
-  const dvec3 a = b[0] * face.albedo[0] + b[1] * face.albedo[1] + b[2] * face.albedo[2];
-  dvec3 n = face.normal;
-  const dvec3 to_camera = view.perspective ? view.eye - X : -view.f;
-  if (glm::dot(n, to_camera) < 0.0) n = -n;
-  dvec3 color = a * scene.ambient;
-  for (const Light& light : scene.lights) {
-    const dvec3 l = light.type == LightType::Point ? glm::normalize(light.position - X)
-                                                   : -glm::normalize(light.direction);
-    color += a * light.color * std::max(0.0, glm::dot(n, l));
-  }
-  return color;
-}
+// Colour of a fragment of `face` at perspective-correct barycentrics b.
+using Shader = std::function<dvec3(const Face& face, const dvec3& b)>;
 
-}  // namespace
-
-RenderOutput render(const Scene& scene, size_t camera_index) {
-  const Camera& cam = scene.cameras.at(camera_index);
-  const View view(cam);
+// Soft rasterization of one view (SPEC §1) with coverage sharpness σ and aggregation
+// sharpness γ; the background has colour `background` and depth view.far.
+RenderOutput raster(const Scene& scene, const View& view, double sigma, double gamma,
+                    const dvec3& background, const Shader& shader) {
   const RenderParams& params = scene.params;
   const std::vector<Face> faces = setup_faces(scene, view);
+  const int W = view.width, H = view.height;
 
   // Outside faces at or beyond this squared distance have D < ε_D and are skipped.
-  const double cutoff2 = params.sigma * std::log(1.0 / params.dist_eps - 1.0);
+  const double cutoff2 = sigma * std::log(1.0 / params.dist_eps - 1.0);
 
   RenderOutput out;
-  out.color = Image(cam.width, cam.height, 3);
-  out.silhouette = Image(cam.width, cam.height, 1);
-  out.depth = Image(cam.width, cam.height, 1);
+  out.color = Image(W, H, 3);
+  out.silhouette = Image(W, H, 1);
+  out.depth = Image(W, H, 1);
 
   // Per-pixel list of faces contributing colour and depth.
   struct Fragment {
@@ -167,8 +192,8 @@ RenderOutput render(const Scene& scene, size_t camera_index) {
   };
   std::vector<Fragment> fragments;
 
-  for (int py = 0; py < cam.height; ++py) {
-    for (int px = 0; px < cam.width; ++px) {
+  for (int py = 0; py < H; ++py) {
+    for (int px = 0; px < W; ++px) {
       const dvec2 q = view.pixel_center(px, py);
       fragments.clear();
       double log_transparency = 0.0;  // log Π(1 − D_f) over all non-skipped faces
@@ -185,7 +210,7 @@ RenderOutput render(const Scene& scene, size_t camera_index) {
                                     point_segment_dist2(q, face.p[2], face.p[0])});
         if (!inside && d2 >= cutoff2) continue;  // SoftRas cut-off: D treated as exactly 0
 
-        const double u = (inside ? 1.0 : -1.0) * d2 / params.sigma;
+        const double u = (inside ? 1.0 : -1.0) * d2 / sigma;
         const double D = sigmoid(u);
         log_transparency += log_one_minus_sigmoid(u);
 
@@ -202,21 +227,21 @@ RenderOutput render(const Scene& scene, size_t camera_index) {
           z = wc[0] * face.z[0] + wc[1] * face.z[1] + wc[2] * face.z[2];
           b = wc;
         }
-        if (z < cam.near || z > cam.far) continue;  // silhouette only
+        if (z < view.near || z > view.far) continue;  // silhouette only
 
-        const double ztilde = (cam.far - z) / (cam.far - cam.near);
-        fragments.push_back({D, ztilde, z, shade(scene, view, face, b)});
+        const double ztilde = (view.far - z) / (view.far - view.near);
+        fragments.push_back({D, ztilde, z, shader(face, b)});
       }
 
       // Soft aggregation (SPEC §1, SoftRas's stable form).
       double m = params.eps;
       for (const Fragment& fr : fragments) m = std::max(m, fr.ztilde);
-      const double e_bg = std::exp((params.eps - m) / params.gamma);
+      const double e_bg = std::exp((params.eps - m) / gamma);
       double Z = e_bg;
-      dvec3 color = e_bg * scene.background;
-      double depth = e_bg * cam.far;
+      dvec3 color = e_bg * background;
+      double depth = e_bg * view.far;
       for (const Fragment& fr : fragments) {
-        const double weight = fr.D * std::exp((fr.ztilde - m) / params.gamma);
+        const double weight = fr.D * std::exp((fr.ztilde - m) / gamma);
         Z += weight;
         color += weight * fr.color;
         depth += weight * fr.z;
@@ -230,6 +255,117 @@ RenderOutput render(const Scene& scene, size_t camera_index) {
     }
   }
   return out;
+}
+
+// The scene as the renderer sees it: light frusta not given are fitted (SPEC §3).
+Scene fitted(const Scene& scene) {
+  Scene s = scene;
+  if (!s.lights.empty()) fit_light_frusta(s);
+  return s;
+}
+
+// The light pass of light `index` of a scene whose frusta are fitted (SPEC §3): the soft depth
+// I_z from the light's frame with σ_L, γ_L (light_sigma, light_gamma when set, else the
+// documented defaults of light_pass_sigma, light_pass_gamma); the background lies at the
+// frustum's far plane.
+struct ShadowMap {
+  View view;
+  Image S;  // W_s × H_s, row-major, row 0 at the top
+};
+
+ShadowMap light_pass(const Scene& scene, size_t index) {
+  const RenderParams& p = scene.params;
+  const View view = View::of_light(scene.lights.at(index), p.shadow_map_size);
+  const double sigma = light_pass_sigma(p);
+  const double gamma = light_pass_gamma(p);
+  const Shader no_colour = [](const Face&, const dvec3&) { return dvec3(0.0); };
+  RenderOutput out = raster(scene, view, sigma, gamma, dvec3(0.0), no_colour);
+  return {view, std::move(out.depth)};
+}
+
+// Shadow term s of world point X for one light (SPEC §4, hard shadows, eq. 7): Gaussian-
+// filtered map depth around X's texel position, compared with X's light depth.
+double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) {
+  const int Ws = map.S.width, Hs = map.S.height;
+  const dvec2 s = map.view.screen(X);
+  const double d = map.view.depth(X);
+  const double mux = (s.x * Hs + Ws - 1) / 2.0;
+  const double muy = (Hs - 1 - s.y * Hs) / 2.0;
+  if (!(mux >= -0.5 && mux < Ws - 0.5 && muy >= -0.5 && muy < Hs - 0.5)) return 1.0;  // outside
+
+  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
+  double eps = 0.0;  // exact (and gemm): every texel, weights g
+  if (p.sampling == Sampling::Truncated) {
+    // g' = max(0, g − ε_λ), zero beyond R = sqrt(2σ_s·ln(1/ε_λ)).
+    eps = p.lambda_eps;
+    const double R = std::sqrt(2.0 * p.sigma_s * std::log(1.0 / eps));
+    i0 = std::max(int(std::ceil(mux - R)), 0);
+    i1 = std::min(int(std::floor(mux + R)), Ws - 1);
+    j0 = std::max(int(std::ceil(muy - R)), 0);
+    j1 = std::min(int(std::floor(muy + R)), Hs - 1);
+  }
+  double sum = 0.0, acc = 0.0;
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      const double dx = i - mux, dy = j - muy;
+      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * p.sigma_s)) - eps;
+      if (g > 0.0) {
+        sum += g;
+        acc += g * map.S.at(i, j);
+      }
+    }
+  if (!(sum > 0.0)) return 1.0;  // no texel has weight: lit
+  return sigmoid((acc / sum - d + p.beta) / p.gamma_s);
+}
+
+// Colour of face `face` at perspective-correct barycentrics b (SPEC §2), with shadow terms
+// from `maps` (one per light; empty when shadows are off, s = 1).
+dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& maps,
+            const Face& face, const dvec3& b) {
+  const dvec3 X = b[0] * face.V[0] + b[1] * face.V[1] + b[2] * face.V[2];
+  const dvec3 a = b[0] * face.albedo[0] + b[1] * face.albedo[1] + b[2] * face.albedo[2];
+  dvec3 n = face.normal;
+  const dvec3 to_camera = view.perspective ? view.eye - X : -view.f;
+  if (glm::dot(n, to_camera) < 0.0) n = -n;
+  dvec3 color = a * scene.ambient;  // never shadowed
+  for (size_t li = 0; li < scene.lights.size(); ++li) {
+    const Light& light = scene.lights[li];
+    const dvec3 l = light.type == LightType::Point ? glm::normalize(light.position - X)
+                                                   : -glm::normalize(light.direction);
+    const double s = maps.empty() ? 1.0 : shadow_term(maps[li], scene.params, X);
+    color += s * a * light.color * std::max(0.0, glm::dot(n, l));
+  }
+  return color;
+}
+
+void require_supported(const Scene& scene) {
+  if (scene.params.shadows == Shadows::Soft)
+    throw Error("reference: soft shadows are not implemented; use hard shadows or none");
+}
+
+}  // namespace
+
+RenderOutput render(const Scene& given, size_t camera_index) {
+  require_supported(given);
+  const Camera& cam = given.cameras.at(camera_index);
+  const Scene scene = given.params.shadows == Shadows::None ? given : fitted(given);
+  const View view = View::of_camera(cam);
+
+  std::vector<ShadowMap> maps;
+  if (scene.params.shadows == Shadows::Hard)
+    for (size_t l = 0; l < scene.lights.size(); ++l) maps.push_back(light_pass(scene, l));
+
+  const Shader shader = [&](const Face& face, const dvec3& b) {
+    return shade(scene, view, maps, face, b);
+  };
+  return raster(scene, view, scene.params.sigma, scene.params.gamma, scene.background, shader);
+}
+
+Image shadow_map(const Scene& given, size_t light) {
+  if (light >= given.lights.size())
+    throw Error("reference: light " + std::to_string(light) + " asked for; the scene has " +
+                std::to_string(given.lights.size()));
+  return light_pass(fitted(given), light).S;
 }
 
 }  // namespace penumbra::reference

@@ -1,11 +1,22 @@
 #pragma once
-// Plain C++ double-precision reference of the forward pass (SPEC §1–§2), written for clarity,
-// not speed: every pixel visits every face. Tests compare the OpenCL kernels against it.
+// Plain C++ double-precision reference of the forward pass (SPEC §1–§2) with hard shadows
+// (SPEC §3–§4: truncated or exact Gaussian sampling; gemm sampling computes the exact sum),
+// written for clarity, not speed: every pixel visits every face. Tests compare the OpenCL
+// kernels against it. Light frusta not given are fitted to a copy of the scene by
+// fit_light_frusta, as the renderer does.
+#include <cstddef>
+
 #include "penumbra/image.hpp"
 #include "penumbra/scene.hpp"
 
 namespace penumbra::reference {
 
+// Colour, silhouette and soft depth of camera `camera_index`, with the scene's shadows
+// (none or hard; soft throws penumbra::Error).
 RenderOutput render(const Scene& scene, size_t camera_index);
+
+// The shadow map S of light `light` (SPEC §3): the soft depth of the light pass, W_s × H_s
+// (shadow_map_size²), one channel, row 0 at the top. Independent of params.shadows.
+Image shadow_map(const Scene& scene, size_t light);
 
 }  // namespace penumbra::reference

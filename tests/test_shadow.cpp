@@ -1,0 +1,845 @@
+// Shadow stage (SPEC §3–§4, hard shadows): the light pass, the shadow-map lookup and their
+// gradients, on small scenes built here — an icosphere occluder above a ground grid, lit by one
+// point light, one directional light, or both.
+//
+//   ShadowReference.*  the reference's light pass against closed-form depths (no device needed)
+//   ShadowMaps.*       Renderer::shadow_maps() against the reference's light pass
+//   ShadowKernels.*    double (~1e-9) and float kernels vs the reference, with truncated, exact
+//                      and gemm sampling (test names Shadow/ShadowKernels.*/<sampling>)
+//   ShadowDouble.*     the shadows show: hard differs from none in every comparison scene
+//   ShadowSampling.*   exact and gemm compute the same number (and gradient); truncated → exact
+//                      as ε_λ → 0
+//   ShadowGradCheck.*  backward vs finite differences for every sampling method, with entries on
+//                      occluder vertices, receiver vertices and light positions; and with a loss
+//                      on the shadowed ground only (occluder vertices act through S alone)
+//   ShadowVisible.*    a ground pixel in the occluder's shadow is dark, one outside it is lit
+//   ShadowDeterminism.*  two backward calls give bit-identical gradients
+// A missing OpenCL device fails these tests; it never skips them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/gradcheck.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/reference.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+
+namespace {
+
+using glm::dvec3;
+using penumbra::AlbedoMode;
+using penumbra::Camera;
+using penumbra::Context;
+using penumbra::GradCheckOptions;
+using penumbra::GradCheckResult;
+using penumbra::Image;
+using penumbra::Light;
+using penumbra::LightType;
+using penumbra::Mesh;
+using penumbra::Precision;
+using penumbra::Projection;
+using penumbra::Renderer;
+using penumbra::RenderOutput;
+using penumbra::Sampling;
+using penumbra::Scene;
+using penumbra::SceneGrads;
+using penumbra::Shadows;
+
+// ---------------------------------------------------------------------------------------------
+// Device: one Context for the whole binary.
+
+Context* shadow_context(std::string* error) {
+  static std::unique_ptr<Context> context;
+  static std::string message;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    try {
+      context = std::make_unique<Context>();
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+  }
+  *error = message;
+  return context.get();
+}
+
+#define REQUIRE_SHADOW_CONTEXT(ctx)            \
+  std::string ctx##_error;                     \
+  Context* ctx = shadow_context(&ctx##_error); \
+  ASSERT_NE(ctx, nullptr) << "cannot create an OpenCL context: " << ctx##_error
+
+// One renderer per precision for the whole binary (programs are built once).
+Renderer& shared_renderer(Context& ctx, Precision precision) {
+  static std::map<int, std::unique_ptr<Renderer>> renderers;
+  auto& r = renderers[int(precision)];
+  if (!r) r = std::make_unique<Renderer>(ctx, precision);
+  return *r;
+}
+
+const char* name_of(Sampling s) {
+  switch (s) {
+    case Sampling::Truncated:
+      return "truncated";
+    case Sampling::Exact:
+      return "exact";
+    case Sampling::Gemm:
+      return "gemm";
+  }
+  return "?";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes.
+
+// Unit icosahedron subdivided once (42 vertices, 80 faces), scaled and moved; counter-clockwise
+// seen from outside; smoothly varying per-vertex albedo.
+Mesh icosphere(dvec3 center, double radius) {
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (dvec3& p : v) p = glm::normalize(p);
+  std::vector<glm::ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                               {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                               {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                               {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  std::map<std::pair<int, int>, int> midpoint;
+  auto mid = [&](int a, int b) {
+    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+    auto it = midpoint.find(key);
+    if (it != midpoint.end()) return it->second;
+    v.push_back(glm::normalize(v[size_t(a)] + v[size_t(b)]));
+    return midpoint[key] = int(v.size()) - 1;
+  };
+  std::vector<glm::ivec3> next;
+  for (const glm::ivec3& tri : f) {
+    const int a = mid(tri.x, tri.y), b = mid(tri.y, tri.z), c = mid(tri.z, tri.x);
+    next.push_back({tri.x, a, c});
+    next.push_back({tri.y, b, a});
+    next.push_back({tri.z, c, b});
+    next.push_back({a, b, c});
+  }
+  Mesh mesh;
+  mesh.name = "occluder";
+  for (const dvec3& p : v) {
+    mesh.vertices.push_back(center + radius * p);
+    mesh.albedo.push_back(dvec3(0.6, 0.5, 0.45) + dvec3(0.25 * p.x, 0.2 * p.y, -0.2 * p.z));
+  }
+  mesh.faces = std::move(next);
+  mesh.albedo_mode = AlbedoMode::PerVertex;
+  return mesh;
+}
+
+// Horizontal n×n grid in y = 0 over [−half, half]², facing +y, smoothly varying per-vertex
+// albedo.
+Mesh ground(double half, int n) {
+  Mesh mesh;
+  mesh.name = "ground";
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const double x = -half + 2 * half * i / n, z = -half + 2 * half * j / n;
+      mesh.vertices.push_back({x, 0.0, z});
+      mesh.albedo.push_back({0.7 + 0.05 * x / half, 0.7, 0.7 - 0.05 * z / half});
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
+      mesh.faces.push_back({a, c, b});  // (c−a)×(b−a) points along +y
+      mesh.faces.push_back({b, c, d});
+    }
+  mesh.albedo_mode = AlbedoMode::PerVertex;
+  return mesh;
+}
+
+Light point_light(dvec3 position, dvec3 color) {
+  Light l;
+  l.type = LightType::Point;
+  l.position = position;
+  l.color = color;
+  return l;
+}
+
+Light directional_light(dvec3 direction, dvec3 color) {
+  Light l;
+  l.type = LightType::Directional;
+  l.direction = direction;
+  l.color = color;
+  return l;
+}
+
+enum class Lighting { Point, Directional, Two, Overhead };
+
+const char* name_of(Lighting l) {
+  switch (l) {
+    case Lighting::Point:
+      return "point";
+    case Lighting::Directional:
+      return "directional";
+    case Lighting::Two:
+      return "two lights";
+    case Lighting::Overhead:
+      return "overhead";
+  }
+  return "?";
+}
+
+// Mesh 0: an icosphere of radius 0.5 centred 1.0 above the ground (a gap of 0.5 below it);
+// mesh 1: a 4×4 ground grid over [−2, 2]². A 48×40 camera sees both from the front and above
+// (orthographic with `ortho`). The fitted light frusta span the ground, so a 32² map has
+// ≈ 0.13–0.2 world units per texel; β = 0.2 and γ_s = 0.04 (depth units) give lit ground
+// s ≈ sigmoid(5) and shadowed ground s ≈ sigmoid(−7) or darker.
+Scene shadow_scene(Lighting lighting, Sampling sampling = Sampling::Truncated, bool ortho = false) {
+  Scene s;
+  s.meshes = {icosphere({0.0, 1.0, 0.0}, 0.5), ground(2.0, 4)};
+  Camera cam;
+  cam.eye = {0.6, 3.2, 4.6};
+  cam.target = {0.0, 0.3, 0.0};
+  cam.up = {0, 1, 0};
+  cam.projection = ortho ? Projection::Orthographic : Projection::Perspective;
+  cam.fov_deg = 48.0;
+  cam.half_height = 2.4;
+  cam.near = 0.5;
+  cam.far = 12.0;
+  cam.width = 48;
+  cam.height = 40;
+  s.cameras = {cam};
+  switch (lighting) {
+    case Lighting::Point:
+      s.lights = {point_light({0.9, 5.0, 0.7}, {0.9, 0.85, 0.8})};
+      break;
+    case Lighting::Directional:
+      s.lights = {directional_light({-0.35, -1.0, -0.25}, {0.85, 0.9, 0.8})};
+      break;
+    case Lighting::Two:
+      s.lights = {point_light({-1.2, 4.5, 0.8}, {0.6, 0.55, 0.5}),
+                  directional_light({0.3, -1.0, -0.4}, {0.35, 0.4, 0.45})};
+      break;
+    case Lighting::Overhead:
+      s.lights = {point_light({0.0, 6.0, 0.0}, {1.0, 1.0, 1.0})};
+      break;
+  }
+  s.ambient = {0.2, 0.2, 0.2};
+  s.background = {0.3, 0.35, 0.4};
+  auto& p = s.params;
+  p.sigma = 3e-4;
+  p.gamma = 3e-3;
+  p.shadows = Shadows::Hard;
+  p.sampling = sampling;
+  p.shadow_map_size = 32;
+  p.sigma_s = 2.0;
+  p.lambda_eps = 1e-3;
+  p.gamma_s = 0.04;
+  p.beta = 0.2;
+  penumbra::fit_light_frusta(s);
+  return s;
+}
+
+struct NamedScene {
+  std::string name;
+  Scene scene;
+};
+
+// The scenes every comparison runs on.
+std::vector<NamedScene> comparison_scenes(Sampling sampling) {
+  return {{"point", shadow_scene(Lighting::Point, sampling)},
+          {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true)},
+          {"two lights", shadow_scene(Lighting::Two, sampling)}};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Comparisons.
+
+void expect_finite(const Image& img, const std::string& what) {
+  size_t bad = 0;
+  for (double v : img.data) bad += std::isfinite(v) ? 0 : 1;
+  EXPECT_EQ(bad, 0u) << what << ": " << bad << " non-finite values";
+}
+
+// max |got − want| (relative to |want| when `relative`); the worst value named on failure.
+double max_error(const Image& got, const Image& want, bool relative, std::string* where) {
+  double worst = 0.0;
+  size_t worst_i = 0;
+  for (size_t i = 0; i < got.data.size() && i < want.data.size(); ++i) {
+    double err = std::abs(got.data[i] - want.data[i]);
+    if (relative) err /= std::max(std::abs(want.data[i]), 1e-300);
+    if (!(err <= worst)) {
+      worst = err;
+      worst_i = i;
+    }
+  }
+  if (where && !got.data.empty()) {
+    const size_t pixel = worst_i / size_t(got.channels);
+    std::ostringstream s;
+    s << "(x=" << pixel % size_t(got.width) << ", y=" << pixel / size_t(got.width)
+      << ", c=" << worst_i % size_t(got.channels) << "): got " << got.data[worst_i] << ", want "
+      << (worst_i < want.data.size() ? want.data[worst_i] : NAN);
+    *where = s.str();
+  }
+  return worst;
+}
+
+// Expects max error ≤ tol; returns it.
+double expect_close(const Image& got, const Image& want, double tol, bool relative,
+                    const std::string& what) {
+  EXPECT_EQ(got.width, want.width) << what;
+  EXPECT_EQ(got.height, want.height) << what;
+  EXPECT_EQ(got.channels, want.channels) << what;
+  EXPECT_EQ(got.data.size(), want.data.size()) << what;
+  expect_finite(got, what);
+  std::string where;
+  const double err = max_error(got, want, relative, &where);
+  EXPECT_LE(err, tol) << what << ": worst at " << where;
+  return err;
+}
+
+struct Tolerance {
+  double color, silhouette, depth_rel;
+};
+
+// Double kernels: the same formulas in the same precision; only the order of the sums differs
+// (and the kernels leave out fragments whose weight is below 1e-10 of the pixel's largest).
+constexpr Tolerance kDoubleTol{1e-9, 1e-9, 1e-9};
+// Float kernels: the raster alone gives colour errors ~1e-5 at σ = 3e-4, γ = 3e-3 (see
+// test_raster.cpp). The shadow term adds: map depths and the fragment's light depth d (≈ 5)
+// carry ~5e-7 absolute error, divided by γ_s = 0.04 in the compare → ~1e-5 in the logit, and
+// μ carries ~1e-5 texels of error, moving the filtered depth by up to slope·1e-5. At most
+// s(1 − s)·logit error ≤ 1e-5 of the light's colour. Stated bound: 1e-4 colour, as for the
+// raster alone (PoCL measured ≤ 1e-5).
+constexpr Tolerance kFloatTol{1e-4, 1e-4, 1e-5};
+
+// Largest |a − b| over every colour value of every view.
+double max_colour_difference(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
+  double m = 0;
+  for (size_t v = 0; v < a.size() && v < b.size(); ++v)
+    m = std::max(m, max_error(a[v].color, b[v].color, false, nullptr));
+  return m;
+}
+
+// Renders `scene` and compares every view with the reference; returns the largest colour error.
+double expect_matches_reference(Renderer& renderer, const Scene& scene, Tolerance tol,
+                                const std::string& name) {
+  std::vector<RenderOutput> got;
+  EXPECT_NO_THROW(got = renderer.render(scene)) << name;
+  EXPECT_EQ(got.size(), scene.cameras.size()) << name;
+  double worst = 0;
+  for (size_t v = 0; v < got.size(); ++v) {
+    const RenderOutput want = penumbra::reference::render(scene, v);
+    const std::string tag = name + " view " + std::to_string(v);
+    expect_finite(want.color, tag + " reference colour");
+    worst = std::max(worst, expect_close(got[v].color, want.color, tol.color, false, tag + " colour"));
+    expect_close(got[v].silhouette, want.silhouette, tol.silhouette, false, tag + " silhouette");
+    expect_close(got[v].depth, want.depth, tol.depth_rel, true, tag + " depth");
+  }
+  return worst;
+}
+
+// The pixel a world point projects to in camera `cam` (SPEC §0), rounded to the nearest centre.
+std::pair<int, int> pixel_of(const Camera& cam, dvec3 X) {
+  const dvec3 f = glm::normalize(cam.target - cam.eye);
+  const dvec3 r = glm::normalize(glm::cross(f, cam.up));
+  const dvec3 u = glm::cross(r, f);
+  const dvec3 c = X - cam.eye;
+  const double k = cam.projection == Projection::Perspective
+                       ? 1.0 / (glm::dot(c, f) * std::tan(glm::radians(cam.fov_deg) / 2))
+                       : 1.0 / cam.half_height;
+  const double x = glm::dot(c, r) * k, y = glm::dot(c, u) * k;
+  const double px = (x * cam.height + cam.width - 1) / 2, py = (cam.height - 1 - y * cam.height) / 2;
+  return {int(std::lround(px)), int(std::lround(py))};
+}
+
+double luminance(const Image& color, std::pair<int, int> p) {
+  return (color.at(p.first, p.second, 0) + color.at(p.first, p.second, 1) +
+          color.at(p.first, p.second, 2)) / 3;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The reference's light pass against closed-form depths.
+
+// A directional light straight down onto a flat ground, with a frustum given (not fitted):
+// the orthographic light looks from 4 above the origin over [−3, 3]², so texels over the ground
+// ([−2, 2]²) see it at depth 4 and the corner texels see the background at the far plane.
+TEST(ShadowReference, FlatGroundDepthFromAbove) {
+  Scene s;
+  s.meshes = {ground(2.0, 2)};
+  s.cameras = {Camera{}};
+  s.lights = {directional_light({0, -1, 0}, {1, 1, 1})};
+  s.params.sigma = 3e-4;
+  s.params.gamma = 3e-3;
+  s.params.shadow_map_size = 24;
+  auto& fr = s.lights[0].frustum;
+  fr.fitted = true;
+  fr.target = {0, 0, 0};
+  fr.up = {0, 0, 1};
+  fr.half_size = 3.0;
+  fr.distance = 4.0;
+  fr.near = 1.0;
+  fr.far = 8.0;
+  const Image S = penumbra::reference::shadow_map(s, 0);
+  ASSERT_EQ(S.width, 24);
+  ASSERT_EQ(S.height, 24);
+  ASSERT_EQ(S.channels, 1);
+  EXPECT_NEAR(S.at(11, 11), 4.0, 1e-9);
+  EXPECT_NEAR(S.at(12, 13), 4.0, 1e-9);
+  EXPECT_NEAR(S.at(5, 18), 4.0, 1e-9);  // centre 1.625 off both axes: on the ground
+  EXPECT_NEAR(S.at(0, 0), 8.0, 1e-9);    // centre 2.875 off both axes: beyond it
+  EXPECT_NEAR(S.at(23, 23), 8.0, 1e-9);
+}
+
+// A point light straight above a ground quad: the texel at the map centre looks straight down
+// and sees the ground at depth = the light's height; an unfitted frustum is fitted by the
+// reference as by the renderer.
+TEST(ShadowReference, PointLightCentreTexelAndFitting) {
+  Scene s;
+  s.meshes = {ground(2.0, 2)};
+  s.cameras = {Camera{}};
+  s.lights = {point_light({0, 5, 0}, {1, 1, 1})};
+  s.params.sigma = 3e-4;
+  s.params.gamma = 3e-3;
+  s.params.shadow_map_size = 25;  // odd: texel (12, 12) is the centre
+  ASSERT_FALSE(s.lights[0].frustum.fitted);
+  const Image S = penumbra::reference::shadow_map(s, 0);
+  EXPECT_NEAR(S.at(12, 12), 5.0, 1e-9);
+  Scene f = s;
+  penumbra::fit_light_frusta(f);
+  EXPECT_EQ(penumbra::reference::shadow_map(f, 0).data, S.data);
+  EXPECT_THROW(penumbra::reference::shadow_map(s, 1), penumbra::Error);
+}
+
+// With shadows on, a lit receiver far from any occluder keeps almost all its light
+// (s ≈ sigmoid(β/γ_s)), and the reference rejects soft shadows.
+TEST(ShadowReference, NoneAndHardAgreeAwayFromShadowsSoftThrows) {
+  Scene hard = shadow_scene(Lighting::Overhead);
+  Scene none = hard;
+  none.params.shadows = Shadows::None;
+  const RenderOutput a = penumbra::reference::render(hard, 0), b = penumbra::reference::render(none, 0);
+  const auto lit = pixel_of(hard.cameras[0], {1.3, 0.0, 1.1});
+  const double s = 1 / (1 + std::exp(-hard.params.beta / hard.params.gamma_s));
+  // colour = a·I_a + s·a·I_L·cos, so None − Hard = (1 − s)·(direct part) ≤ (1 − s)·None; the
+  // filtered depth on flat lit ground is within a little of the receiver's own (slack 1%).
+  for (int c = 0; c < 3; ++c) {
+    const double full = b.color.at(lit.first, lit.second, c);
+    EXPECT_LE(a.color.at(lit.first, lit.second, c), full + 1e-12) << c;
+    EXPECT_GE(a.color.at(lit.first, lit.second, c), full * (s - 0.01)) << c;
+  }
+  Scene soft = hard;
+  soft.params.shadows = Shadows::Soft;
+  EXPECT_THROW(penumbra::reference::render(soft, 0), penumbra::Error);
+}
+
+// ---------------------------------------------------------------------------------------------
+// (a) Shadow maps.
+
+TEST(ShadowMaps, MatchReference) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  for (Precision precision : {Precision::Double, Precision::Float}) {
+    Renderer& r = shared_renderer(*ctx, precision);
+    // Float: map depths ≈ 3–9 carry ~1e-7 relative rounding; the soft aggregation divides depth
+    // errors by γ_L·(far − near), which at silhouettes mixes occluder and ground depths: 1e-5.
+    const double tol = precision == Precision::Double ? 1e-9 : 1e-5;
+    double worst = 0;
+    for (const auto& [name, scene] : comparison_scenes(Sampling::Truncated)) {
+      ASSERT_NO_THROW(r.render(scene)) << name;
+      const std::vector<Image> maps = r.shadow_maps();
+      ASSERT_EQ(maps.size(), scene.lights.size()) << name;
+      for (size_t l = 0; l < maps.size(); ++l) {
+        const Image want = penumbra::reference::shadow_map(scene, l);
+        EXPECT_EQ(maps[l].width, 32);
+        EXPECT_EQ(maps[l].height, 32);
+        // The map must show the occluder: some texels nearer than the ground's nearest.
+        double lo = 1e300, hi = 0;
+        for (double v : want.data) lo = std::min(lo, v), hi = std::max(hi, v);
+        EXPECT_LT(lo, hi - 0.3) << name << " light " << l << ": the map shows no occluder";
+        worst = std::max(worst, expect_close(maps[l], want, tol, true,
+                                             name + " light " + std::to_string(l) + " map"));
+      }
+    }
+    std::cout << "[shadow] maps " << (precision == Precision::Double ? "double" : "float")
+              << ": max relative error " << worst << std::endl;
+  }
+  // With shadows off there are no maps.
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  Scene none = shadow_scene(Lighting::Point);
+  none.params.shadows = Shadows::None;
+  ASSERT_NO_THROW(r.render(none));
+  EXPECT_TRUE(r.shadow_maps().empty());
+}
+
+// Light-pass σ_L and γ_L are honoured when given (0 selects light_pass_sigma/gamma defaults).
+TEST(ShadowMaps, LightSigmaAndGamma) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  Scene s = shadow_scene(Lighting::Point);
+  s.params.light_sigma = 1e-3;
+  s.params.light_gamma = 1e-2;
+  ASSERT_NO_THROW(r.render(s));
+  const Image want = penumbra::reference::shadow_map(s, 0);
+  expect_close(r.shadow_maps().at(0), want, 1e-9, true, "σ_L, γ_L map");
+  Scene d = s;
+  d.params.light_sigma = d.params.light_gamma = 0;
+  EXPECT_GT(max_error(penumbra::reference::shadow_map(d, 0), want, true, nullptr), 1e-4)
+      << "σ_L, γ_L change the map";
+  expect_matches_reference(r, s, kDoubleTol, "σ_L, γ_L render");
+}
+
+// ---------------------------------------------------------------------------------------------
+// (b) Kernels against the reference.
+
+class ShadowKernels : public ::testing::TestWithParam<Sampling> {};
+
+TEST_P(ShadowKernels, DoubleMatchesReference) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  double worst = 0;
+  for (const auto& [name, scene] : comparison_scenes(GetParam()))
+    worst = std::max(worst, expect_matches_reference(r, scene, kDoubleTol,
+                                                     std::string(name_of(GetParam())) + " " + name));
+  std::cout << "[shadow] double " << name_of(GetParam()) << ": max colour error " << worst
+            << std::endl;
+}
+
+TEST_P(ShadowKernels, FloatMatchesReference) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Float);
+  double worst = 0;
+  for (const auto& [name, scene] : comparison_scenes(GetParam()))
+    worst = std::max(worst, expect_matches_reference(r, scene, kFloatTol,
+                                                     std::string(name_of(GetParam())) + " " + name));
+  std::cout << "[shadow] float " << name_of(GetParam()) << ": max colour error " << worst
+            << std::endl;
+}
+
+INSTANTIATE_TEST_SUITE_P(Shadow, ShadowKernels,
+                         ::testing::Values(Sampling::Truncated, Sampling::Exact, Sampling::Gemm),
+                         [](const auto& info) { return std::string(name_of(info.param)); });
+
+// The shadows show in these comparisons: hard shadows change the image against none.
+TEST(ShadowDouble, ShadowsChangeTheImage) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  for (const auto& [name, scene] : comparison_scenes(Sampling::Truncated)) {
+    Scene none = scene;
+    none.params.shadows = Shadows::None;
+    const double diff =
+        max_error(penumbra::reference::render(scene, 0).color,
+                  penumbra::reference::render(none, 0).color, false, nullptr);
+    EXPECT_GT(diff, 0.2) << name << ": the shadow does not show";
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (c), (d) Sampling methods.
+
+// Exact and gemm evaluate the same sum v = Σ g·S / Σ g in a different order: exact texel by
+// texel, gemm as Σ_j (Σ_i gx_i·S_ij)·gy_j / (Σgx·Σgy) through matrix products. In double they
+// agree to rounding (~1e-16 relative in v, times 1/γ_s = 25 in the logit): 1e-11. In float the
+// reordering costs ~1e-7 relative in v (≈ 5e-7 absolute at depth ≈ 5), ≈ 1e-5 in the logit
+// after 1/γ_s, so ≤ s(1 − s)·1e-5 ≤ 3e-6 of a light's colour, besides the raster's own float
+// rounding being the same in both: 1e-5.
+TEST(ShadowSampling, ExactEqualsGemm) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  for (Precision precision : {Precision::Double, Precision::Float}) {
+    Renderer& r = shared_renderer(*ctx, precision);
+    const double tol = precision == Precision::Double ? 1e-11 : 1e-5;
+    double worst = 0;
+    for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
+      Scene gemm = scene;
+      gemm.params.sampling = Sampling::Gemm;
+      std::vector<RenderOutput> a, b;
+      ASSERT_NO_THROW(a = r.render(scene)) << name;
+      ASSERT_NO_THROW(b = r.render(gemm)) << name;
+      for (size_t v = 0; v < a.size(); ++v) {
+        worst = std::max(worst, expect_close(b[v].color, a[v].color, tol, false,
+                                             name + " gemm vs exact colour"));
+        expect_close(b[v].depth, a[v].depth, tol, true, name + " gemm vs exact depth");
+      }
+    }
+    std::cout << "[shadow] exact vs gemm " << (precision == Precision::Double ? "double" : "float")
+              << ": max colour difference " << worst << std::endl;
+  }
+}
+
+// Their gradients are the same too: in double to rounding, relative to the largest entry.
+TEST(ShadowSampling, ExactEqualsGemmGradients) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
+    Scene gemm = scene;
+    gemm.params.sampling = Sampling::Gemm;
+    const auto weights = penumbra::random_loss_weights(scene, 13);
+    SceneGrads a, b;
+    ASSERT_NO_THROW(r.render(scene)) << name;
+    ASSERT_NO_THROW(a = r.backward(scene, weights)) << name;
+    ASSERT_NO_THROW(r.render(gemm)) << name;
+    ASSERT_NO_THROW(b = r.backward(gemm, weights)) << name;
+    const double scale = penumbra::max_abs_gradient(a);
+    ASSERT_GT(scale, 0) << name;
+    double worst = 0;
+    auto compare = [&](const std::vector<glm::dvec3>& x, const std::vector<glm::dvec3>& y) {
+      ASSERT_EQ(x.size(), y.size()) << name;
+      for (size_t i = 0; i < x.size(); ++i)
+        for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(x[i][k] - y[i][k]) / scale);
+    };
+    for (size_t m = 0; m < a.vertices.size(); ++m) compare(a.vertices[m], b.vertices[m]);
+    compare(a.light_position, b.light_position);
+    compare(a.light_color, b.light_color);
+    std::cout << "[shadow] exact vs gemm gradients, " << name << ": max difference " << worst
+              << " of the largest entry" << std::endl;
+    EXPECT_LE(worst, 1e-10) << name;
+  }
+}
+
+// Truncation error shrinks with ε_λ: g' = g − ε_λ inside R = sqrt(2σ_s·ln(1/ε_λ)) differs from g
+// by ε_λ per texel plus the tail beyond R, both → 0 with ε_λ.
+TEST(ShadowSampling, TruncatedApproachesExact) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
+    std::vector<RenderOutput> exact;
+    ASSERT_NO_THROW(exact = r.render(scene)) << name;
+    std::vector<double> diffs;
+    std::ostringstream line;
+    for (double eps : {1e-1, 1e-2, 1e-4, 1e-8}) {
+      Scene t = scene;
+      t.params.sampling = Sampling::Truncated;
+      t.params.lambda_eps = eps;
+      std::vector<RenderOutput> got;
+      ASSERT_NO_THROW(got = r.render(t)) << name;
+      diffs.push_back(max_colour_difference(got, exact));
+      line << " ε_λ=" << eps << ": " << diffs.back();
+    }
+    std::cout << "[shadow] truncated vs exact, " << name << ":" << line.str() << std::endl;
+    EXPECT_GT(diffs[0], 1e-3) << name << ": ε_λ = 0.1 should visibly differ";
+    for (size_t i = 1; i < diffs.size(); ++i)
+      EXPECT_LT(diffs[i], diffs[i - 1]) << name << " step " << i << line.str();
+    EXPECT_LT(diffs.back(), 1e-5) << name << line.str();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (e) Gradients.
+
+struct GradCase {
+  std::string name;
+  Scene scene;
+  uint64_t seed;
+};
+
+std::vector<GradCase> gradient_cases(Sampling sampling) {
+  return {{"point", shadow_scene(Lighting::Point, sampling), 3},
+          {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true), 5},
+          {"two lights", shadow_scene(Lighting::Two, sampling), 7}};
+}
+
+std::string describe(const GradCheckResult& r) {
+  std::ostringstream s;
+  s << "checked=" << r.checked << " failed=" << r.failed << " max_rel_err=" << r.max_rel_err
+    << " atol=" << r.atol << " rtol=" << r.rtol << "\n";
+  for (const auto& e : r.entries)
+    s << "  " << e.name << " analytic=" << e.analytic << " numeric=" << e.numeric
+      << " rel_err=" << e.rel_err << (e.ok ? "" : "  FAIL") << "\n";
+  return s.str();
+}
+
+bool has_entry(const GradCheckResult& r, const std::string& prefix) {
+  for (const auto& e : r.entries)
+    if (e.name.compare(0, prefix.size(), prefix) == 0) return true;
+  return false;
+}
+
+class ShadowGradCheck : public ::testing::TestWithParam<Sampling> {};
+
+TEST_P(ShadowGradCheck, Double) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  int light_positions = 0;
+  for (auto& [name, scene, seed] : gradient_cases(GetParam())) {
+    penumbra::fit_light_frusta(scene);  // fixed frusta: gradients and differences agree
+    for (const Light& l : scene.lights) ASSERT_TRUE(l.frustum.fitted);
+    GradCheckOptions options;
+    options.samples = 40;
+    options.seed = seed;
+    GradCheckResult result;
+    ASSERT_NO_THROW(result = penumbra::gradcheck(r, scene, options)) << name;
+    const std::string tag = std::string(name_of(GetParam())) + " " + name;
+    std::cout << "[shadow gradcheck] " << tag << ": checked=" << result.checked
+              << " failed=" << result.failed << " failure_fraction=" << result.failure_fraction()
+              << " max_rel_err=" << result.max_rel_err << std::endl;
+    EXPECT_TRUE(result.passed()) << tag << "\n" << describe(result);
+    EXPECT_GE(result.checked, 30) << tag;
+    // Occluder (mesh 0) and receiver (mesh 1) vertices are checked; so is the position of every
+    // point light scene's light (directional lights have none to check).
+    EXPECT_TRUE(has_entry(result, "mesh0.v")) << tag << "\n" << describe(result);
+    EXPECT_TRUE(has_entry(result, "mesh1.v")) << tag << "\n" << describe(result);
+    bool point = false;
+    for (const Light& l : scene.lights) point |= l.type == LightType::Point;
+    if (point) {
+      EXPECT_TRUE(has_entry(result, "light0.position")) << tag << "\n" << describe(result);
+      ++light_positions;
+    }
+  }
+  EXPECT_GE(light_positions, 2);
+}
+
+// The same check with a loss that sees only the ground where the shadow falls (colour only;
+// pixels where the occluder shows are left out): occluder vertices reach this loss only
+// through the shadow map S, so the light pass's backward (and μ, d of the receivers) is what
+// is checked here.
+TEST_P(ShadowGradCheck, ThroughTheMapOnly) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  for (auto& [name, scene, seed] : gradient_cases(GetParam())) {
+    const std::string tag = std::string(name_of(GetParam())) + " " + name;
+    // Ground pixels: the depth equals that of the ground alone. Shadowed: hard ≠ none.
+    Scene ground_only = scene, none = scene;
+    ground_only.meshes = {scene.meshes[1]};
+    ground_only.params.shadows = none.params.shadows = Shadows::None;
+    const RenderOutput g = penumbra::reference::render(ground_only, 0);
+    const RenderOutput h = penumbra::reference::render(scene, 0);
+    const RenderOutput n = penumbra::reference::render(none, 0);
+    std::vector<penumbra::OutputGrads> weights(1);
+    weights[0].color = Image(h.color.width, h.color.height, 3);
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal;
+    int pixels = 0;
+    for (int y = 0; y < h.color.height; ++y)
+      for (int x = 0; x < h.color.width; ++x) {
+        const bool ground = std::abs(h.depth.at(x, y) - g.depth.at(x, y)) <= 1e-9 * g.depth.at(x, y);
+        double shadow = 0;
+        for (int c = 0; c < 3; ++c)
+          shadow = std::max(shadow, std::abs(h.color.at(x, y, c) - n.color.at(x, y, c)));
+        if (!ground || shadow < 0.05) continue;  // lit ground differs by only (1 − s) ≈ 1%
+        ++pixels;
+        for (int c = 0; c < 3; ++c) weights[0].color.at(x, y, c) = normal(rng);
+      }
+    ASSERT_GE(pixels, 20) << tag << ": too few shadowed ground pixels";
+    ASSERT_NO_THROW(r.render(scene)) << tag;
+    SceneGrads analytic;
+    ASSERT_NO_THROW(analytic = r.backward(scene, weights)) << tag;
+    GradCheckOptions options;
+    options.samples = 40;
+    options.seed = seed + 100;
+    GradCheckResult result;
+    ASSERT_NO_THROW(result = penumbra::compare_with_finite_differences(r, scene, weights,
+                                                                       analytic, options))
+        << tag;
+    std::cout << "[shadow gradcheck] " << tag << ", shadow region only (" << pixels
+              << " px): checked=" << result.checked << " failed=" << result.failed
+              << " failure_fraction=" << result.failure_fraction()
+              << " max_rel_err=" << result.max_rel_err << std::endl;
+    EXPECT_TRUE(result.passed()) << tag << "\n" << describe(result);
+    // The occluder's vertices matter to this loss (through S), and some were compared at a
+    // size well above the absolute floor.
+    double occluder = 0;
+    for (const auto& v : analytic.vertices[0])
+      occluder = std::max({occluder, std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+    EXPECT_GT(occluder, 1e-2 * penumbra::max_abs_gradient(analytic)) << tag;
+    int occluder_entries = 0;
+    for (const auto& e : result.entries)
+      if (e.name.compare(0, 7, "mesh0.v") == 0 && std::abs(e.numeric) > 10 * result.atol)
+        ++occluder_entries;
+    EXPECT_GE(occluder_entries, 1) << tag << "\n" << describe(result);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shadow, ShadowGradCheck,
+                         ::testing::Values(Sampling::Truncated, Sampling::Exact, Sampling::Gemm),
+                         [](const auto& info) { return std::string(name_of(info.param)); });
+
+// ---------------------------------------------------------------------------------------------
+// (f) A visible shadow.
+
+// The light 5 units straight above a ball of radius 0.5 whose bottom is 0.5 above the ground:
+// the ground point below the ball's centre lies in its umbra (shadow radius ≈ 0.6), a ground
+// point 1.7 units away is lit.
+TEST(ShadowVisible, GroundUnderOccluderIsDark) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  for (Sampling sampling : {Sampling::Truncated, Sampling::Exact, Sampling::Gemm}) {
+    const Scene hard = shadow_scene(Lighting::Overhead, sampling);
+    Scene none = hard;
+    none.params.shadows = Shadows::None;
+    std::vector<RenderOutput> h, n;
+    ASSERT_NO_THROW(h = r.render(hard));
+    ASSERT_NO_THROW(n = r.render(none));
+    const RenderOutput want = penumbra::reference::render(hard, 0);
+    const auto dark = pixel_of(hard.cameras[0], {0.1, 0.0, 0.15});
+    const auto lit = pixel_of(hard.cameras[0], {1.3, 0.0, 1.1});
+    const double dark_h = luminance(h[0].color, dark), lit_h = luminance(h[0].color, lit);
+    const double dark_n = luminance(n[0].color, dark), lit_n = luminance(n[0].color, lit);
+    std::cout << "[shadow] visible (" << name_of(sampling) << "): shadowed pixel " << dark_h
+              << " (unshadowed " << dark_n << "), lit pixel " << lit_h << " (unshadowed "
+              << lit_n << ")" << std::endl;
+    // In the umbra only the ambient term remains (≈ 0.2·0.7 = 0.14); lit ground ≈ 0.7·(0.2 + cos).
+    EXPECT_LT(dark_h, 0.2) << name_of(sampling);
+    EXPECT_GT(lit_h, dark_h + 0.4) << name_of(sampling);
+    // Without shadows the same pixel is lit, and the lit pixel barely changes with them.
+    EXPECT_GT(dark_n, dark_h + 0.5) << name_of(sampling);
+    EXPECT_NEAR(lit_h, lit_n, 0.02) << name_of(sampling);
+    // The kernels agree with the reference at both pixels.
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(h[0].color.at(dark.first, dark.second, c),
+                  want.color.at(dark.first, dark.second, c), 1e-9);
+      EXPECT_NEAR(h[0].color.at(lit.first, lit.second, c), want.color.at(lit.first, lit.second, c),
+                  1e-9);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (g) Determinism.
+
+bool same_bits(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(glm::dvec3)) == 0);
+}
+
+void expect_identical(const SceneGrads& a, const SceneGrads& b, const std::string& what) {
+  ASSERT_EQ(a.vertices.size(), b.vertices.size()) << what;
+  for (size_t m = 0; m < a.vertices.size(); ++m) {
+    EXPECT_TRUE(same_bits(a.vertices[m], b.vertices[m])) << what << " mesh " << m << " vertices";
+    EXPECT_TRUE(same_bits(a.albedo[m], b.albedo[m])) << what << " mesh " << m << " albedo";
+  }
+  EXPECT_TRUE(same_bits(a.light_position, b.light_position)) << what << " light positions";
+  EXPECT_TRUE(same_bits(a.light_color, b.light_color)) << what << " light colours";
+  EXPECT_TRUE(same_bits({a.ambient}, {b.ambient})) << what << " ambient";
+}
+
+TEST(ShadowDeterminism, BackwardIsBitIdentical) {
+  REQUIRE_SHADOW_CONTEXT(ctx);
+  for (Precision precision : {Precision::Double, Precision::Float}) {
+    Renderer& r = shared_renderer(*ctx, precision);
+    for (Sampling sampling : {Sampling::Truncated, Sampling::Gemm, Sampling::Exact}) {
+      const Scene scene = shadow_scene(Lighting::Two, sampling);
+      const auto weights = penumbra::random_loss_weights(scene, 11);
+      const std::string tag = std::string(name_of(sampling)) +
+                              (precision == Precision::Double ? " double" : " float");
+      ASSERT_NO_THROW(r.render(scene)) << tag;
+      SceneGrads a, b, c;
+      ASSERT_NO_THROW(a = r.backward(scene, weights)) << tag;
+      ASSERT_NO_THROW(b = r.backward(scene, weights)) << tag;
+      expect_identical(a, b, tag + " (two backward calls)");
+      ASSERT_NO_THROW(r.render(scene)) << tag;
+      ASSERT_NO_THROW(c = r.backward(scene, weights)) << tag;
+      expect_identical(a, c, tag + " (render again)");
+      // The gradient reaches the light and both meshes.
+      EXPECT_GT(penumbra::max_abs_gradient(a), 0) << tag;
+      double lp = 0;
+      for (const auto& v : a.light_position) lp = std::max(lp, glm::length(v));
+      EXPECT_GT(lp, 0) << tag;
+    }
+  }
+}
+
+}  // namespace
