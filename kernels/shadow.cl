@@ -2,7 +2,7 @@
 // shadows, eq. 7: filter then compare), forward and backward, with Gaussian-weighted sampling
 // of the light's shadow map S:
 //   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ)),
-//              one work-item per fragment (shadow_sample*, shadow_boxes, shadow_gather)
+//              one work-item per fragment (shadow_sample*), per texel (shadow_gather)
 //   exact      g over the whole map; since g_ij = gx_i·gy_j the sums are matrix products
 //              (exact_* kernels here, the products by matmul.cl or by CLBlast's GEMM)
 // Buffers (K fragments, nl lights, this light l, map W_s × H_s row-major, row 0 at the top):
@@ -10,8 +10,8 @@
 //   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
-// Launch: one work-item per fragment (shadow_sample, shadow_sample_bwd, shadow_boxes,
-// exact_*), one per texel (shadow_gather).
+// Launch: one work-item per fragment (shadow_sample, shadow_sample_bwd, shadow_boxes, soft_*,
+// exact_*), one per texel (shadow_gather, soft_gather).
 #include "common/real.clh"
 
 typedef struct {
@@ -97,29 +97,47 @@ __kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int
   rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
 }
 
-// Texel window of each fragment as a box, for binning by bin.cl (the gather below).
+// The texel nearest each fragment's μ as a one-texel box (empty outside the map), for
+// bucketing fragments by texel with bin.cl (tile = 1): the gathers below then find the
+// fragments whose window can cover a texel in the buckets within the window radius.
 __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                            __global const real4* rec_light, __global int4* boxes) {
   int r = get_global_id(0);
   if (r >= nrec) return;
-  Window w = sample_window(rec_light[r * nl + light].xy, P, Wm, Hm);
-  boxes[r] = (int4)(w.x0, w.y0, w.x1, w.y1);
+  real2 mu = rec_light[r * nl + light].xy;
+  int4 box = (int4)(1, 1, 0, 0);
+  if (inside_map(mu, Wm, Hm)) {
+    int bx = clamp((int)floor(mu.x + R(0.5)), 0, Wm - 1);
+    int by = clamp((int)floor(mu.y + R(0.5)), 0, Hm - 1);
+    box = (int4)(bx, by, bx, by);
+  }
+  boxes[r] = box;
 }
 
-// dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in
-// fragment order (no atomics): a texel visits the fragments binned into its tile.
+// Bucket reach: a fragment whose window covers texel (i, j) has its nearest texel within this
+// many texels of it.
+inline int bucket_reach(__global const real* P) {
+  return (int)ceil(sqrt(2 * P[P_SIGMA_S] * log(1 / P[P_LAMBDA_EPS]))) + 1;
+}
+
+// Fragments in the texel buckets around (i, j), in a fixed order.
+#define FOR_EACH_NEARBY_FRAGMENT(i, j, r)                                                 \
+  int reach = bucket_reach(P);                                                            \
+  for (int by = max((j) - reach, 0); by <= min((j) + reach, Hm - 1); ++by)                \
+    for (int bx = max((i) - reach, 0); bx <= min((i) + reach, Wm - 1); ++bx)              \
+      for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k)                        \
+        for (int r = bucket_recs[bucket_offsets[b] + k], once = 1; once; once = 0)
+
+// dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed
+// order (no atomics).
 __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real4* rec_light, __global const real4* rec_lgrad,
-                            int tile, int tiles_x, __global const int* tile_offsets,
-                            __global const int* tile_counts, __global const int* tile_recs,
-                            __global real* gS) {
+                            __global const int* bucket_offsets, __global const int* bucket_counts,
+                            __global const int* bucket_recs, __global real* gS) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= Wm || j >= Hm) return;
-  int t = (i / tile) + (j / tile) * tiles_x;
-  int begin = tile_offsets[t], count = tile_counts[t];
   real acc = 0;
-  for (int k = 0; k < count; ++k) {
-    int r = tile_recs[begin + k];
+  FOR_EACH_NEARBY_FRAGMENT(i, j, r) {
     real4 x = rec_light[r * nl + light];
     Window w = sample_window(x.xy, P, Wm, Hm);
     if (i < w.x0 || i > w.x1 || j < w.y0 || j > w.y1) continue;
@@ -293,29 +311,21 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   rec_lgrad2[r * nl + light] = (real4)(gs * ggrad / sum, 0, 0);
 }
 
-// dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (binned by
-// tile when truncated; every fragment when exact), in fragment order.
+// dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
+// nearby texel buckets when truncated; every fragment when exact), in a fixed order.
 __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                           __global const real* S, __global const real* Pmap,
                           __global const real4* rec_light, __global const real4* rec_light2,
-                          __global const real4* rec_lgrad, int tile, int tiles_x,
-                          __global const int* tile_offsets, __global const int* tile_counts,
-                          __global const int* tile_recs, __global real* gS,
-                          __global real* gPmap) {
+                          __global const real4* rec_lgrad, __global const int* bucket_offsets,
+                          __global const int* bucket_counts, __global const int* bucket_recs,
+                          __global real* gS, __global real* gPmap) {
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= Wm || j >= Hm) return;
-#if EXACT
-  int begin = 0, count = nrec;
-#else
-  int t = (i / tile) + (j / tile) * tiles_x;
-  int begin = tile_offsets[t], count = tile_counts[t];
-#endif
   real accS = 0, accP = 0, Sv = S[j * Wm + i], Pv = Pmap[j * Wm + i], dd, dP;
-  for (int k = 0; k < count; ++k) {
 #if EXACT
-    int r = k;
+  for (int r = 0; r < nrec; ++r) {
 #else
-    int r = tile_recs[begin + k];
+  FOR_EACH_NEARBY_FRAGMENT(i, j, r) {
 #endif
     real4 x = rec_light[r * nl + light];
     Window w = soft_window(x.xy, P, Wm, Hm);

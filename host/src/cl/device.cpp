@@ -1,6 +1,10 @@
 #include "cl/device.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <mutex>
 
 #include "penumbra/error.hpp"
 
@@ -70,6 +74,29 @@ cl::Buffer zero_reals(Context& ctx, Precision p, size_t count) {
   return b;
 }
 
+namespace {
+// PENUMBRA_PROFILE=1: every launch waits for its kernel and its device time is summed per
+// kernel name; the table goes to stderr at exit. For finding hot spots, not for timing runs.
+struct Profile {
+  bool on = std::getenv("PENUMBRA_PROFILE") != nullptr;
+  std::mutex mutex;
+  std::map<std::string, std::pair<double, int>> ms;  // name → (total ms, launches)
+  ~Profile() {
+    if (!on) return;
+    std::vector<std::pair<double, std::string>> rows;
+    for (auto& [name, t] : ms) rows.push_back({t.first, name});
+    std::sort(rows.rbegin(), rows.rend());
+    std::fprintf(stderr, "penumbra profile (device ms, launches):\n");
+    for (auto& [total, name] : rows)
+      std::fprintf(stderr, "  %-24s %10.2f %6d\n", name.c_str(), total, ms[name].second);
+  }
+};
+Profile& profile() {
+  static Profile p;
+  return p;
+}
+}  // namespace
+
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) {
   size_t g[3] = {1, 1, 1};
   for (cl_uint d = 0; d < global.dimensions(); ++d) {
@@ -80,7 +107,19 @@ void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) 
                        : global.dimensions() == 2 ? cl::NDRange(g[0], g[1])
                                                   : cl::NDRange(g[0], g[1], g[2]);
   try {
-    ctx.queue().enqueueNDRangeKernel(k, cl::NullRange, padded, local);
+    if (!profile().on) {
+      ctx.queue().enqueueNDRangeKernel(k, cl::NullRange, padded, local);
+      return;
+    }
+    cl::Event ev;
+    ctx.queue().enqueueNDRangeKernel(k, cl::NullRange, padded, local, nullptr, &ev);
+    ev.wait();
+    double ms = (ev.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
+                 ev.getProfilingInfo<CL_PROFILING_COMMAND_START>()) * 1e-6;
+    std::lock_guard<std::mutex> lock(profile().mutex);
+    auto& row = profile().ms[k.getInfo<CL_KERNEL_FUNCTION_NAME>()];
+    row.first += ms;
+    row.second += 1;
   } catch (const cl::Error& e) {
     throw Error("launch of kernel " + k.getInfo<CL_KERNEL_FUNCTION_NAME>() + " failed: " +
                 e.what() + " (" + std::to_string(e.err()) + ")");

@@ -10,8 +10,6 @@ namespace penumbra::detail {
 
 namespace {
 
-constexpr int kGatherTile = 16;  // light-map tile of the texel gathers
-
 // Fragments per batch of the exact path: its weight and product matrices stay under ~96 MiB.
 size_t exact_batch(Kernels& k, int Wm, int Hm) {
   size_t per = size_t(std::max(Wm, Hm)) * 6 * real_size(k.precision());
@@ -20,14 +18,14 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
 
 const char* exact_define(Sampling s) { return s == Sampling::Exact ? "-DEXACT=1" : "-DEXACT=0"; }
 
-// The fragments whose truncated window covers each light-map tile.
-Bins window_bins(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
+// The fragments bucketed by the texel nearest their μ (bin.cl with one-texel tiles).
+Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
   const int n = int(v.nrec);
   cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
   auto& bx = k.get("shadow.cl", "shadow_boxes");
   set_args(bx, v.P, n, light, v.nlights, Wm, Hm, v.rec_light, boxes);
   launch_1d(k.ctx(), bx, n);
-  return bin_boxes(k, boxes, n, Wm, Hm, kGatherTile);
+  return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
 
 }  // namespace
@@ -85,16 +83,15 @@ MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState&
     set_args(sb, v.P, n, light, nl, Wm, Hm, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
              v.rec_lgrad, v.rec_lgrad2);
     launch_1d(ctx, sb, n);
-    Bins bins;  // the exact gather visits every fragment and needs no bins
+    Bins bins;  // the exact gather visits every fragment and needs no buckets
     if (sampling == Sampling::Truncated)
-      bins = window_bins(k, v, light, Wm, Hm);
+      bins = texel_buckets(k, v, light, Wm, Hm);
     else
       bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
     g.P = zero_reals(ctx, p, size_t(Wm) * Hm);
     auto& ga = k.get("shadow.cl", "soft_gather", variant);
     set_args(ga, v.P, n, light, nl, Wm, Hm, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
-             v.rec_lgrad, kGatherTile, bins.tiles_x, bins.offsets, bins.counts, bins.items, g.S,
-             g.P);
+             v.rec_lgrad, bins.offsets, bins.counts, bins.items, g.S, g.P);
     launch(ctx, ga, cl::NDRange(Wm, Hm), cl::NDRange(8, 8));
     return g;
   }
@@ -102,10 +99,10 @@ MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState&
     auto& sb = k.get("shadow.cl", "shadow_sample_bwd");
     set_args(sb, v.P, n, light, nl, Wm, Hm, lv.depth, v.rec_light, v.rec_lgrad);
     launch_1d(ctx, sb, n);
-    Bins bins = window_bins(k, v, light, Wm, Hm);  // texels gather from covering windows
+    Bins bins = texel_buckets(k, v, light, Wm, Hm);  // texels gather from nearby fragments
     auto& ga = k.get("shadow.cl", "shadow_gather");
-    set_args(ga, v.P, n, light, nl, Wm, Hm, v.rec_light, v.rec_lgrad, kGatherTile, bins.tiles_x,
-             bins.offsets, bins.counts, bins.items, g.S);
+    set_args(ga, v.P, n, light, nl, Wm, Hm, v.rec_light, v.rec_lgrad, bins.offsets, bins.counts,
+             bins.items, g.S);
     launch(ctx, ga, cl::NDRange(Wm, Hm), cl::NDRange(8, 8));
     return g;
   }
