@@ -37,23 +37,46 @@ inline Window sample_window(real2 mu, __global const real* P, int Wm, int Hm) {
   return w;
 }
 
+// The Gaussian weight g_ij = gx_i·gy_j, always formed as this product so that every kernel
+// computes the same number.
+inline real axis_weight(real d, real sigma_s) { return exp(-d * d / (2 * sigma_s)); }
 inline real gauss(int i, int j, real2 mu, real sigma_s) {
-  real dx = i - mu.x, dy = j - mu.y;
-  return exp(-(dx * dx + dy * dy) / (2 * sigma_s));
+  return axis_weight(i - mu.x, sigma_s) * axis_weight(j - mu.y, sigma_s);
+}
+
+// The column weights gx_i of a window, computed once per fragment (a window wider than the
+// cache computes them as it goes).
+#define WINDOW_CACHE 64
+typedef struct {
+  real gx[WINDOW_CACHE];
+  int x0, n;
+} Columns;
+
+inline void columns_init(Columns* c, Window w, real2 mu, real sigma_s) {
+  c->x0 = w.x0;
+  c->n = w.x1 - w.x0 + 1 <= WINDOW_CACHE ? w.x1 - w.x0 + 1 : 0;
+  for (int k = 0; k < c->n; ++k) c->gx[k] = axis_weight(w.x0 + k - mu.x, sigma_s);
+}
+inline real column(const Columns* c, int i, real2 mu, real sigma_s) {
+  return c->n ? c->gx[i - c->x0] : axis_weight(i - mu.x, sigma_s);
 }
 
 // Filtered depth v = Σ g'·S / Σ g'; returns 0 in `*norm` if no texel has weight.
 inline real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
                          int Wm, real* norm) {
-  real sum = 0, acc = 0;
-  for (int j = w.y0; j <= w.y1; ++j)
+  real sum = 0, acc = 0, ss = P[P_SIGMA_S];
+  Columns c;
+  columns_init(&c, w, mu, ss);
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = axis_weight(j - mu.y, ss);
     for (int i = w.x0; i <= w.x1; ++i) {
-      real g = gauss(i, j, mu, P[P_SIGMA_S]) - w.eps;
+      real g = column(&c, i, mu, ss) * gy - w.eps;
       if (g > 0) {
         sum += g;
         acc += g * S[j * Wm + i];
       }
     }
+  }
   *norm = sum;
   return sum > 0 ? acc / sum : 0;
 }
@@ -88,11 +111,16 @@ __kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int
   real gv = gs * x.w * (1 - x.w) / P[P_GAMMA_S];
   // dv/dμ = Σ ∂g'/∂μ·(S − v)/Σg', with ∂g'/∂μx = g·(i − μx)/σ_s where g' > 0.
   real2 dv = 0;
-  for (int j = w.y0; j <= w.y1; ++j)
+  real ss = P[P_SIGMA_S];
+  Columns c;
+  columns_init(&c, w, x.xy, ss);
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = axis_weight(j - x.y, ss);
     for (int i = w.x0; i <= w.x1; ++i) {
-      real g = gauss(i, j, x.xy, P[P_SIGMA_S]);
+      real g = column(&c, i, x.xy, ss) * gy;
       if (g - w.eps > 0) dv += g * (S[j * Wm + i] - v) * (real2)(i - x.x, j - x.y);
     }
+  }
   dv /= norm * P[P_SIGMA_S];
   rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
 }
@@ -129,22 +157,35 @@ inline int bucket_reach(__global const real* P) {
         for (int r = bucket_recs[bucket_offsets[b] + k], once = 1; once; once = 0)
 
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed
-// order (no atomics).
+// order (no atomics). A work-item takes GATHER_W consecutive texels of a row as one vector:
+// g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no bounds test is needed.
+#define GATHER_W 8
 __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real4* rec_light, __global const real4* rec_lgrad,
                             __global const int* bucket_offsets, __global const int* bucket_counts,
                             __global const int* bucket_recs, __global real* gS) {
-  int i = get_global_id(0), j = get_global_id(1);
-  if (i >= Wm || j >= Hm) return;
-  real acc = 0;
-  FOR_EACH_NEARBY_FRAGMENT(i, j, r) {
-    real4 x = rec_light[r * nl + light];
-    Window w = sample_window(x.xy, P, Wm, Hm);
-    if (i < w.x0 || i > w.x1 || j < w.y0 || j > w.y1) continue;
-    real g = gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps;
-    if (g > 0) acc += rec_lgrad[r * nl + light].x * g;
-  }
-  gS[j * Wm + i] = acc;
+  int i0 = get_global_id(0) * GATHER_W, j = get_global_id(1);
+  if (i0 >= Wm || j >= Hm) return;
+  const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS];
+  const real8 lane = (real8)(0, 1, 2, 3, 4, 5, 6, 7);
+  real8 acc = 0;
+  int reach = bucket_reach(P);
+  for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
+    for (int bx = max(i0 - reach, 0); bx <= min(i0 + GATHER_W - 1 + reach, Wm - 1); ++bx) {
+      int b = by * Wm + bx;
+      for (int k = 0; k < bucket_counts[b]; ++k) {
+        int r = bucket_recs[bucket_offsets[b] + k];
+        real4 x = rec_light[r * nl + light];
+        real gy = axis_weight(j - x.y, ss);
+        if (gy <= eps) continue;
+        real8 d = (real)i0 + lane - x.x;
+        real8 g = fmax(exp(-d * d / (2 * ss)) * gy - eps, (real8)0);
+        acc += rec_lgrad[r * nl + light].x * g;
+      }
+    }
+  real out[GATHER_W];
+  vstore8(acc, 0, out);
+  for (int l = 0; l < GATHER_W && i0 + l < Wm; ++l) gS[j * Wm + i0 + l] = out[l];
 }
 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
@@ -261,15 +302,19 @@ __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, i
   real4 x = rec_light[r * nl + light];
   real2 grad = rec_light2[r * nl + light].xy;
   Window w = soft_window(x.xy, P, Wm, Hm);
-  real sum = 0, acc = 0, dd, dP;
-  for (int j = w.y0; j <= w.y1; ++j)
+  real sum = 0, acc = 0, dd, dP, ss = P[P_SIGMA_S];
+  Columns c;
+  columns_init(&c, w, x.xy, ss);
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = axis_weight(j - x.y, ss);
     for (int i = w.x0; i <= w.x1; ++i) {
-      real g = gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps;
+      real g = column(&c, i, x.xy, ss) * gy - w.eps;
       if (g <= 0) continue;
       real dij = x.z + dot(grad, (real2)(i, j) - x.xy);
       sum += g;
       acc += g * soft_term(S[j * Wm + i], Pmap[j * Wm + i], dij, P, &dd, &dP);
     }
+  }
   rec_light[r * nl + light].w = sum > 0 ? acc / sum : 1;
 }
 
@@ -284,9 +329,13 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   real2 grad = rec_light2[r * nl + light].xy;
   real gs = rec_lgrad[r * nl + light].x, s = x.w;
   Window w = soft_window(x.xy, P, Wm, Hm);
-  real sum = 0, dd, dP;
-  for (int j = w.y0; j <= w.y1; ++j)
-    for (int i = w.x0; i <= w.x1; ++i) sum += fmax(gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps, R(0));
+  real sum = 0, dd, dP, ss = P[P_SIGMA_S];
+  Columns c;
+  columns_init(&c, w, x.xy, ss);
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = axis_weight(j - x.y, ss);
+    for (int i = w.x0; i <= w.x1; ++i) sum += fmax(column(&c, i, x.xy, ss) * gy - w.eps, R(0));
+  }
   if (sum <= 0) {
     rec_lgrad[r * nl + light] = 0;
     rec_lgrad2[r * nl + light] = 0;
@@ -295,9 +344,10 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s) and through d_ij.
   real2 gmu = 0, ggrad = 0;
   real gd = 0;
-  for (int j = w.y0; j <= w.y1; ++j)
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = axis_weight(j - x.y, ss);
     for (int i = w.x0; i <= w.x1; ++i) {
-      real g = gauss(i, j, x.xy, P[P_SIGMA_S]);
+      real g = column(&c, i, x.xy, ss) * gy;
       if (g - w.eps <= 0) continue;
       real2 off = (real2)(i, j) - x.xy;
       real term = soft_term(S[j * Wm + i], Pmap[j * Wm + i], x.z + dot(grad, off), P, &dd, &dP);
@@ -307,6 +357,7 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
       gmu -= lam * dd * grad;
       ggrad += lam * dd * off;
     }
+  }
   rec_lgrad[r * nl + light] = (real4)(gs / sum, gs * gmu / sum, gs * gd / sum);
   rec_lgrad2[r * nl + light] = (real4)(gs * ggrad / sum, 0, 0);
 }

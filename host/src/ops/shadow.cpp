@@ -103,7 +103,7 @@ MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState&
     auto& ga = k.get("shadow.cl", "shadow_gather");
     set_args(ga, v.P, n, light, nl, Wm, Hm, v.rec_light, v.rec_lgrad, bins.offsets, bins.counts,
              bins.items, g.S);
-    launch(ctx, ga, cl::NDRange(Wm, Hm), cl::NDRange(8, 8));
+    launch(ctx, ga, cl::NDRange((Wm + 7) / 8, Hm), cl::NDRange(8, 8));  // 8 texels per item
     return g;
   }
   const bool clblast = sampling == Sampling::Gemm;
