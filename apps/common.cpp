@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
+#include <vector>
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
@@ -24,8 +25,58 @@ void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh) {
   }
 }
 
+namespace {
+
+// A CLI11 check that the value is one of `words`, with a message that lists them.
+CLI::Validator one_of(const std::vector<std::string>& words) {
+  std::string list;
+  for (size_t i = 0; i < words.size(); ++i)
+    list += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i];
+  std::string names;
+  for (size_t i = 0; i < words.size(); ++i) names += (i ? "|" : "") + words[i];
+  return CLI::Validator(
+      [words, list](std::string& value) {
+        for (const std::string& w : words)
+          if (value == w) return std::string();
+        return "must be " + list + " (got '" + value + "')";
+      },
+      names);
+}
+
+}  // namespace
+
 void add_render_options(CLI::App& cmd, RenderOptions& o) {
   const std::string group = "Render parameters (override the values of the scene)";
+  const std::string shadow_group = "Shadows (override the values of the scene)";
+  o.o_shadows = cmd.add_option("--shadows", o.shadows,
+                               "shadow mode: none, hard (shadow map: filter, then compare) or "
+                               "soft (penumbra map: compare, then filter)")
+                    ->check(one_of({"none", "hard", "soft"}))
+                    ->group(shadow_group);
+  o.o_sampling = cmd.add_option("--sampling", o.sampling,
+                                "shadow-filter sampling: truncated (Gaussian cut at ε_λ), exact "
+                                "(every texel) or gemm (exact, as two matrix products)")
+                     ->check(one_of({"truncated", "exact", "gemm"}))
+                     ->group(shadow_group);
+  o.o_map_size = cmd.add_option("--map-size", o.map_size,
+                                "shadow-map size W_s = H_s in texels (1 to 8192)")
+                     ->group(shadow_group);
+  o.o_light_size =
+      cmd.add_option("--light-size", o.light_size,
+                     "diameter D_L of every light (world units, >= 0; soft shadows)")
+          ->group(shadow_group);
+  o.o_light_sigma = cmd.add_option("--light-sigma", o.light_sigma,
+                                   "coverage sharpness σ_L of the light pass, in [0, 1) "
+                                   "(0: the same as σ)")
+                        ->group(shadow_group);
+  o.o_light_gamma = cmd.add_option("--light-gamma", o.light_gamma,
+                                   "aggregation sharpness γ_L of the light pass, in [0, 1) "
+                                   "(0: the same as γ)")
+                        ->group(shadow_group);
+  o.o_weight_eps = cmd.add_option("--weight-eps", o.weight_eps,
+                                  "fragments weighing less than ε_w times the largest are left "
+                                  "out of colour and depth (no shadow lookup), in (0, 1)")
+                       ->group(shadow_group);
   o.o_sigma =
       cmd.add_option("--sigma", o.sigma, "coverage sharpness σ (screen units², > 0)")->group(group);
   o.o_gamma = cmd.add_option("--gamma", o.gamma, "aggregation sharpness γ (> 0)")->group(group);
@@ -108,6 +159,33 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     require(positive(o.gamma_p), "--gamma-p", "positive", o.gamma_p);
     p.gamma_p = o.gamma_p;
   }
+  if (given(o.o_shadows)) p.shadows = parse_shadows(o.shadows);
+  if (given(o.o_sampling)) p.sampling = parse_sampling(o.sampling);
+  if (given(o.o_map_size)) {
+    require(o.map_size >= 1 && o.map_size <= 8192, "--map-size",
+            "a positive number of texels (at most 8192)", o.map_size);
+    p.shadow_map_size = o.map_size;
+  }
+  if (given(o.o_light_size)) {
+    require(std::isfinite(o.light_size) && o.light_size >= 0, "--light-size",
+            "a non-negative diameter", o.light_size);
+    for (Light& light : scene.lights) light.size = o.light_size;
+  }
+  if (given(o.o_light_sigma)) {
+    require(std::isfinite(o.light_sigma) && o.light_sigma >= 0 && o.light_sigma < 1,
+            "--light-sigma", "in [0, 1) (0: the same as --sigma)", o.light_sigma);
+    p.light_sigma = o.light_sigma;
+  }
+  if (given(o.o_light_gamma)) {
+    require(std::isfinite(o.light_gamma) && o.light_gamma >= 0 && o.light_gamma < 1,
+            "--light-gamma", "in [0, 1) (0: the same as --gamma)", o.light_gamma);
+    p.light_gamma = o.light_gamma;
+  }
+  if (given(o.o_weight_eps)) {
+    require(positive(o.weight_eps) && o.weight_eps < 1, "--weight-eps", "in (0, 1)",
+            o.weight_eps);
+    p.weight_eps = o.weight_eps;
+  }
   constexpr int kMaxSize = 16384;
   if (given(o.o_width)) {
     require(o.width > 0 && o.width <= kMaxSize, "--width",
@@ -120,6 +198,44 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     for (Camera& cam : scene.cameras) cam.height = o.height;
   }
   validate(scene);
+}
+
+Shadows parse_shadows(const std::string& word) {
+  if (word == "none") return Shadows::None;
+  if (word == "hard") return Shadows::Hard;
+  if (word == "soft") return Shadows::Soft;
+  throw Error("--shadows must be none, hard or soft (got '" + word + "')");
+}
+
+Sampling parse_sampling(const std::string& word) {
+  if (word == "truncated") return Sampling::Truncated;
+  if (word == "exact") return Sampling::Exact;
+  if (word == "gemm") return Sampling::Gemm;
+  throw Error("--sampling must be truncated, exact or gemm (got '" + word + "')");
+}
+
+const char* shadows_word(Shadows shadows) {
+  switch (shadows) {
+    case Shadows::Hard:
+      return "hard";
+    case Shadows::Soft:
+      return "soft";
+    case Shadows::None:
+      break;
+  }
+  return "none";
+}
+
+const char* sampling_word(Sampling sampling) {
+  switch (sampling) {
+    case Sampling::Exact:
+      return "exact";
+    case Sampling::Gemm:
+      return "gemm";
+    case Sampling::Truncated:
+      break;
+  }
+  return "truncated";
 }
 
 void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value) {

@@ -1,6 +1,7 @@
 #pragma once
 // Shared pieces of the `penumbra` command-line tool: the scene argument, the render-parameter
-// options of SPEC §7 (each defined once, here), device and precision options, file helpers.
+// and shadow options of SPEC §7 (each defined once, here), device and precision options, file
+// helpers.
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
@@ -21,6 +22,7 @@ Command add_devices_command(CLI::App& root);
 Command add_render_command(CLI::App& root);
 Command add_backward_command(CLI::App& root);
 Command add_gradcheck_command(CLI::App& root);
+Command add_turnaround_command(CLI::App& root);
 
 // Where the scene comes from: a positional SCENE.json, or --mesh FILE.obj; neither means the
 // bundled data/scenes/turnaround.json.
@@ -30,22 +32,34 @@ struct SceneSource {
 };
 void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh = true);
 
-// SPEC §7 parameters, image size and device. Only options given on the command line override
-// the scene's values.
+// SPEC §7 parameters, shadow options, image size and device. Only options given on the command
+// line override the scene's values.
 struct RenderOptions {
   double sigma = 0, gamma = 0, eps = 0, dist_eps = 0, sigma_s = 0, lambda_eps = 0, gamma_s = 0,
          beta = 0, gamma_p = 0;
+  std::string shadows, sampling;  // none|hard|soft, truncated|exact|gemm
+  int map_size = 0;               // shadow_map_size
+  double light_size = 0, light_sigma = 0, light_gamma = 0, weight_eps = 0;
   int width = 0, height = 0;
   std::string device;
   // The parsed options, to tell "given" from "left at the default".
   CLI::Option *o_sigma = nullptr, *o_gamma = nullptr, *o_eps = nullptr, *o_dist_eps = nullptr,
               *o_sigma_s = nullptr, *o_lambda_eps = nullptr, *o_gamma_s = nullptr,
-              *o_beta = nullptr, *o_gamma_p = nullptr, *o_width = nullptr, *o_height = nullptr;
+              *o_beta = nullptr, *o_gamma_p = nullptr, *o_width = nullptr, *o_height = nullptr,
+              *o_shadows = nullptr, *o_sampling = nullptr, *o_map_size = nullptr,
+              *o_light_size = nullptr, *o_light_sigma = nullptr, *o_light_gamma = nullptr,
+              *o_weight_eps = nullptr;
 };
 void add_render_options(CLI::App& cmd, RenderOptions& options);
 // Applies the given overrides to every camera / the scene parameters; throws penumbra::Error for
 // values that make no sense (zero image size, non-positive σ, ...), then validates the scene.
 void apply_render_options(const RenderOptions& options, Scene& scene);
+
+// The option words of the shadow mode and the sampling of the shadow filter.
+Shadows parse_shadows(const std::string& word);
+Sampling parse_sampling(const std::string& word);
+const char* shadows_word(Shadows shadows);
+const char* sampling_word(Sampling sampling);
 
 // --precision float|double.
 void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value);

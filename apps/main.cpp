@@ -20,8 +20,8 @@ int fail(const std::string& message, int code = 1) {
 int main(int argc, char** argv) {
   using namespace penumbra::cli;
   CLI::App app{
-      "penumbra: differentiable soft rasterization on OpenCL (render, gradients, "
-      "gradient checks)",
+      "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
+      "gradient checks, turnaround animations)",
       "penumbra"};
   // Set before the subcommands are added: they inherit it.
   app.failure_message([](const CLI::App*, const CLI::Error& e) {
@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
     commands.push_back(add_render_command(app));
     commands.push_back(add_backward_command(app));
     commands.push_back(add_gradcheck_command(app));
+    commands.push_back(add_turnaround_command(app));
   } catch (const std::exception& e) {
     return fail(e.what());
   }
@@ -46,7 +47,8 @@ int main(int argc, char** argv) {
     for (const Command& command : commands) known = known || command.app->check_name(argv[1]);
     if (!known) {
       return fail(std::string("unknown command '") + argv[1] +
-                      "' (commands: devices, render, backward, gradcheck; see penumbra --help)",
+                      "' (commands: devices, render, backward, gradcheck, turnaround; see penumbra "
+                      "--help)",
                   2);
     }
   }

@@ -1,12 +1,16 @@
 // `penumbra render`: renders every camera of a scene to PNG (and optionally .npy arrays).
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <string>
 
 #include "common.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
+
+namespace fs = std::filesystem;
 
 namespace penumbra::cli {
 
@@ -39,15 +43,25 @@ int run_render(const RenderArgs& a) {
       save_npy(views[v].silhouette, view_file(a.raw_dir, "silhouette", v));
       save_npy(views[v].depth, view_file(a.raw_dir, "depth", v));
     }
+    // Shadow map S of every light (light-view depth), when shadows are on.
+    const std::vector<Image> maps = renderer.shadow_maps();
+    for (size_t l = 0; l < maps.size(); ++l)
+      save_npy(maps[l],
+               (fs::path(a.raw_dir) / ("shadow_map_" + std::to_string(l) + ".npy")).string());
   }
 
   size_t faces = 0;
   for (const Mesh& m : scene.meshes) faces += m.faces.size();
   const Camera& cam = scene.cameras.front();
-  std::printf("rendered %zu view%s, %dx%d, %zu faces, %.1f ms (%s) -> %s%s\n", views.size(),
-              views.size() == 1 ? "" : "s", cam.width, cam.height, faces, ms,
-              precision == Precision::Double ? "double" : "float", a.output.c_str(),
-              views.size() > 1 ? " (+ _k for view k)" : "");
+  std::string shadows = shadows_word(scene.params.shadows);
+  if (scene.params.shadows != Shadows::None)
+    shadows += " (" + std::string(sampling_word(scene.params.sampling)) + ", " +
+               std::to_string(scene.params.shadow_map_size) + "x" +
+               std::to_string(scene.params.shadow_map_size) + " map)";
+  std::printf("rendered %zu view%s, %dx%d, %zu faces, shadows %s, %.1f ms (%s) -> %s%s\n",
+              views.size(), views.size() == 1 ? "" : "s", cam.width, cam.height, faces,
+              shadows.c_str(), ms, precision == Precision::Double ? "double" : "float",
+              a.output.c_str(), views.size() > 1 ? " (+ _k for view k)" : "");
   return 0;
 }
 
@@ -62,7 +76,8 @@ Command add_render_command(CLI::App& root) {
       ->required();
   c.app->add_option("--raw", args->raw_dir,
                     "also write DIR/color.npy (H,W,3), silhouette.npy (H,W), depth.npy (H,W) "
-                    "as float32 (suffix _k for camera k >= 1)");
+                    "as float32 (suffix _k for camera k >= 1), and with shadows on "
+                    "shadow_map_<l>.npy (H_s,W_s), the light-view depth map S of light l");
   add_precision_option(*c.app, args->precision, "float");
   add_render_options(*c.app, args->render);
   c.run = [args] { return run_render(*args); };

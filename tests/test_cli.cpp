@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -180,6 +182,33 @@ TEST(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(r.exit_code, 2);
 }
 
+TEST(Cli, BadShadowOptions) {
+  struct Case {
+    std::string args, mentions;
+  };
+  const std::string png = quote(temp_path("shadow_opts.png"));
+  const std::vector<Case> cases = {
+      {"render -o " + png + " --shadows sometimes", "--shadows"},
+      {"render -o " + png + " --shadows", "--shadows"},
+      {"render -o " + png + " --sampling bogus", "--sampling"},
+      {"render -o " + png + " --map-size 0", "--map-size"},
+      {"render -o " + png + " --map-size 9000", "--map-size"},
+      {"render -o " + png + " --map-size abc", "--map-size"},
+      {"render -o " + png + " --light-size -1", "--light-size"},
+      {"render -o " + png + " --light-sigma 1", "--light-sigma"},
+      {"render -o " + png + " --light-gamma -0.5", "--light-gamma"},
+      {"render -o " + png + " --weight-eps 0", "--weight-eps"},
+      {"gradcheck --samples 2 --shadows maybe", "--shadows"},
+      {"backward --grad-in . -o " + quote(temp_path("shadow_opts_grads")) + " --sampling x",
+       "--sampling"},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const RunResult r = run_cli(cases[i].args, "shadow_opts_" + std::to_string(i));
+    expect_clean_error(r, cases[i].mentions);
+    EXPECT_TRUE(r.exit_code == 1 || r.exit_code == 2) << show(r);
+  }
+}
+
 TEST(Cli, BackwardRejectsWrongGradientShape) {
   const std::string dir = temp_path("bad_grads");
   fs::create_directories(dir);
@@ -198,14 +227,22 @@ TEST(Cli, BackwardRejectsWrongGradientShape) {
 TEST(Cli, Help) {
   const RunResult r = run_cli("--help", "help");
   EXPECT_EQ(r.exit_code, 0) << show(r);
-  for (const char* word : {"devices", "render", "backward", "gradcheck"})
+  for (const char* word : {"devices", "render", "backward", "gradcheck", "turnaround"})
     EXPECT_NE(r.out.find(word), std::string::npos) << word;
   const RunResult sub = run_cli("render --help", "help_render");
   EXPECT_EQ(sub.exit_code, 0) << show(sub);
   for (const char* option :
        {"--sigma", "--gamma", "--eps", "--dist-eps", "--sigma-s", "--lambda-eps", "--gamma-s",
-        "--beta", "--gamma-p", "--width", "--height", "--device", "--raw", "--precision", "--mesh"})
+        "--beta", "--gamma-p", "--width", "--height", "--device", "--raw", "--precision", "--mesh",
+        "--shadows", "--sampling", "--map-size", "--light-size", "--light-sigma", "--light-gamma",
+        "--weight-eps"})
     EXPECT_NE(sub.out.find(option), std::string::npos) << option;
+  for (const char* command : {"gradcheck", "backward", "turnaround"}) {
+    const RunResult help = run_cli(std::string(command) + " --help", "help_shadows");
+    EXPECT_EQ(help.exit_code, 0) << show(help);
+    for (const char* option : {"--shadows", "--sampling", "--map-size", "--light-size"})
+      EXPECT_NE(help.out.find(option), std::string::npos) << command << " " << option;
+  }
 }
 
 TEST(Cli, Devices) {
@@ -280,6 +317,89 @@ TEST(Cli, BackwardWritesGradients) {
   EXPECT_GT(ambient.data[0], 0.0);
   // float64 on disk: header says <f8.
   EXPECT_NE(read_text(out + "/ambient.npy").find("<f8"), std::string::npos);
+}
+
+TEST(Cli, RenderHardShadowsWritesShadowMap) {
+  const std::string raw = temp_path("render_shadow_raw");
+  fs::remove_all(raw);
+  const RunResult r = run_cli("render " + quote(kBundled) + " -o " +
+                                  quote(temp_path("render_shadow.png")) +
+                                  " --width 32 --height 24 --shadows hard --map-size 20 --raw " +
+                                  quote(raw),
+                              "render_shadow");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  const std::string path = raw + "/shadow_map_0.npy";
+  ASSERT_TRUE(fs::exists(path)) << show(r);
+  EXPECT_NE(read_text(path).find("'shape': (20, 20)"), std::string::npos) << read_text(path);
+  EXPECT_NE(read_text(path).find("<f4"), std::string::npos);
+  const penumbra::Image map = penumbra::load_npy(path);
+  EXPECT_EQ(map.width, 20);
+  EXPECT_EQ(map.height, 20);
+  EXPECT_EQ(map.channels, 1);
+  // Light-view depth: positive, and the sphere (nearer the light) is nearer than the far plane.
+  double lo = 1e300, hi = -1e300;
+  for (double v : map.data) {
+    ASSERT_TRUE(std::isfinite(v));
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  EXPECT_GT(lo, 0.0);
+  EXPECT_LT(lo, hi);
+  EXPECT_FALSE(fs::exists(raw + "/shadow_map_1.npy"));
+
+  // With shadows off there is no shadow map.
+  const std::string off = temp_path("render_noshadow_raw");
+  fs::remove_all(off);
+  const RunResult r2 = run_cli("render " + quote(kBundled) + " -o " +
+                                   quote(temp_path("render_noshadow.png")) +
+                                   " --width 32 --height 24 --shadows none --raw " + quote(off),
+                               "render_noshadow");
+  ASSERT_EQ(r2.exit_code, 0) << show(r2);
+  EXPECT_TRUE(fs::exists(off + "/color.npy"));
+  EXPECT_FALSE(fs::exists(off + "/shadow_map_0.npy"));
+}
+
+TEST(Cli, ShadowOptionsChangeTheImage) {
+  // --shadows hard darkens the ground next to the sphere; --light-size and the sampling words
+  // are accepted (and --shadows none matches a scene without shadows).
+  const std::string dir = temp_path("shadow_images");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string common = "render " + quote(kBundled) + " --width 40 --height 40 --map-size 32";
+  std::vector<penumbra::Image> images;
+  int i = 0;
+  for (const std::string& extra :
+       {std::string("--shadows none"), std::string("--shadows hard --sampling truncated"),
+        std::string("--shadows hard --sampling exact --light-size 0.3"),
+        std::string("--shadows hard --sampling gemm --light-sigma 2e-5 --light-gamma 2e-4 "
+                    "--weight-eps 1e-8")}) {
+    const std::string png = dir + "/" + std::to_string(i) + ".png";
+    const RunResult r = run_cli(common + " " + extra + " -o " + quote(png),
+                                "shadow_images_" + std::to_string(i++));
+    ASSERT_EQ(r.exit_code, 0) << show(r);
+    images.push_back(penumbra::load_image(png, 3));
+  }
+  double none = 0, hard = 0;
+  for (size_t k = 0; k < images[0].data.size(); ++k) {
+    none += images[0].data[k];
+    hard += images[1].data[k];
+  }
+  EXPECT_LT(hard, none - 1.0) << "hard shadows should darken the image";
+}
+
+TEST(Cli, GradcheckHardShadows) {
+  const RunResult r = run_cli("gradcheck " + quote(kBundled) +
+                                  " --shadows hard --sampling truncated --samples 12 --width 40 "
+                                  "--height 40 --map-size 32 --verbose",
+                              "gradcheck_shadows");
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  const auto out = lines(r.out);
+  ASSERT_FALSE(out.empty()) << show(r);
+  const std::regex format(R"(^gradcheck: checked=12 failed=\d+ max_rel_err=\S+$)");
+  EXPECT_TRUE(std::regex_match(out.back(), format)) << "last line: " << out.back();
+  // The light's position and a vertex of both meshes are among the checked entries.
+  for (const char* entry : {"light0.position.", "mesh0.v", "mesh1.v"})
+    EXPECT_NE(r.out.find(entry), std::string::npos) << entry << "\n" << show(r);
 }
 
 TEST(Cli, GradcheckBundledScene) {

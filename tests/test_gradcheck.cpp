@@ -9,6 +9,9 @@
 //   GradCheck.ColoursAtZero     colours at 0 (which may not go negative) are still checked
 //   GradCheck.Deterministic     two backward calls give bit-identical gradients
 //   GradCheck.WrongGradientIsCaught  a gradient off by 10% (or zero) fails the check
+//   GradCheck.HardShadows*      hard shadows (truncated, exact, GEMM sampling): the sampled
+//                               entries cover a vertex of every mesh and every light's position
+//                               or direction, on scenes whose frusta are fitted by the check
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -62,6 +65,7 @@ Context* gradcheck_context(std::string* error) {
 Scene small_turnaround(int size = 64) {
   Scene scene = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
   for (auto& cam : scene.cameras) cam.width = cam.height = size;
+  scene.params.shadow_map_size = 64;  // the bundled scene has hard shadows; a small map is quick
   return scene;
 }
 
@@ -324,6 +328,90 @@ TEST(GradCheck, WrongGradientIsCaught) {
   const GradCheckResult missing =
       penumbra::compare_with_finite_differences(renderer, scene, weights, no_vertices, options);
   EXPECT_FALSE(missing.passed()) << describe(missing);
+}
+
+// --- hard shadows -----------------------------------------------------------------------
+
+bool has_entry(const GradCheckResult& r, const std::string& prefix) {
+  for (const auto& e : r.entries)
+    if (e.name.rfind(prefix, 0) == 0) return true;
+  return false;
+}
+
+// Every mesh has a vertex entry and every light its position / direction entry.
+void expect_shadow_coverage(const Scene& scene, const GradCheckResult& r, const std::string& what) {
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    bool vertex = false;
+    for (const auto& e : r.entries)
+      vertex = vertex || e.name.rfind("mesh" + std::to_string(m) + ".v", 0) == 0;
+    EXPECT_TRUE(vertex) << what << ": no vertex of mesh " << m << "\n" << describe(r);
+  }
+  for (size_t l = 0; l < scene.lights.size(); ++l) {
+    const bool point = scene.lights[l].type == penumbra::LightType::Point;
+    const std::string prefix = "light" + std::to_string(l) + (point ? ".position." : ".direction.");
+    EXPECT_TRUE(has_entry(r, prefix)) << what << ": no " << prefix << " entry\n" << describe(r);
+  }
+}
+
+TEST(GradCheck, HardShadowsBundledScene) {
+  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  Scene scene = small_turnaround(40);
+  scene.params.shadows = penumbra::Shadows::Hard;
+  scene.params.shadow_map_size = 32;
+  for (auto sampling : {penumbra::Sampling::Truncated, penumbra::Sampling::Exact,
+                        penumbra::Sampling::Gemm}) {
+    scene.params.sampling = sampling;
+    GradCheckOptions options;
+    options.samples = 12;
+    options.seed = 2;
+    const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
+    const std::string what = "turnaround 40x40 hard, sampling " + std::to_string(int(sampling));
+    report(what, r);
+    EXPECT_EQ(r.checked, 12);
+    EXPECT_TRUE(r.passed()) << what << "\n" << describe(r);
+    expect_shadow_coverage(scene, r, what);
+  }
+}
+
+TEST(GradCheck, HardShadowsRandomScenesWithUnfittedFrusta) {
+  // Random scenes with point and directional lights; the frusta are left unfitted, so the
+  // check must fit them once itself (a frustum refitted to every perturbed copy would follow
+  // the vertices and the differences would not match the gradient of the fixed-frustum render).
+  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  int directional = 0;
+  for (uint64_t seed : {2, 3, 6, 8}) {
+    Scene scene = penumbra::random_scene(seed);
+    for (auto& light : scene.lights) {
+      light.frustum = penumbra::LightFrustum();
+      directional += light.type == penumbra::LightType::Directional ? 1 : 0;
+    }
+    scene.params.shadows = penumbra::Shadows::Hard;
+    scene.params.shadow_map_size = 48;
+    GradCheckOptions options;
+    options.samples = 20;
+    options.seed = seed;
+    const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
+    const std::string what = "random scene " + std::to_string(seed) + " hard";
+    report(what, r);
+    EXPECT_EQ(r.checked, 20);
+    EXPECT_TRUE(r.passed()) << what << "\n" << describe(r);
+    expect_shadow_coverage(scene, r, what);
+  }
+  EXPECT_GT(directional, 0) << "the scenes should include a directional light";
+}
+
+TEST(GradCheck, HardShadowsFewSamples) {
+  // Fewer samples than meshes + lights: exactly `samples` entries, the required ones first.
+  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  Scene scene = small_turnaround(32);
+  scene.params.shadows = penumbra::Shadows::Hard;
+  scene.params.shadow_map_size = 32;
+  GradCheckOptions options;
+  options.samples = 2;
+  const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
+  ASSERT_EQ(r.checked, 2);
+  EXPECT_EQ(r.entries[0].name.rfind("mesh0.v", 0), 0u) << describe(r);
+  EXPECT_EQ(r.entries[1].name.rfind("mesh1.v", 0), 0u) << describe(r);
 }
 
 }  // namespace

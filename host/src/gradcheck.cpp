@@ -21,13 +21,27 @@ constexpr const char* kChannel[3] = {"r", "g", "b"};
 
 // One scalar parameter of the scene.
 struct Param {
-  enum Kind { Vertex, Albedo, LightPosition, LightColor, Ambient } kind = Ambient;
+  enum Kind { Vertex, Albedo, LightPosition, LightDirection, LightColor, Ambient } kind = Ambient;
   int mesh = 0;   // Vertex, Albedo
   int index = 0;  // vertex / albedo entry / light
   int axis = 0;   // coordinate or colour channel
   std::string name;
-  bool positional() const { return kind == Vertex || kind == LightPosition; }
+  // Geometric entries (positions, directions) may go negative; colours may not.
+  bool positional() const {
+    return kind == Vertex || kind == LightPosition || kind == LightDirection;
+  }
 };
+
+// The light entry of light `l`: its position (point light) or direction (directional light).
+Param light_param(const Scene& scene, int l, int axis) {
+  Param p;
+  p.index = l;
+  p.axis = axis;
+  const bool point = scene.lights[l].type == LightType::Point;
+  p.kind = point ? Param::LightPosition : Param::LightDirection;
+  p.name = "light" + std::to_string(l) + (point ? ".position." : ".direction.") + kAxis[axis];
+  return p;
+}
 
 double& parameter(Scene& scene, const Param& p) {
   switch (p.kind) {
@@ -37,6 +51,8 @@ double& parameter(Scene& scene, const Param& p) {
       return scene.meshes[p.mesh].albedo[p.index][p.axis];
     case Param::LightPosition:
       return scene.lights[p.index].position[p.axis];
+    case Param::LightDirection:
+      return scene.lights[p.index].direction[p.axis];
     case Param::LightColor:
       return scene.lights[p.index].color[p.axis];
     case Param::Ambient:
@@ -64,6 +80,7 @@ double gradient(const SceneGrads& g, const Param& p) {
     case Param::Albedo:
       return checked_at(checked_at(g.albedo, p.mesh, "mesh (albedo)"), p.index, "albedo")[p.axis];
     case Param::LightPosition:
+    case Param::LightDirection:  // SceneGrads::light_position holds the direction's gradient
       return checked_at(g.light_position, p.index, "light position")[p.axis];
     case Param::LightColor:
       return checked_at(g.light_color, p.index, "light colour")[p.axis];
@@ -138,30 +155,60 @@ std::vector<FaceRef> candidate_faces(const Scene& scene) {
   return chosen.empty() ? all : chosen;
 }
 
+std::string vertex_name(int mesh, int vertex, int axis) {
+  return "mesh" + std::to_string(mesh) + ".v" + std::to_string(vertex) + "." + kAxis[axis];
+}
+
 // Chooses `samples` distinct parameters spread over vertices of every mesh (at corners of
-// visible faces), albedo entries, point-light positions, light colours and the ambient term.
+// visible faces), albedo entries, light positions (point lights) and directions (directional
+// lights), light colours and the ambient term. With shadows on, the first entries are one
+// vertex of every mesh (a visible corner where the mesh has one) and the position or direction
+// of every light, so that every caster, receiver and light is checked through the shadow path.
 std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt19937_64& rng) {
   const std::vector<FaceRef> faces = candidate_faces(scene);
   std::map<int, std::vector<FaceRef>> faces_of_mesh;
   for (const FaceRef& f : faces) faces_of_mesh[f.mesh].push_back(f);
-  std::vector<int> point_lights;
-  for (size_t l = 0; l < scene.lights.size(); ++l)
-    if (scene.lights[l].type == LightType::Point) point_lights.push_back(int(l));
+  const int lights = int(scene.lights.size());
 
   auto uniform = [&rng](size_t n) { return std::uniform_int_distribution<size_t>(0, n - 1)(rng); };
   std::vector<int> meshes_with_faces;
   for (const auto& kv : faces_of_mesh) meshes_with_faces.push_back(kv.first);
 
-  // The mix of kinds, repeated: half vertices, then albedo, light position, light colour, ambient.
+  std::vector<Param> chosen;
+  std::set<std::string> names;
+  if (scene.params.shadows != Shadows::None) {
+    std::vector<Param> required;
+    for (size_t m = 0; m < scene.meshes.size(); ++m) {
+      const Mesh& mesh = scene.meshes[m];
+      if (mesh.faces.empty()) continue;
+      const auto it = faces_of_mesh.find(int(m));
+      const int face = it != faces_of_mesh.end() ? it->second[uniform(it->second.size())].face
+                                                  : int(uniform(mesh.faces.size()));
+      Param p;
+      p.kind = Param::Vertex;
+      p.mesh = int(m);
+      p.index = mesh.faces[face][int(uniform(3))];
+      p.axis = int(uniform(3));
+      p.name = vertex_name(p.mesh, p.index, p.axis);
+      required.push_back(p);
+    }
+    for (int l = 0; l < lights; ++l) required.push_back(light_param(scene, l, int(uniform(3))));
+    for (const Param& p : required) {
+      if (int(chosen.size()) >= samples) break;
+      if (names.insert(p.name).second) chosen.push_back(p);
+    }
+  }
+  const int remaining = samples - int(chosen.size());
+
+  // The mix of kinds, repeated: half vertices, then albedo, light position (or direction), light
+  // colour, ambient.
   const Param::Kind pattern[] = {
       Param::Vertex,     Param::Albedo, Param::Vertex,  Param::LightPosition, Param::Vertex,
       Param::LightColor, Param::Vertex, Param::Ambient, Param::Vertex,        Param::Albedo};
-  std::vector<Param> chosen;
-  std::set<std::string> names;
   int vertex_samples = 0;
-  for (int i = 0; i < samples; ++i) {
+  for (int i = 0; i < remaining; ++i) {
     Param::Kind kind = pattern[i % 10];
-    if (kind == Param::LightPosition && point_lights.empty()) kind = Param::Vertex;
+    if (kind == Param::LightPosition && lights == 0) kind = Param::Vertex;
     if (kind == Param::LightColor && scene.lights.empty()) kind = Param::Vertex;
     if (kind == Param::Vertex && faces.empty()) kind = Param::Ambient;
     if (kind == Param::Albedo && faces.empty()) kind = Param::Ambient;
@@ -190,7 +237,7 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
           p.axis = int(uniform(3));
           if (kind == Param::Vertex) {
             p.index = vertex;
-            name << "mesh" << p.mesh << ".v" << p.index << "." << kAxis[p.axis];
+            name << vertex_name(p.mesh, p.index, p.axis);
           } else {
             p.index = mesh.albedo_mode == AlbedoMode::PerFace ? f.face : vertex;
             name << "mesh" << p.mesh << ".albedo" << p.index << "." << kChannel[p.axis];
@@ -198,10 +245,12 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
           break;
         }
         case Param::LightPosition:
-          p.index = point_lights[uniform(point_lights.size())];
-          p.axis = int(uniform(3));
-          name << "light" << p.index << ".position." << kAxis[p.axis];
+        case Param::LightDirection: {
+          const int l = int(uniform(size_t(lights)));
+          p = light_param(scene, l, int(uniform(3)));
+          name << p.name;
           break;
+        }
         case Param::LightColor:
           p.index = int(uniform(scene.lights.size()));
           p.axis = int(uniform(3));
@@ -302,10 +351,14 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
                                                 const SceneGrads& analytic,
                                                 const GradCheckOptions& options) {
   if (options.samples < 0) throw Error("gradcheck: samples must be non-negative");
-  validate(scene);
+  // The light frusta are fitted once, to the unperturbed scene, and shared by every perturbed
+  // copy (SPEC §3): refitting them to each copy would difference another function.
+  Scene work = scene;
+  fit_light_frusta(work);
+  validate(work);
   const double step = options.step > 0 ? options.step : default_step(renderer.precision());
   const double rtol = options.rtol > 0 ? options.rtol : default_rtol(options.precision);
-  const double radius = bounds(scene).radius();
+  const double radius = bounds(work).radius();
   const double scale = radius > 0 && std::isfinite(radius) ? radius : 1.0;
 
   GradCheckResult result;
@@ -315,10 +368,17 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
 
   // A separate stream from the loss weights, so that the entries do not depend on image size.
   std::mt19937_64 rng(options.seed ^ 0x9e3779b97f4a7c15ULL);
-  const std::vector<Param> params = choose_parameters(scene, options.samples, rng);
-  Scene perturbed = scene;
+  const std::vector<Param> params = choose_parameters(work, options.samples, rng);
+  Scene perturbed = work;
   for (const Param& p : params) {
-    const double h = p.positional() ? step * scale : step;
+    // Positions step by step·(scene radius), directions by step·|direction|, colours by step.
+    double h = step;
+    if (p.kind == Param::LightDirection) {
+      const double len = glm::length(work.lights[p.index].direction);
+      h = step * (len > 0 && std::isfinite(len) ? len : 1.0);
+    } else if (p.positional()) {
+      h = step * scale;
+    }
     double& x = parameter(perturbed, p);
     const double x0 = x;
     double xp = x0 + h, xm = x0 - h;
@@ -351,10 +411,12 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
 GradCheckResult gradcheck(Renderer& renderer, const Scene& scene, const GradCheckOptions& options) {
   GradCheckOptions o = options;
   o.precision = renderer.precision();
-  const std::vector<OutputGrads> weights = random_loss_weights(scene, o.seed);
-  renderer.render(scene);
-  const SceneGrads analytic = renderer.backward(scene, weights);
-  return compare_with_finite_differences(renderer, scene, weights, analytic, o);
+  Scene work = scene;
+  fit_light_frusta(work);  // before anything: the perturbed copies share these frusta
+  const std::vector<OutputGrads> weights = random_loss_weights(work, o.seed);
+  renderer.render(work);
+  const SceneGrads analytic = renderer.backward(work, weights);
+  return compare_with_finite_differences(renderer, work, weights, analytic, o);
 }
 
 GradCheckResult gradcheck(Context& context, const Scene& scene, const GradCheckOptions& options) {
@@ -363,11 +425,13 @@ GradCheckResult gradcheck(Context& context, const Scene& scene, const GradCheckO
       !context.info().fp64) {
     return gradcheck(renderer, scene, options);
   }
-  const std::vector<OutputGrads> weights = random_loss_weights(scene, options.seed);
-  renderer.render(scene);
-  const SceneGrads analytic = renderer.backward(scene, weights);
+  Scene work = scene;
+  fit_light_frusta(work);  // before anything: the perturbed copies share these frusta
+  const std::vector<OutputGrads> weights = random_loss_weights(work, options.seed);
+  renderer.render(work);
+  const SceneGrads analytic = renderer.backward(work, weights);
   Renderer reference(context, Precision::Double, options.tuning);
-  return compare_with_finite_differences(reference, scene, weights, analytic, options);
+  return compare_with_finite_differences(reference, work, weights, analytic, options);
 }
 
 // --- random scenes ---------------------------------------------------------------------------
@@ -495,6 +559,7 @@ Scene random_scene(uint64_t seed) {
 
   scene.params.sigma = 3e-4 * U(0.7, 1.3);
   scene.params.gamma = 3e-3 * U(0.7, 1.3);
+  fit_light_frusta(scene);
   return scene;
 }
 

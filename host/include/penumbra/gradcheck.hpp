@@ -4,9 +4,15 @@
 // The loss is a random linear functional of every output of every view,
 //   L = Σ_views Σ_pixels r_c·colour + r_a·silhouette + (r_z / far)·depth,   r ~ N(0, 1),
 // so dL/d(outputs) = r and the analytic gradient is backward(scene, r). A sample of scene
-// parameters (vertex coordinates of every mesh, albedo entries, point-light positions, light
-// colours, ambient) is then perturbed by ±h, and (L+ − L−)/(2h) is compared with the analytic
-// value.
+// parameters (vertex coordinates of every mesh, albedo entries, point-light positions,
+// directional-light directions, light colours, ambient) is then perturbed by ±h, and
+// (L+ − L−)/(2h) is compared with the analytic value.
+//
+// The check works on a copy of the scene whose light frusta are fitted first
+// (fit_light_frusta), so that every perturbed copy renders its shadow maps through the same
+// fixed frusta (SPEC §3). With shadows on, the sampled entries always include one vertex of
+// every mesh and the position (point light) or direction (directional light) of every light
+// (as many of these as `samples` allows).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -32,7 +38,8 @@ struct GradCheckOptions {
   bool double_differences = true;
   // Finite-difference step. 0 selects the default by the arithmetic of the differences: 1e-6 in
   // double, 1e-3 in float. Positions (vertices, point lights) are stepped by step·scale,
-  // scale = radius of the scene's bounds; colours (albedo, light colour, ambient) by step,
+  // scale = radius of the scene's bounds; directions of directional lights by
+  // step·|direction|; colours (albedo, light colour, ambient) by step,
   // one-sided over [x, x + 2·step] where x − step would be negative (the outputs are linear in
   // colours, so this is as exact as the central difference).
   double step = 0.0;
@@ -54,7 +61,7 @@ struct GradCheckOptions {
 // One compared entry.
 struct GradCheckEntry {
   std::string name;     // "mesh0.v17.y", "mesh1.albedo3.g", "light0.position.x",
-                        // "light1.color.b", "ambient.r"
+                        // "light0.direction.x", "light1.color.b", "ambient.r"
   double analytic = 0;  // from Renderer::backward
   double numeric = 0;   // central finite difference
   double rel_err = 0;   // |a − n| / max(|a|, |n|, atol)
@@ -108,7 +115,7 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
 // A small random scene for gradient checks, built in code: a 48×40-ish image, σ ≈ 3e-4,
 // γ ≈ 3e-3, a jittered icosphere occluder with random per-vertex albedo resting above a ground
 // quad, a random perspective or orthographic camera that sees both, one or two random point or
-// directional lights. The same seed gives the same scene.
+// directional lights (frusta fitted), shadows off. The same seed gives the same scene.
 Scene random_scene(uint64_t seed);
 
 }  // namespace penumbra
