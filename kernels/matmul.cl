@@ -20,8 +20,6 @@
 #define VSTORE(v, p) ((p)[0] = (v))
 #define HSUM(v) (v)
 #else
-#define CAT_(a, b) a##b
-#define CAT(a, b) CAT_(a, b)
 #define realV CAT(real, MM_VW)
 #define VLOAD(i, p) CAT(vload, MM_VW)(i, p)
 #define VSTORE(v, p) CAT(vstore, MM_VW)(v, 0, p)

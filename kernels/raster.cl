@@ -76,6 +76,43 @@ inline real depth_normalised(real z, __global const real* P) {
   return (P[P_FAR] - z) / (P[P_FAR] - P[P_NEAR]);
 }
 
+// Could the face cover any of the PPW pixels (px0.., py)? One vector test for all of them, so
+// that the many faces of a tile's list that miss a pixel run cheaply on CPUs, where explicit
+// vectors are what PoCL turns into SIMD. Conservative by a margin: an exact per-pixel test
+// follows for the faces it lets through, so it can only save work, never change the result.
+#if PPW > 1
+#define realP CAT(real, PPW)
+#define VLOADP CAT(vload, PPW)
+__constant real lane_offsets[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+
+inline int any_covered(int f, __global const real4* vscreen, __global const int4* faces,
+                       __global const real4* fnormal, int px0, int py, int W, int H,
+                       __global const real* P) {
+  int4 idx = faces[f];
+  real2 p[3] = {vscreen[idx.x].xy, vscreen[idx.y].xy, vscreen[idx.z].xy};
+  real area = fnormal[f].w;
+  realP qx = ((real)(2 * px0 + 1 - W) + 2 * VLOADP(0, lane_offsets)) / H;
+  real qy = (real)(H - 2 * py - 1) / H;
+  realP d2 = INFINITY, wmin = INFINITY;
+  for (int e = 0; e < 3; ++e) {
+    real2 a = p[e], b = p[(e + 1) % 3], ab = b - a;
+    // barycentric of the opposite corner: cross2(a − q, b − q)/area
+    realP w = ((a.x - qx) * (b.y - qy) - (a.y - qy) * (b.x - qx)) / area;
+    wmin = fmin(wmin, w);
+    real len2 = dot(ab, ab);
+    realP t = len2 > 0 ? clamp(((qx - a.x) * ab.x + (qy - a.y) * ab.y) / len2, (realP)0, (realP)1)
+                       : (realP)0;
+    realP rx = qx - (a.x + t * ab.x), ry = qy - (a.y + t * ab.y);
+    d2 = fmin(d2, rx * rx + ry * ry);
+  }
+  return any(wmin > (real)-1e-3 || d2 < P[P_CUTOFF_D2] * (real)1.01);
+}
+#define SKIP_UNCOVERED(f) \
+  if (!any_covered(f, vscreen, faces, fnormal, px0, py, W, H, P)) continue;
+#else
+#define SKIP_UNCOVERED(f)
+#endif
+
 // The faces a work-item visits: its tile's list, or every face.
 #if BRUTE_FORCE
 #define FACE_LIST_BEGIN(px0, py) int list_begin = 0, list_count = nf;
@@ -109,6 +146,7 @@ void raster_count(__global const real4* vscreen, __global const real4* vworld,
     int f = FACE_AT(i);
     int4 bb = fbbox[f];
     if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;
+    SKIP_UNCOVERED(f)
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
     for (int j = 0; j < PPW && px0 + j < W; ++j) {
       Fragment fr;
@@ -160,6 +198,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     int f = FACE_AT(i);
     int4 bb = fbbox[f];
     if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;
+    SKIP_UNCOVERED(f)
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
     for (int j = 0; j < PPW && px0 + j < W; ++j) {
       int pix = py * W + px0 + j;
