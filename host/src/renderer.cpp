@@ -260,6 +260,7 @@ struct Renderer::Impl {
 };
 
 Renderer::Renderer(Context& context, Precision precision, RasterTuning tuning) {
+  if (tuning.pixels_per_item == 0) tuning.pixels_per_item = context.info().is_gpu ? 1 : 8;
   if (tuning.tile < 1 || tuning.pixels_per_item < 1 || tuning.tile % tuning.pixels_per_item)
     throw Error("raster tuning: tile (" + std::to_string(tuning.tile) +
                 ") must be a positive multiple of pixels_per_item (" +

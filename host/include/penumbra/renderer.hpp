@@ -15,7 +15,8 @@ enum class Precision { Float, Double };
 // same result bit for bit: they change the schedule, never the summation order.
 struct RasterTuning {
   int tile = 16;             // screen tile edge in pixels (binning)
-  int pixels_per_item = 1;   // pixels per work-item along x
+  int pixels_per_item = 0;   // pixels per work-item along x; 0: 8 on CPUs (PoCL turns the
+                             // vector test into SIMD), 1 on GPUs
   bool brute_force = false;  // ignore the bins: every pixel visits every face
 };
 
