@@ -1,5 +1,7 @@
 // Plain double-precision reference of the forward pass (SPEC §0–§2) with hard shadows (SPEC §3–§4,
-// eq. 7: filter then compare; truncated or exact Gaussian sampling of the shadow map).
+// eq. 7: filter then compare) and soft shadows (SPEC §3 penumbra map, §4 eq. 11: compare then
+// filter, with the receiver-plane depth bias and the front-most test), with truncated or exact
+// Gaussian sampling of the maps.
 //
 // Written for clarity, not speed: every pixel of the view visits every face of every mesh, with
 // no tiling, no cut-off shortcuts beyond the SoftRas cut-off the SPEC defines, and no shared
@@ -18,6 +20,8 @@
 //                  r and u from frustum.up as for a camera; near/far from the frustum.
 //   shadow map     μx = (x·H_s + W_s − 1)/2, μy = (H_s − 1 − y·H_s)/2 (texel centres at
 //                  integers, row 0 at the top), d = the light-view depth z.
+//   penumbra map   per texel of the light's view, over every face valid in that view, with the
+//                  membership offset of docs/math.md (m = max(0, σ(x) − σ₀)/(1 − σ₀)).
 //
 // The kernels also leave out of colour and depth a fragment whose aggregation weight is below
 // weight_eps times the pixel's largest; the reference keeps every fragment (the difference is
@@ -271,6 +275,7 @@ Scene fitted(const Scene& scene) {
 struct ShadowMap {
   View view;
   Image S;  // W_s × H_s, row-major, row 0 at the top
+  Image P;  // the penumbra map, same layout (soft shadows only; empty otherwise)
 };
 
 ShadowMap light_pass(const Scene& scene, size_t index) {
@@ -280,7 +285,66 @@ ShadowMap light_pass(const Scene& scene, size_t index) {
   const double gamma = light_pass_gamma(p);
   const Shader no_colour = [](const Face&, const dvec3&) { return dvec3(0.0); };
   RenderOutput out = raster(scene, view, sigma, gamma, dvec3(0.0), no_colour);
-  return {view, std::move(out.depth)};
+  return {view, std::move(out.depth), Image()};
+}
+
+// The penumbra map P of light `index` (SPEC §3, paper eqs. 9–10, outer penumbra only) from its
+// shadow map S: for texel centre q with receiver depth S_q and every face t valid in the light's
+// view, d_t = distance from q to t (screen units, 0 strictly inside), z_t = depth of t at q
+// (clamped barycentrics, perspective-correct unless orthographic); t counts if z_t < S_q, D_L > 0
+// and τ_t = r_t/b_t < 1 with b_t = D_L·(S_q − z_t)/S_q, r_t = d_t·z_t·tan(θ_L/2) (or d_t·h_L).
+// Membership m_t = max(0, σ(x) − σ₀)/(1 − σ₀), x = (S_q − β − z_t)/γ_s, σ₀ = σ(−β/γ_s)
+// (docs/math.md); v_t = 1 − m_t·(1 − τ_t), a_t = (1 − v_t)·e^{−γ_P v_t};
+// P_q = (e^{−γ_P} + Σ a_t v_t)/(e^{−γ_P} + Σ a_t). Every texel visits every face (no culling).
+Image penumbra(const Scene& scene, const ShadowMap& map, double light_size) {
+  const RenderParams& p = scene.params;
+  const View& view = map.view;
+  const std::vector<Face> faces = setup_faces(scene, view);
+  const int W = view.width, H = view.height;
+  const double sigma0 = sigmoid(-p.beta / p.gamma_s);
+  const double lit = std::exp(-p.gamma_p);
+  Image P(W, H, 1);
+  for (int j = 0; j < H; ++j)
+    for (int i = 0; i < W; ++i) {
+      const dvec2 q = view.pixel_center(i, j);
+      const double Sq = map.S.at(i, j);
+      double num = 0.0, den = 0.0;
+      for (const Face& face : faces) {
+        dvec3 w;
+        for (int k = 0; k < 3; ++k)
+          w[k] = cross2(face.p[(k + 1) % 3] - q, face.p[(k + 2) % 3] - q) / face.area2;
+        const bool inside = w[0] > 0.0 && w[1] > 0.0 && w[2] > 0.0;
+        dvec3 wc(std::max(w[0], 0.0), std::max(w[1], 0.0), std::max(w[2], 0.0));
+        wc /= wc[0] + wc[1] + wc[2];
+        const double z = view.perspective
+                             ? 1.0 / (wc[0] / face.z[0] + wc[1] / face.z[1] + wc[2] / face.z[2])
+                             : wc[0] * face.z[0] + wc[1] * face.z[1] + wc[2] * face.z[2];
+        if (!(z < Sq) || !(light_size > 0.0)) continue;  // only occluders in front count
+        const double d =
+            inside ? 0.0
+                   : std::sqrt(std::min({point_segment_dist2(q, face.p[0], face.p[1]),
+                                         point_segment_dist2(q, face.p[1], face.p[2]),
+                                         point_segment_dist2(q, face.p[2], face.p[0])}));
+        const double b = light_size * (Sq - z) / Sq;                   // cone width
+        const double r = d * (view.perspective ? z * view.scale : view.scale);  // world units
+        const double tau = r / b;
+        if (!(tau < 1.0)) continue;  // q outside t's cone
+        const double x = (Sq - p.beta - z) / p.gamma_s;
+        const double m = std::max(0.0, sigmoid(x) - sigma0) / (1.0 - sigma0);
+        const double v = 1.0 - m * (1.0 - tau);
+        const double a = (1.0 - v) * std::exp(-p.gamma_p * v);
+        num += a * v;
+        den += a;
+      }
+      P.at(i, j) = (lit + num) / (lit + den);
+    }
+  return P;
+}
+
+ShadowMap light_pass_with_penumbra(const Scene& scene, size_t index) {
+  ShadowMap map = light_pass(scene, index);
+  map.P = penumbra(scene, map, scene.lights.at(index).size);
+  return map;
 }
 
 // Shadow term s of world point X for one light (SPEC §4, hard shadows, eq. 7): Gaussian-
@@ -318,6 +382,75 @@ double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) 
   return sigmoid((acc / sum - d + p.beta) / p.gamma_s);
 }
 
+// Receiver-plane depth gradient ∇_μ d (SPEC §4) of `face` at a point of light depth d: the
+// gradient of light-view depth over the face's plane with respect to texel coordinates. With the
+// corners projected to (μ_k, z_k), A = cross2(μ1 − μ0, μ2 − μ0) and n_k = ∇_μ(A·w_k), perspective
+// 1/d is affine in μ: ∇d = −d²·Σ_k n_k/(A·z_k); orthographic ∇d = Σ_k n_k·z_k/A. Zero for a face
+// edge-on to the light (|A| ≤ machine ε relative to its squared edge lengths).
+dvec2 receiver_gradient(const ShadowMap& map, const Face& face, double d) {
+  const int Ws = map.S.width, Hs = map.S.height;
+  std::array<dvec2, 3> mu;
+  std::array<double, 3> z;
+  for (int k = 0; k < 3; ++k) {
+    const dvec2 s = map.view.screen(face.V[k]);
+    mu[k] = {(s.x * Hs + Ws - 1) / 2.0, (Hs - 1 - s.y * Hs) / 2.0};
+    z[k] = map.view.depth(face.V[k]);
+  }
+  const dvec2 e1 = mu[1] - mu[0], e2 = mu[2] - mu[0];
+  const double A = cross2(e1, e2);
+  if (std::abs(A) <= std::numeric_limits<double>::epsilon() *
+                         (glm::dot(e1, e1) + glm::dot(e2, e2)))
+    return dvec2(0.0);
+  dvec2 G(0.0);
+  for (int k = 0; k < 3; ++k) {
+    const dvec2 a = mu[size_t(k + 1) % 3], b = mu[size_t(k + 2) % 3];
+    const dvec2 n(a.y - b.y, b.x - a.x);
+    G += map.view.perspective ? n / (A * z[size_t(k)]) : n * z[size_t(k)] / A;
+  }
+  return map.view.perspective ? -d * d * G : G;
+}
+
+// Shadow term s of world point X on `face` for one light (SPEC §4, soft shadows, eq. 11: compare
+// then filter): every texel of the window compares its S with the receiver's depth extrapolated
+// along the face's plane, d_ij = d + ∇_μ d·((i, j) − μ); front = σ((S − d_ij + β)/γ_s),
+// at = σ((d_ij − S + β)/γ_s), term = front·(1 − at·(1 − P)); s = Σ g'·term / Σ g'.
+double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face& face,
+                        const dvec3& X) {
+  const int Ws = map.S.width, Hs = map.S.height;
+  const dvec2 s = map.view.screen(X);
+  const double d = map.view.depth(X);
+  const double mux = (s.x * Hs + Ws - 1) / 2.0;
+  const double muy = (Hs - 1 - s.y * Hs) / 2.0;
+  if (!(mux >= -0.5 && mux < Ws - 0.5 && muy >= -0.5 && muy < Hs - 0.5)) return 1.0;  // outside
+  const dvec2 grad = receiver_gradient(map, face, d);
+
+  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
+  double eps = 0.0;  // exact: every texel, weights g
+  if (p.sampling == Sampling::Truncated) {
+    eps = p.lambda_eps;
+    const double R = std::sqrt(2.0 * p.sigma_s * std::log(1.0 / eps));
+    i0 = std::max(int(std::ceil(mux - R)), 0);
+    i1 = std::min(int(std::floor(mux + R)), Ws - 1);
+    j0 = std::max(int(std::ceil(muy - R)), 0);
+    j1 = std::min(int(std::floor(muy + R)), Hs - 1);
+  }
+  double sum = 0.0, acc = 0.0;
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      const double dx = i - mux, dy = j - muy;
+      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * p.sigma_s)) - eps;
+      if (!(g > 0.0)) continue;
+      const double dij = d + grad.x * dx + grad.y * dy;
+      const double S = map.S.at(i, j), P = map.P.at(i, j);
+      const double front = sigmoid((S - dij + p.beta) / p.gamma_s);
+      const double at = sigmoid((dij - S + p.beta) / p.gamma_s);
+      sum += g;
+      acc += g * front * (1.0 - at * (1.0 - P));
+    }
+  if (!(sum > 0.0)) return 1.0;  // no texel has weight: lit
+  return acc / sum;
+}
+
 // Colour of face `face` at perspective-correct barycentrics b (SPEC §2), with shadow terms
 // from `maps` (one per light; empty when shadows are off, s = 1).
 dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& maps,
@@ -332,21 +465,27 @@ dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& 
     const Light& light = scene.lights[li];
     const dvec3 l = light.type == LightType::Point ? glm::normalize(light.position - X)
                                                    : -glm::normalize(light.direction);
-    const double s = maps.empty() ? 1.0 : shadow_term(maps[li], scene.params, X);
+    double s = 1.0;
+    if (!maps.empty())
+      s = scene.params.shadows == Shadows::Soft ? soft_shadow_term(maps[li], scene.params, face, X)
+                                                : shadow_term(maps[li], scene.params, X);
     color += s * a * light.color * std::max(0.0, glm::dot(n, l));
   }
   return color;
 }
 
-void require_supported(const Scene& scene) {
-  if (scene.params.shadows == Shadows::Soft)
-    throw Error("reference: soft shadows are not implemented; use hard shadows or none");
+void require_light(const Scene& scene, size_t light) {
+  if (light >= scene.lights.size())
+    throw Error("reference: light " + std::to_string(light) + " asked for; the scene has " +
+                std::to_string(scene.lights.size()));
 }
 
 }  // namespace
 
 RenderOutput render(const Scene& given, size_t camera_index) {
-  require_supported(given);
+  if (given.params.shadows == Shadows::Soft && given.params.sampling == Sampling::Gemm)
+    throw Error("reference: soft shadows sample with 'truncated' or 'exact'; their sum does not "
+                "factor into matrix products ('gemm')");
   const Camera& cam = given.cameras.at(camera_index);
   const Scene scene = given.params.shadows == Shadows::None ? given : fitted(given);
   const View view = View::of_camera(cam);
@@ -354,6 +493,9 @@ RenderOutput render(const Scene& given, size_t camera_index) {
   std::vector<ShadowMap> maps;
   if (scene.params.shadows == Shadows::Hard)
     for (size_t l = 0; l < scene.lights.size(); ++l) maps.push_back(light_pass(scene, l));
+  if (scene.params.shadows == Shadows::Soft)
+    for (size_t l = 0; l < scene.lights.size(); ++l)
+      maps.push_back(light_pass_with_penumbra(scene, l));
 
   const Shader shader = [&](const Face& face, const dvec3& b) {
     return shade(scene, view, maps, face, b);
@@ -362,10 +504,13 @@ RenderOutput render(const Scene& given, size_t camera_index) {
 }
 
 Image shadow_map(const Scene& given, size_t light) {
-  if (light >= given.lights.size())
-    throw Error("reference: light " + std::to_string(light) + " asked for; the scene has " +
-                std::to_string(given.lights.size()));
+  require_light(given, light);
   return light_pass(fitted(given), light).S;
+}
+
+Image penumbra_map(const Scene& given, size_t light) {
+  require_light(given, light);
+  return light_pass_with_penumbra(fitted(given), light).P;
 }
 
 }  // namespace penumbra::reference
