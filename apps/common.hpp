@@ -23,6 +23,10 @@ Command add_render_command(CLI::App& root);
 Command add_backward_command(CLI::App& root);
 Command add_gradcheck_command(CLI::App& root);
 Command add_turnaround_command(CLI::App& root);
+Command add_figures_command(CLI::App& root);
+
+// The camera turned by `angle` radians about the vertical (+y) axis through its target.
+Camera orbit(const Camera& camera, double angle);
 
 // Where the scene comes from: a positional SCENE.json, or --mesh FILE.obj; neither means the
 // bundled data/scenes/turnaround.json.

@@ -65,12 +65,6 @@ class Progress {
   bool tty_;
 };
 
-// v rotated by `angle` radians about the +y axis.
-glm::dvec3 rotate_y(const glm::dvec3& v, double angle) {
-  const double c = std::cos(angle), s = std::sin(angle);
-  return {c * v.x + s * v.z, v.y, -s * v.x + c * v.z};
-}
-
 std::string frame_name(int frame, int frames) {
   int digits = 3;
   for (int n = frames - 1; n >= 1000; n /= 10) ++digits;
@@ -89,7 +83,6 @@ int run_turnaround(const TurnaroundArgs& a) {
   scene.cameras.resize(1);  // the first camera orbits; the others are not rendered
   fit_light_frusta(scene);  // once: the lights and their frusta stay fixed while the camera moves
   const Camera base = scene.cameras.front();
-  const glm::dvec3 offset = base.eye - base.target;
 
   Context context(a.render.device);
   Renderer renderer(context, precision);
@@ -101,10 +94,7 @@ int run_turnaround(const TurnaroundArgs& a) {
   const double two_pi = 2.0 * std::acos(-1.0);
   const auto t0 = std::chrono::steady_clock::now();
   for (int k = 0; k < a.frames; ++k) {
-    const double angle = two_pi * k / a.frames;
-    Camera& cam = scene.cameras.front();
-    cam.eye = base.target + rotate_y(offset, angle);
-    cam.up = rotate_y(base.up, angle);
+    scene.cameras.front() = orbit(base, two_pi * k / a.frames);
     const std::vector<RenderOutput> views = renderer.render(scene);
     save_png(views.front().color, (fs::path(a.output) / frame_name(k, a.frames)).string());
     if (!gif)

@@ -423,3 +423,18 @@ TEST(Cli, GradcheckRandomSceneVerbose) {
 }
 
 }  // namespace
+
+TEST(Cli, FiguresWritesEveryPicture) {
+  const std::string dir = temp_path("figures");
+  const RunResult r = run_cli("figures -o " + quote(dir), "figures");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  for (const char* name : {"fig1_a.png", "fig1_b.png", "fig1_c.png", "fig1_d.png",
+                           "fig2_depth_map.png", "fig4_soft_000.png", "fig4_soft_270.png",
+                           "fig5_penumbra_map.png", "soft_size_1.5.png"}) {
+    const penumbra::Image img = penumbra::load_image(dir + "/" + name);
+    EXPECT_GT(img.width, 0) << name;
+  }
+  const auto out = lines(r.out);
+  ASSERT_FALSE(out.empty());
+  EXPECT_EQ(out.back().rfind("figures: files=13 seconds=", 0), 0u) << show(r);
+}
