@@ -43,11 +43,14 @@ int run_render(const RenderArgs& a) {
       save_npy(views[v].silhouette, view_file(a.raw_dir, "silhouette", v));
       save_npy(views[v].depth, view_file(a.raw_dir, "depth", v));
     }
-    // Shadow map S of every light (light-view depth), when shadows are on.
-    const std::vector<Image> maps = renderer.shadow_maps();
-    for (size_t l = 0; l < maps.size(); ++l)
-      save_npy(maps[l],
-               (fs::path(a.raw_dir) / ("shadow_map_" + std::to_string(l) + ".npy")).string());
+    // Shadow map S of every light (light-view depth) when shadows are on, and its penumbra map
+    // P for soft shadows.
+    auto save_maps = [&](const std::vector<Image>& maps, const std::string& stem) {
+      for (size_t l = 0; l < maps.size(); ++l)
+        save_npy(maps[l], (fs::path(a.raw_dir) / (stem + std::to_string(l) + ".npy")).string());
+    };
+    save_maps(renderer.shadow_maps(), "shadow_map_");
+    save_maps(renderer.penumbra_maps(), "penumbra_map_");
   }
 
   size_t faces = 0;
@@ -77,7 +80,8 @@ Command add_render_command(CLI::App& root) {
   c.app->add_option("--raw", args->raw_dir,
                     "also write DIR/color.npy (H,W,3), silhouette.npy (H,W), depth.npy (H,W) "
                     "as float32 (suffix _k for camera k >= 1), and with shadows on "
-                    "shadow_map_<l>.npy (H_s,W_s), the light-view depth map S of light l");
+                    "shadow_map_<l>.npy (H_s,W_s), the light-view depth map S of light l, and "
+                    "with soft shadows penumbra_map_<l>.npy, its penumbra map P");
   add_precision_option(*c.app, args->precision, "float");
   add_render_options(*c.app, args->render);
   c.run = [args] { return run_render(*args); };

@@ -346,6 +346,24 @@ TEST(Cli, RenderHardShadowsWritesShadowMap) {
   EXPECT_GT(lo, 0.0);
   EXPECT_LT(lo, hi);
   EXPECT_FALSE(fs::exists(raw + "/shadow_map_1.npy"));
+  EXPECT_FALSE(fs::exists(raw + "/penumbra_map_0.npy"));  // hard shadows have none
+
+  // Soft shadows also write the penumbra map P, in [0, 1].
+  const std::string soft = temp_path("render_soft_raw");
+  fs::remove_all(soft);
+  const RunResult rs = run_cli("render " + quote(kBundled) + " -o " +
+                                   quote(temp_path("render_soft.png")) +
+                                   " --width 32 --height 24 --shadows soft --map-size 20 --raw " +
+                                   quote(soft),
+                               "render_soft");
+  ASSERT_EQ(rs.exit_code, 0) << show(rs);
+  const penumbra::Image pen = penumbra::load_npy(soft + "/penumbra_map_0.npy");
+  EXPECT_EQ(pen.width, 20);
+  EXPECT_EQ(pen.height, 20);
+  for (double v : pen.data) {
+    EXPECT_GE(v, 0.0);
+    EXPECT_LE(v, 1.0 + 1e-6);
+  }
 
   // With shadows off there is no shadow map.
   const std::string off = temp_path("render_noshadow_raw");
