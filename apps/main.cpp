@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
     commands.push_back(add_gradcheck_command(app));
     commands.push_back(add_turnaround_command(app));
     commands.push_back(add_figures_command(app));
+    commands.push_back(add_tune_command(app));
   } catch (const std::exception& e) {
     return fail(e.what());
   }
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
     for (const Command& command : commands) known = known || command.app->check_name(argv[1]);
     if (!known) {
       return fail(std::string("unknown command '") + argv[1] +
-                      "' (commands: devices, render, backward, gradcheck, turnaround, figures; see penumbra "
+                      "' (commands: devices, render, backward, gradcheck, turnaround, figures, tune; see penumbra "
                       "--help)",
                   2);
     }

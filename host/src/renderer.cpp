@@ -11,24 +11,28 @@
 namespace penumbra {
 namespace detail {
 
-Kernels::Kernels(Context& ctx, Precision precision, RasterTuning tuning)
+Kernels::Kernels(Context& ctx, Precision precision, const Tuning& tuning)
     : ctx_(ctx), precision_(precision), tuning_(tuning) {}
 
 std::string Kernels::options(const std::string& file) const {
   std::string o = precision_define(precision_);
+  const RasterTuning& r = tuning_.raster;
   if (file == "raster.cl")
-    o += " -DTILE=" + std::to_string(tuning_.tile) +
-         " -DPPW=" + std::to_string(tuning_.pixels_per_item) +
-         " -DBRUTE_FORCE=" + std::to_string(tuning_.brute_force ? 1 : 0);
+    o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
+         " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
+  if (file == "matmul.cl")
+    o += " -DMM_VW=" + std::to_string(tuning_.exact.vector_width) +
+         " -DMM_RB=" + std::to_string(tuning_.exact.row_block);
   return o;
 }
 
 cl::Kernel& Kernels::get(const std::string& file, const std::string& name,
                          const std::string& variant) {
-  auto key = file + ":" + name + ":" + variant;
+  const std::string opts = options(file) + " " + variant;
+  auto key = file + ":" + name + ":" + opts;
   auto it = kernels_.find(key);
   if (it != kernels_.end()) return it->second;
-  cl::Program& program = ctx_.program(file, options(file) + " " + variant);
+  cl::Program& program = ctx_.program(file, opts);
   return kernels_.emplace(key, cl::Kernel(program, name.c_str())).first->second;
 }
 
@@ -212,7 +216,8 @@ void check_grad_image(const Image& g, int W, int H, int C, const char* what, siz
 struct Renderer::Impl {
   Context& ctx;
   Precision precision;
-  RasterTuning tuning;
+  bool automatic;             // choose the tuning per render from the database
+  TuningDatabase database;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
   Scene scene;  // as rendered, light frusta fitted
@@ -222,7 +227,10 @@ struct Renderer::Impl {
   std::vector<ViewState> light_views;  // one per light, when shadows are on
   std::vector<std::vector<double>> view_P;
 
-  Impl(Context& c, Precision p, RasterTuning t) : ctx(c), precision(p), tuning(t), kernels(c, p, t) {}
+  Impl(Context& c, Precision p, bool automatic_, const Tuning& t)
+      : ctx(c), precision(p), automatic(automatic_), kernels(c, p, t) {
+    if (automatic) database = TuningDatabase::load_default();
+  }
 
   void render_view(ViewState& v, int W, int H, int nlights, const std::vector<double>& P) {
     v.W = W;
@@ -259,26 +267,29 @@ struct Renderer::Impl {
   }
 };
 
-Renderer::Renderer(Context& context, Precision precision, RasterTuning tuning) {
-  if (tuning.pixels_per_item == 0) tuning.pixels_per_item = context.info().is_gpu ? 1 : 8;
-  if (tuning.tile < 1 || tuning.pixels_per_item < 1 || tuning.tile % tuning.pixels_per_item)
-    throw Error("raster tuning: tile (" + std::to_string(tuning.tile) +
-                ") must be a positive multiple of pixels_per_item (" +
-                std::to_string(tuning.pixels_per_item) + ")");
-  size_t group = size_t(tuning.tile / tuning.pixels_per_item) * tuning.tile;
-  if (group > context.info().max_work_group)
-    throw Error("raster tuning: a " + std::to_string(tuning.tile) + "-pixel tile with " +
-                std::to_string(tuning.pixels_per_item) + " pixel(s) per work-item needs " +
-                std::to_string(group) + " work-items per group; device '" + context.info().name +
-                "' allows " + std::to_string(context.info().max_work_group));
+namespace {
+void check_precision(const Context& context, Precision precision) {
   if (precision == Precision::Double && !context.info().fp64)
     throw Error("device '" + context.info().name + "' has no double precision (cl_khr_fp64)");
-  impl_ = std::make_unique<Impl>(context, precision, tuning);
+}
+}  // namespace
+
+Renderer::Renderer(Context& context, Precision precision) {
+  check_precision(context, precision);
+  impl_ = std::make_unique<Impl>(context, precision, true, Tuning{});
+}
+
+Renderer::Renderer(Context& context, Precision precision, const Tuning& tuning) {
+  check_precision(context, precision);
+  Tuning t = tuning;
+  if (t.raster.pixels_per_item == 0) t.raster.pixels_per_item = context.info().is_gpu ? 1 : 8;
+  validate(t, context.info());
+  impl_ = std::make_unique<Impl>(context, precision, false, t);
 }
 
 Renderer::~Renderer() = default;
 Precision Renderer::precision() const { return impl_->precision; }
-const RasterTuning& Renderer::tuning() const { return impl_->tuning; }
+const Tuning& Renderer::tuning() const { return impl_->kernels.tuning(); }
 
 std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   validate(scene);
@@ -292,6 +303,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   Context& ctx = m.ctx;
   m.scene = scene;
   fit_light_frusta(m.scene);  // frusta not given are fitted to this scene and then fixed
+  if (m.automatic) m.kernels.set_tuning(m.database.lookup(ctx.info(), workload_stats(scene)));
   const Scene& s = m.scene;
   const bool shadows = s.params.shadows != Shadows::None;
   const int nl = int(s.lights.size());

@@ -6,19 +6,11 @@
 #include "penumbra/context.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/scene.hpp"
+#include "penumbra/tuning.hpp"
 
 namespace penumbra {
 
 enum class Precision { Float, Double };
-
-// Launch tunables of the raster stage (kernels/raster.cl). Every legal combination gives the
-// same result bit for bit: they change the schedule, never the summation order.
-struct RasterTuning {
-  int tile = 16;             // screen tile edge in pixels (binning)
-  int pixels_per_item = 0;   // pixels per work-item along x; 0: 8 on CPUs (PoCL turns the
-                             // vector test into SIMD), 1 on GPUs
-  bool brute_force = false;  // ignore the bins: every pixel visits every face
-};
 
 // dL/d(scene parameters), laid out like the scene.
 struct SceneGrads {
@@ -32,8 +24,11 @@ struct SceneGrads {
 
 class Renderer {
  public:
-  explicit Renderer(Context& context, Precision precision = Precision::Float,
-                    RasterTuning tuning = {});
+  // Launch parameters chosen per render from the tuning database (TuningDatabase::load_default:
+  // a tuned entry for this device, else the heuristic for the scene).
+  explicit Renderer(Context& context, Precision precision = Precision::Float);
+  // Fixed launch parameters (validated for the device).
+  Renderer(Context& context, Precision precision, const Tuning& tuning);
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
@@ -53,7 +48,8 @@ class Renderer {
   std::vector<Image> penumbra_maps() const;
 
   Precision precision() const;
-  const RasterTuning& tuning() const;
+  // The launch parameters of the most recent render() (or the fixed ones).
+  const Tuning& tuning() const;
 
  private:
   struct Impl;

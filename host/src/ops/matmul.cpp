@@ -9,8 +9,6 @@ namespace penumbra::detail {
 
 namespace {
 
-constexpr int kVectorWidth = 8, kRowBlock = 4;  // MM_VW, MM_RB of matmul.cl
-
 void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
                   const cl::Buffer& A, size_t lda, const cl::Buffer& B, size_t ldb, double beta,
                   cl::Buffer& C, size_t ldc) {
@@ -30,8 +28,7 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
 void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const cl::Buffer& A,
             size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc,
             size_t cols_per_item) {
-  auto& mm = k.get("matmul.cl", name,
-                   "-DMM_VW=" + std::to_string(kVectorWidth) + " -DMM_RB=" + std::to_string(kRowBlock));
+  auto& mm = k.get("matmul.cl", name);  // MM_VW and MM_RB come from the tuning
   set_args(mm, int(m), int(n), int(kk), A, int(lda), B, int(ldb));
   if (k.precision() == Precision::Double)
     mm.setArg(7, beta);
@@ -39,7 +36,10 @@ void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const c
     mm.setArg(7, float(beta));
   mm.setArg(8, C);
   mm.setArg(9, int(ldc));
-  launch(k.ctx(), mm, cl::NDRange((n + cols_per_item - 1) / cols_per_item, (m + kRowBlock - 1) / kRowBlock),
+  const size_t rows_per_item = size_t(k.tuning().exact.row_block);
+  launch(k.ctx(), mm,
+         cl::NDRange((n + cols_per_item - 1) / cols_per_item,
+                     (m + rows_per_item - 1) / rows_per_item),
          cl::NDRange(1, 1));
 }
 
@@ -49,14 +49,14 @@ void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
                size_t ldc) {
   if (clblast) return clblast_gemm(k, false, true, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  direct(k, "matmul_nt", m, n, kk, A, lda, B, ldb, beta, C, ldc, kRowBlock);
+  direct(k, "matmul_nt", m, n, kk, A, lda, B, ldb, beta, C, ldc, k.tuning().exact.row_block);
 }
 
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
                size_t ldc) {
   if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  direct(k, "matmul_tn", m, n, kk, A, lda, B, ldb, beta, C, ldc, kVectorWidth);
+  direct(k, "matmul_tn", m, n, kk, A, lda, B, ldb, beta, C, ldc, k.tuning().exact.vector_width);
 }
 
 }  // namespace penumbra::detail

@@ -11,22 +11,24 @@
 
 namespace penumbra::detail {
 
-// Kernel objects of one precision and tuning, built on first use. This is the one place that
-// decides the -D options of every program; `variant` adds stage-specific ones (-DEXACT=1).
+// Kernel objects of one precision, built on first use for the current tuning. This is the one
+// place that decides the -D options of every program; `variant` adds stage-specific ones
+// (-DEXACT=1).
 class Kernels {
  public:
-  Kernels(Context& ctx, Precision precision, RasterTuning tuning);
+  Kernels(Context& ctx, Precision precision, const Tuning& tuning);
   cl::Kernel& get(const std::string& file, const std::string& name,
                   const std::string& variant = "");
   Context& ctx() { return ctx_; }
   Precision precision() const { return precision_; }
-  const RasterTuning& tuning() const { return tuning_; }
+  const Tuning& tuning() const { return tuning_; }
+  void set_tuning(const Tuning& tuning) { tuning_ = tuning; }
 
  private:
   std::string options(const std::string& file) const;
   Context& ctx_;
   Precision precision_;
-  RasterTuning tuning_;
+  Tuning tuning_;
   std::map<std::string, cl::Kernel> kernels_;
 };
 

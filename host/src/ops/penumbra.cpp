@@ -3,12 +3,9 @@
 
 namespace penumbra::detail {
 
-namespace {
-constexpr int kTile = 16;  // map tile of the face culling
-}
-
 void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv) {
   Context& ctx = k.ctx();
+  const int kTile = k.tuning().penumbra.tile;
   const size_t ntex = size_t(lv.W) * lv.H;
   lv.pen_boxes = alloc_ints(ctx, size_t(g.nf) * 4);
   auto& bx = k.get("penumbra.cl", "penumbra_boxes");
@@ -27,6 +24,7 @@ void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv) {
 cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewState& lv,
                                     const cl::Buffer& gP, double* gsize) {
   Context& ctx = k.ctx();
+  const int kTile = lv.pen_bins.tile;
   const size_t ntex = size_t(lv.W) * lv.H;
   cl::Buffer gS = alloc_reals(ctx, k.precision(), ntex), gDL = alloc_reals(ctx, k.precision(), ntex);
   auto& pb = k.get("penumbra.cl", "penumbra_bwd_texel");

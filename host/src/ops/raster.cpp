@@ -7,7 +7,7 @@ namespace penumbra::detail {
 namespace {
 // Global and local sizes of the tiled passes (count, fragments).
 void launch_tiled(Kernels& k, cl::Kernel& kernel, const ViewState& v) {
-  const auto& t = k.tuning();
+  const auto& t = k.tuning().raster;
   const size_t tiles_x = (v.W + t.tile - 1) / t.tile, tiles_y = (v.H + t.tile - 1) / t.tile;
   launch(k.ctx(), kernel, cl::NDRange(tiles_x * t.tile / t.pixels_per_item, tiles_y * t.tile),
          cl::NDRange(t.tile / t.pixels_per_item, t.tile));
@@ -18,12 +18,12 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   Context& ctx = k.ctx();
   const Precision p = k.precision();
   const size_t npix = size_t(v.W) * v.H;
-  if (k.tuning().brute_force) {  // the kernels ignore the bins; give them valid empty buffers
+  if (k.tuning().raster.brute_force) {  // the kernels ignore the bins; give them valid empty buffers
     v.bins = Bins{};
     v.bins.tiles_x = 1;
     v.bins.offsets = v.bins.counts = v.bins.items = alloc_ints(ctx, 1);
   } else {
-    v.bins = bin_boxes(k, v.fbbox, g.nf, v.W, v.H, k.tuning().tile);
+    v.bins = bin_boxes(k, v.fbbox, g.nf, v.W, v.H, k.tuning().raster.tile);
   }
   v.aux = alloc_reals(ctx, p, npix * 4);
   v.pix_count = alloc_ints(ctx, npix);

@@ -51,7 +51,7 @@ void shadow_forward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, i
     launch_1d(ctx, s, n);
     return;
   }
-  const bool clblast = sampling == Sampling::Gemm;
+  const bool clblast = sampling == Sampling::Gemm || k.tuning().exact.clblast;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
   const Precision p = k.precision();
   cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
@@ -106,7 +106,7 @@ MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState&
     launch(ctx, ga, cl::NDRange((Wm + 7) / 8, Hm), cl::NDRange(8, 8));  // 8 texels per item
     return g;
   }
-  const bool clblast = sampling == Sampling::Gemm;
+  const bool clblast = sampling == Sampling::Gemm || k.tuning().exact.clblast;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
   cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gxd = zero_reals(ctx, p, batch * Wm),
              Gy = zero_reals(ctx, p, batch * Hm), T = zero_reals(ctx, p, batch * Hm),

@@ -1,0 +1,110 @@
+#pragma once
+// Launch parameters of the kernels, chosen per device and per workload: named structs per
+// stage, a database of tuned values (shipped defaults in data/tuning/, the user's results in a
+// cache folder), a heuristic from scene statistics, and a tuner that times candidates.
+#include <string>
+#include <vector>
+
+#include "penumbra/context.hpp"
+
+namespace penumbra {
+
+struct Scene;
+
+// kernels/raster.cl. Every legal combination gives the same images bit for bit: they change
+// the schedule, never the summation order.
+struct RasterTuning {
+  int tile = 16;             // screen tile edge in pixels (binning; one work-group per tile)
+  int pixels_per_item = 0;   // pixels per work-item along x; 0: 8 on CPUs, 1 on GPUs
+  bool brute_force = false;  // ignore the bins: every pixel visits every face
+};
+
+// kernels/matmul.cl and CLBlast: the products of exact-sum hard shadows. Changing them changes
+// the summation order of those sums (results agree to rounding).
+struct ExactSumTuning {
+  bool clblast = false;   // sampling `exact`: CLBlast's GEMM instead of penumbra's kernels
+  int vector_width = 8;   // MM_VW: 1, 2, 4, 8 or 16
+  int row_block = 4;      // MM_RB: rows of the product per work-item, 1 to 8
+};
+
+// kernels/penumbra.cl: map tile of the per-face culling (same result for every value).
+struct PenumbraTuning {
+  int tile = 16;
+};
+
+struct Tuning {
+  RasterTuning raster;
+  ExactSumTuning exact;
+  PenumbraTuning penumbra;
+  std::string source = "default";  // where it came from: default, heuristic, database entry…
+
+  Tuning() = default;
+  Tuning(const RasterTuning& r) : raster(r), source("given") {}  // NOLINT: implicit on purpose
+};
+
+// Throws penumbra::Error naming the first illegal value for this device.
+void validate(const Tuning& tuning, const DeviceInfo& device);
+
+// Statistics of a workload that the heuristic looks at.
+struct WorkloadStats {
+  size_t faces = 0;
+  double mean_face_pixels = 0;  // mean projected face area, pixels (over the first camera)
+  double cutoff_pixels = 0;     // coverage cut-off radius, pixels
+  int width = 0, height = 0;
+};
+WorkloadStats workload_stats(const Scene& scene);
+
+// Tuned values per device. Lookup: the exact device name, then "<vendor>/<cpu|gpu>", then
+// "<cpu|gpu>", then the heuristic. A missing or corrupt file is skipped with a warning on
+// stderr, never an error.
+class TuningDatabase {
+ public:
+  // The shipped defaults (embedded from data/tuning/defaults.json at build time), then the
+  // user's cache file (user_path(); entries there win), then $PENUMBRA_TUNING if set.
+  static TuningDatabase load_default();
+  // An empty database, then the given files (later files win).
+  static TuningDatabase load(const std::vector<std::string>& paths);
+  static std::string user_path();  // $XDG_CACHE_HOME or ~/.cache, /penumbra/tuning.json
+
+  // The tuning for this device and workload (raster tile and pixels per item, exact-sum and
+  // penumbra parameters); `source` says which entry (or "heuristic") decided.
+  Tuning lookup(const DeviceInfo& device, const WorkloadStats& workload) const;
+  bool has(const std::string& key) const;
+  void set(const std::string& key, const Tuning& tuning);
+  size_t size() const { return entries_.size(); }
+  // Writes every entry as JSON (creating the folder); throws penumbra::Error on failure.
+  void save(const std::string& path) const;
+
+  static std::string device_key(const DeviceInfo& device);  // the exact device name
+  static std::string class_key(const DeviceInfo& device);   // "<vendor>/<cpu|gpu>"
+
+ private:
+  void merge_json(const std::string& text, const std::string& origin);
+  std::vector<std::pair<std::string, Tuning>> entries_;
+};
+
+// The heuristic for workloads with no tuned entry: small tiles for many small faces on large
+// images, large tiles for few large faces; vectors of pixels on CPUs.
+Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& workload);
+
+// The tuner: times every legal candidate of every stage on this device (a warm-up, then the
+// median of several runs) on the bundled scene, checks each candidate's output against the
+// default configuration (a candidate that differs is rejected and reported), and stores the
+// winners for this device in the database.
+struct TuneOptions {
+  bool quick = false;  // fewer candidates and runs
+  int runs = 5;        // timed runs per candidate (quick: 3)
+};
+struct TuneReport {
+  struct Candidate {
+    std::string stage, name;
+    double median_ms = 0;
+    bool accepted = true;
+    std::string note;  // why rejected
+  };
+  std::vector<Candidate> candidates;
+  Tuning best;
+};
+TuneReport tune(Context& context, const Scene& scene, const TuneOptions& options = {});
+
+}  // namespace penumbra

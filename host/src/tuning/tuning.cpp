@@ -1,0 +1,261 @@
+// Tuning database, heuristic and validation (the tuner is in tuner.cpp).
+#include "penumbra/tuning.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "penumbra/error.hpp"
+#include "penumbra/scene.hpp"
+
+namespace penumbra {
+namespace detail {
+const std::map<std::string, std::string>& embedded_kernels();
+}
+
+namespace {
+
+using json = nlohmann::json;
+
+const char* type_key(const DeviceInfo& d) { return d.is_gpu ? "gpu" : "cpu"; }
+
+// The fields present in `j` override `t` (so that class entries can give only some of them).
+void read_into(const json& j, Tuning& t) {
+  auto get = [](const json& obj, const char* key, auto& out) {
+    if (obj.contains(key)) out = obj.at(key).get<std::remove_reference_t<decltype(out)>>();
+  };
+  if (j.contains("raster")) {
+    const json& r = j.at("raster");
+    get(r, "tile", t.raster.tile);
+    get(r, "pixels_per_item", t.raster.pixels_per_item);
+  }
+  if (j.contains("exact")) {
+    const json& e = j.at("exact");
+    get(e, "clblast", t.exact.clblast);
+    get(e, "vector_width", t.exact.vector_width);
+    get(e, "row_block", t.exact.row_block);
+  }
+  if (j.contains("penumbra")) get(j.at("penumbra"), "tile", t.penumbra.tile);
+}
+
+json to_json(const Tuning& t) {
+  return {{"raster", {{"tile", t.raster.tile}, {"pixels_per_item", t.raster.pixels_per_item}}},
+          {"exact",
+           {{"clblast", t.exact.clblast},
+            {"vector_width", t.exact.vector_width},
+            {"row_block", t.exact.row_block}}},
+          {"penumbra", {{"tile", t.penumbra.tile}}}};
+}
+
+void warn(const std::string& message) {
+  std::fprintf(stderr, "penumbra: warning: %s\n", message.c_str());
+}
+
+}  // namespace
+
+void validate(const Tuning& t, const DeviceInfo& device) {
+  const RasterTuning& r = t.raster;
+  if (r.tile < 1 || r.pixels_per_item < 1 || r.tile % r.pixels_per_item ||
+      (r.pixels_per_item & (r.pixels_per_item - 1)) || r.pixels_per_item > 16)
+    throw Error("raster tuning: tile (" + std::to_string(r.tile) +
+                ") must be a positive multiple of pixels_per_item (" +
+                std::to_string(r.pixels_per_item) + "), a power of two up to 16");
+  const size_t group = size_t(r.tile / r.pixels_per_item) * r.tile;
+  if (group > device.max_work_group)
+    throw Error("raster tuning: a " + std::to_string(r.tile) + "-pixel tile with " +
+                std::to_string(r.pixels_per_item) + " pixel(s) per work-item needs " +
+                std::to_string(group) + " work-items per group; device '" + device.name +
+                "' allows " + std::to_string(device.max_work_group));
+  const int vw = t.exact.vector_width;
+  if (!(vw == 1 || vw == 2 || vw == 4 || vw == 8 || vw == 16) || t.exact.row_block < 1 ||
+      t.exact.row_block > 8)
+    throw Error("exact-sum tuning: vector_width " + std::to_string(vw) +
+                " must be 1, 2, 4, 8 or 16 and row_block " + std::to_string(t.exact.row_block) +
+                " in 1 to 8");
+  if (t.penumbra.tile < 1 || t.penumbra.tile > 256)
+    throw Error("penumbra tuning: tile " + std::to_string(t.penumbra.tile) + " must be in 1 to 256");
+}
+
+WorkloadStats workload_stats(const Scene& scene) {
+  WorkloadStats w;
+  for (const Mesh& m : scene.meshes) w.faces += m.faces.size();
+  if (scene.cameras.empty()) return w;
+  const Camera& c = scene.cameras.front();
+  w.width = c.width;
+  w.height = c.height;
+  w.cutoff_pixels = std::sqrt(scene.params.sigma * std::log(1 / scene.params.dist_eps - 1)) *
+                    c.height / 2;
+  // Mean projected area: project the vertices as the camera does (faces behind it skipped).
+  const glm::dvec3 f = glm::normalize(c.target - c.eye), r = glm::normalize(glm::cross(f, c.up)),
+                   u = glm::cross(r, f);
+  const bool ortho = c.projection == Projection::Orthographic;
+  const double scale = ortho ? c.half_height : std::tan(c.fov_deg * 3.14159265358979323846 / 360);
+  double total = 0;
+  size_t counted = 0;
+  for (const Mesh& m : scene.meshes)
+    for (const glm::ivec3& F : m.faces) {
+      glm::dvec2 p[3];
+      bool ok = true;
+      for (int k = 0; k < 3; ++k) {
+        const glm::dvec3 d = m.vertices[F[k]] - c.eye;
+        const double z = glm::dot(d, f);
+        if (z < c.near) ok = false;
+        const double s = (ortho ? 1 / scale : 1 / (z * scale)) * c.height / 2;
+        p[k] = {glm::dot(d, r) * s, glm::dot(d, u) * s};
+      }
+      if (!ok) continue;
+      const glm::dvec2 a = p[1] - p[0], b = p[2] - p[0];
+      total += std::min(0.5 * std::abs(a.x * b.y - a.y * b.x), double(c.width) * c.height);
+      ++counted;
+    }
+  w.mean_face_pixels = counted ? total / counted : 0;
+  return w;
+}
+
+Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
+  Tuning t;
+  t.source = "heuristic";
+  t.raster.pixels_per_item = device.is_gpu ? 1 : 8;
+  // Cost of a tile size T: (pixel, face) pairs visited, each face touching the pixels of every
+  // tile its box overlaps, plus a fixed cost per (tile, face) entry of the bins.
+  const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
+  double best = INFINITY;
+  for (int tile : {8, 16, 32}) {
+    if (size_t(tile / t.raster.pixels_per_item) * tile > device.max_work_group) continue;
+    const double tiles_per_face = std::pow((box + tile) / tile, 2);
+    const double cost = w.faces * (tiles_per_face * tile * tile + 64 * tiles_per_face);
+    if (cost < best) best = cost, t.raster.tile = tile;
+  }
+  t.exact.clblast = device.is_gpu;
+  return t;
+}
+
+std::string TuningDatabase::device_key(const DeviceInfo& d) { return d.name; }
+std::string TuningDatabase::class_key(const DeviceInfo& d) {
+  return d.vendor + "/" + type_key(d);
+}
+
+std::string TuningDatabase::user_path() {
+  const char* xdg = std::getenv("XDG_CACHE_HOME");
+  const char* home = std::getenv("HOME");
+  std::string base = xdg && *xdg ? xdg : std::string(home && *home ? home : ".") + "/.cache";
+  return base + "/penumbra/tuning.json";
+}
+
+void TuningDatabase::merge_json(const std::string& text, const std::string& origin) {
+  try {
+    const json doc = json::parse(text);
+    if (!doc.is_object() || !doc.contains("entries") || !doc.at("entries").is_object())
+      throw std::runtime_error("no \"entries\" object");
+    for (const auto& [key, value] : doc.at("entries").items()) {
+      Tuning t;
+      auto it = std::find_if(entries_.begin(), entries_.end(), [&](auto& e) { return e.first == key; });
+      if (it != entries_.end()) t = it->second;
+      read_into(value, t);
+      t.source = key;
+      set(key, t);
+    }
+  } catch (const std::exception& e) {
+    warn("ignoring tuning database " + origin + " (" + e.what() + "); using defaults");
+  }
+}
+
+TuningDatabase TuningDatabase::load(const std::vector<std::string>& paths) {
+  TuningDatabase db;
+  for (const std::string& path : paths) {
+    std::ifstream in(path);
+    if (!in) {
+      warn("tuning database " + path + " not found; using defaults");
+      continue;
+    }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    db.merge_json(ss.str(), path);
+  }
+  return db;
+}
+
+TuningDatabase TuningDatabase::load_default() {
+  TuningDatabase db;
+  const auto& embedded = detail::embedded_kernels();
+  auto it = embedded.find("../data/tuning/defaults.json");
+  if (it != embedded.end()) db.merge_json(it->second, "data/tuning/defaults.json");
+  const std::string user = user_path();
+  if (std::filesystem::exists(user)) {
+    std::ifstream in(user);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    db.merge_json(ss.str(), user);
+  }
+  if (const char* extra = std::getenv("PENUMBRA_TUNING"); extra && *extra) {
+    TuningDatabase more = load({extra});
+    for (auto& [key, t] : more.entries_) db.set(key, t);
+  }
+  return db;
+}
+
+bool TuningDatabase::has(const std::string& key) const {
+  return std::any_of(entries_.begin(), entries_.end(), [&](auto& e) { return e.first == key; });
+}
+
+void TuningDatabase::set(const std::string& key, const Tuning& tuning) {
+  for (auto& e : entries_)
+    if (e.first == key) {
+      e.second = tuning;
+      return;
+    }
+  entries_.push_back({key, tuning});
+}
+
+Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& workload) const {
+  auto find = [&](const std::string& key) -> const Tuning* {
+    for (auto& e : entries_)
+      if (e.first == key) return &e.second;
+    return nullptr;
+  };
+  // A tuned entry for this very device decides everything.
+  if (const Tuning* t = find(device_key(device))) {
+    Tuning out = *t;
+    out.source = "tuned:" + device_key(device);
+    try {
+      validate(out, device);
+      return out;
+    } catch (const Error& e) {
+      warn(std::string("ignoring tuned entry for '") + device.name + "': " + e.what());
+    }
+  }
+  // Otherwise the heuristic, with the stage parameters of the device's class where shipped.
+  Tuning out = heuristic_tuning(device, workload);
+  const RasterTuning raster = out.raster;
+  for (const std::string& key : {class_key(device), std::string(type_key(device))})
+    if (const Tuning* t = find(key)) {
+      out = *t;
+      out.raster.tile = raster.tile;
+      if (out.raster.pixels_per_item < 1) out.raster.pixels_per_item = raster.pixels_per_item;
+      out.source = "heuristic+" + key;
+      break;
+    }
+  try {
+    validate(out, device);
+  } catch (const Error& e) {
+    warn(std::string("ignoring shipped tuning for '") + device.name + "': " + e.what());
+    out = heuristic_tuning(device, workload);
+  }
+  return out;
+}
+
+void TuningDatabase::save(const std::string& path) const {
+  json doc = {{"version", 1}, {"entries", json::object()}};
+  for (auto& [key, t] : entries_) doc["entries"][key] = to_json(t);
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
+  std::ofstream out(path);
+  if (!(out << doc.dump(2) << "\n")) throw Error("cannot write the tuning database " + path);
+}
+
+}  // namespace penumbra
