@@ -456,3 +456,10 @@ TEST(Cli, FiguresWritesEveryPicture) {
   ASSERT_FALSE(out.empty());
   EXPECT_EQ(out.back().rfind("figures: files=13 seconds=", 0), 0u) << show(r);
 }
+
+TEST(Cli, SceneTooLargeForTheDeviceFailsUpFront) {
+  const RunResult r = run_cli("render -o " + quote(temp_path("huge.png")) +
+                                  " --width 16384 --height 16384 --map-size 8192",
+                              "huge");
+  expect_clean_error(r, "MiB of device memory");
+}

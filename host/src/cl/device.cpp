@@ -23,10 +23,27 @@ std::vector<unsigned char> to_bytes(Precision p, const std::vector<double>& v) {
 }
 }  // namespace
 
+// Every device buffer is made here, after a check that it fits: a clear error naming the sizes
+// rather than an OpenCL failure (or worse) later.
+cl::Buffer make_buffer(Context& ctx, size_t bytes, void* host) {
+  const DeviceInfo& d = ctx.info();
+  auto mib = [](size_t b) { return std::to_string((b + (1 << 20) - 1) >> 20) + " MiB"; };
+  if (bytes > d.max_alloc)
+    throw Error("a device buffer of " + mib(bytes) + " is needed, more than the largest '" +
+                d.name + "' allows (" + mib(d.max_alloc) +
+                "); use a smaller image, shadow map or mesh");
+  try {
+    return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE | (host ? CL_MEM_COPY_HOST_PTR : 0),
+                      bytes, host);
+  } catch (const cl::Error& e) {
+    throw Error("cannot allocate " + mib(bytes) + " on '" + d.name + "': " + e.what() + " (" +
+                std::to_string(e.err()) + ")");
+  }
+}
+
 cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& values) {
   auto bytes = to_bytes(p, values);
-  return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, bytes.size(),
-                    bytes.data());
+  return make_buffer(ctx, bytes.size(), bytes.data());
 }
 
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values) {
@@ -50,8 +67,7 @@ std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& 
 
 cl::Buffer upload_ints(Context& ctx, const std::vector<int>& values) {
   std::vector<int> v = values.empty() ? std::vector<int>{0} : values;
-  return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
-                    v.size() * sizeof(int), v.data());
+  return make_buffer(ctx, v.size() * sizeof(int), v.data());
 }
 
 std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count) {
@@ -61,11 +77,19 @@ std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count
 }
 
 cl::Buffer alloc_reals(Context& ctx, Precision p, size_t count) {
-  return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE, std::max<size_t>(count, 1) * real_size(p));
+  return make_buffer(ctx, std::max<size_t>(count, 1) * real_size(p), nullptr);
 }
 
 cl::Buffer alloc_ints(Context& ctx, size_t count) {
-  return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE, std::max<size_t>(count, 1) * sizeof(int));
+  return make_buffer(ctx, std::max<size_t>(count, 1) * sizeof(int), nullptr);
+}
+
+void check_memory(Context& ctx, size_t bytes, const std::string& what) {
+  const DeviceInfo& d = ctx.info();
+  if (bytes > d.global_mem)
+    throw Error(what + " needs " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
+                " MiB of device memory; '" + d.name + "' has " +
+                std::to_string(d.global_mem >> 20) + " MiB");
 }
 
 cl::Buffer zero_reals(Context& ctx, Precision p, size_t count) {

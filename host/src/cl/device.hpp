@@ -25,6 +25,10 @@ std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count
 // Uninitialised device buffer of `count` reals (at least one element).
 cl::Buffer alloc_reals(Context& ctx, Precision p, size_t count);
 cl::Buffer alloc_ints(Context& ctx, size_t count);
+// Throws penumbra::Error "<what> needs N MiB of device memory; the device has M MiB" when
+// `bytes` exceeds the device's memory (checked before allocating what a stage needs).
+void check_memory(Context& ctx, size_t bytes, const std::string& what);
+
 // Zero-filled buffer of `count` reals (for accumulators, and for products that must never read
 // NaN from old memory).
 cl::Buffer zero_reals(Context& ctx, Precision p, size_t count);

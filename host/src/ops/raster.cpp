@@ -43,6 +43,11 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   }
   if (total > size_t(INT32_MAX))
     throw Error("the view keeps " + std::to_string(total) + " fragments, more than 2^31");
+  // Fragment storage, forward and backward: face, weight, shading terms, light terms.
+  const size_t per_fragment = sizeof(int) + real_size(p) * 4 * (1 + (1 + v.nlights) + 4 * v.nlights + 1);
+  check_memory(ctx, total * per_fragment + npix * 13 * real_size(p),
+               "a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view keeping " +
+                   std::to_string(total) + " fragments");
   v.nrec = total;
   v.pix_offset = upload_ints(ctx, offsets);
   v.pix_n = alloc_ints(ctx, npix);
