@@ -48,7 +48,7 @@ inline real gauss(int i, int j, real2 mu, real sigma_s) {
 // cache computes them as it goes).
 #define WINDOW_CACHE 64
 typedef struct {
-  real gx[WINDOW_CACHE];
+  real gx[WINDOW_CACHE + 8];  // + 8: rows are read eight at a time
   int x0, n;
 } Columns;
 
@@ -147,14 +147,6 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
 inline int bucket_reach(__global const real* P) {
   return (int)ceil(sqrt(2 * P[P_SIGMA_S] * log(1 / P[P_LAMBDA_EPS]))) + 1;
 }
-
-// Fragments in the texel buckets around (i, j), in a fixed order.
-#define FOR_EACH_NEARBY_FRAGMENT(i, j, r)                                                 \
-  int reach = bucket_reach(P);                                                            \
-  for (int by = max((j) - reach, 0); by <= min((j) + reach, Hm - 1); ++by)                \
-    for (int bx = max((i) - reach, 0); bx <= min((i) + reach, Wm - 1); ++bx)              \
-      for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k)                        \
-        for (int r = bucket_recs[bucket_offsets[b] + k], once = 1; once; once = 0)
 
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed
 // order (no atomics). A work-item takes GATHER_W consecutive texels of a row as one vector:
@@ -283,15 +275,45 @@ inline Window soft_window(real2 mu, __global const real* P, int Wm, int Hm) {
 #endif
 }
 
-// front·(1 − at·(1 − P)) at one texel, with its derivatives by d_ij and by P_ij
-// (its derivative by S_ij is minus the one by d_ij).
-inline real soft_term(real S, real Pv, real dij, __global const real* P, real* dd, real* dP) {
+// front·(1 − at·(1 − P)) at eight texels of a row at once, with its derivatives by d_ij and
+// by P_ij (its derivative by S_ij is minus the one by d_ij). Rows are processed eight texels
+// per step as vectors, which is what PoCL turns into SIMD.
+__constant real lane8_values[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+#define LANE8 vload8(0, lane8_values)
+
+inline real8 sigmoid8(real8 u) {
+  real8 e = exp(-fabs(u));
+  return select(e / (1 + e), 1 / (1 + e), u >= 0);
+}
+inline real hsum8(real8 v) {
+  real4 a = v.lo + v.hi;
+  return a.s0 + a.s1 + a.s2 + a.s3;
+}
+// a[start + 0 .. start + n − 1], zeros past n.
+inline real8 load8(__global const real* a, int start, int n) {
+  if (n >= 8) return vload8(0, a + start);
+  real t[8];
+  for (int l = 0; l < 8; ++l) t[l] = l < n ? a[start + l] : 0;
+  return vload8(0, t);
+}
+
+inline real8 soft_term8(real8 S, real8 Pv, real8 dij, __global const real* P, real8* dd,
+                        real8* dP) {
   real gs = P[P_GAMMA_S];
-  real front = sigmoid((S - dij + P[P_BETA]) / gs), at = sigmoid((dij - S + P[P_BETA]) / gs);
-  real lit = 1 - at * (1 - Pv);
+  real8 front = sigmoid8((S - dij + P[P_BETA]) / gs), at = sigmoid8((dij - S + P[P_BETA]) / gs);
+  real8 lit = 1 - at * (1 - Pv);
   *dd = -front * (1 - front) / gs * lit - front * at * (1 - at) / gs * (1 - Pv);
   *dP = front * at;
   return front * lit;
+}
+
+// Weights g' of window texels i0 .. i0 + 7 of row j (0 past the window's last column x1).
+inline real8 window_row8(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
+  real8 lane = LANE8;
+  real8 gx = c->n ? vload8(0, c->gx + (i0 - c->x0))
+                  : exp(-((real)i0 + lane - mu.x) * ((real)i0 + lane - mu.x) / (2 * ss));
+  real8 g = gx * gy - eps;
+  return select((real8)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
 }
 
 __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
@@ -302,17 +324,20 @@ __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, i
   real4 x = rec_light[r * nl + light];
   real2 grad = rec_light2[r * nl + light].xy;
   Window w = soft_window(x.xy, P, Wm, Hm);
-  real sum = 0, acc = 0, dd, dP, ss = P[P_SIGMA_S];
+  real sum = 0, acc = 0, ss = P[P_SIGMA_S];
+  real8 dd, dP;
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = axis_weight(j - x.y, ss);
-    for (int i = w.x0; i <= w.x1; ++i) {
-      real g = column(&c, i, x.xy, ss) * gy - w.eps;
-      if (g <= 0) continue;
-      real dij = x.z + dot(grad, (real2)(i, j) - x.xy);
-      sum += g;
-      acc += g * soft_term(S[j * Wm + i], Pmap[j * Wm + i], dij, P, &dd, &dP);
+    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
+      real8 g = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      real8 dij = x.z + grad.x * ((real)i0 + LANE8 - x.x) + grad.y * (j - x.y);
+      int n = min(8, Wm - i0);
+      real8 term = soft_term8(load8(S, j * Wm + i0, n), load8(Pmap, j * Wm + i0, n), dij, P,
+                              &dd, &dP);
+      sum += hsum8(g);
+      acc += hsum8(g * term);
     }
   }
   rec_light[r * nl + light].w = sum > 0 ? acc / sum : 1;
@@ -327,68 +352,88 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
   real2 grad = rec_light2[r * nl + light].xy;
-  real gs = rec_lgrad[r * nl + light].x, s = x.w;
+  real gs = rec_lgrad[r * nl + light].x, s = x.w, ss = P[P_SIGMA_S];
   Window w = soft_window(x.xy, P, Wm, Hm);
-  real sum = 0, dd, dP, ss = P[P_SIGMA_S];
   Columns c;
   columns_init(&c, w, x.xy, ss);
+  real sum = 0;
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = axis_weight(j - x.y, ss);
-    for (int i = w.x0; i <= w.x1; ++i) sum += fmax(column(&c, i, x.xy, ss) * gy - w.eps, R(0));
+    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) sum += hsum8(window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps));
   }
   if (sum <= 0) {
     rec_lgrad[r * nl + light] = 0;
     rec_lgrad2[r * nl + light] = 0;
     return;
   }
-  // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s) and through d_ij.
-  real2 gmu = 0, ggrad = 0;
-  real gd = 0;
+  // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s where g' > 0) and
+  // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ).
+  real8 gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
   for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = axis_weight(j - x.y, ss);
-    for (int i = w.x0; i <= w.x1; ++i) {
-      real g = column(&c, i, x.xy, ss) * gy;
-      if (g - w.eps <= 0) continue;
-      real2 off = (real2)(i, j) - x.xy;
-      real term = soft_term(S[j * Wm + i], Pmap[j * Wm + i], x.z + dot(grad, off), P, &dd, &dP);
-      gmu += g * (term - s) * off / P[P_SIGMA_S];
-      real lam = g - w.eps;
+    real gy = axis_weight(j - x.y, ss), offy = j - x.y;
+    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
+      real8 lam = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      real8 g = select((real8)0, lam + w.eps, lam > 0);
+      real8 offx = (real)i0 + LANE8 - x.x;
+      int n = min(8, Wm - i0);
+      real8 term = soft_term8(load8(S, j * Wm + i0, n), load8(Pmap, j * Wm + i0, n),
+                              x.z + grad.x * offx + grad.y * offy, P, &dd, &dP);
+      real8 wmu = g * (term - s) / ss;
+      gmux += wmu * offx - lam * dd * grad.x;
+      gmuy += wmu * offy - lam * dd * grad.y;
       gd += lam * dd;
-      gmu -= lam * dd * grad;
-      ggrad += lam * dd * off;
+      ggx += lam * dd * offx;
+      ggy += lam * dd * offy;
     }
   }
-  rec_lgrad[r * nl + light] = (real4)(gs / sum, gs * gmu / sum, gs * gd / sum);
-  rec_lgrad2[r * nl + light] = (real4)(gs * ggrad / sum, 0, 0);
+  real k = gs / sum;
+  rec_lgrad[r * nl + light] = (real4)(k, k * hsum8(gmux), k * hsum8(gmuy), k * hsum8(gd));
+  rec_lgrad2[r * nl + light] = (real4)(k * hsum8(ggx), k * hsum8(ggy), 0, 0);
 }
 
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
-// nearby texel buckets when truncated; every fragment when exact), in a fixed order.
+// nearby texel buckets when truncated; every fragment when exact), in a fixed order; eight
+// texels of a row per work-item.
 __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                           __global const real* S, __global const real* Pmap,
                           __global const real4* rec_light, __global const real4* rec_light2,
                           __global const real4* rec_lgrad, __global const int* bucket_offsets,
                           __global const int* bucket_counts, __global const int* bucket_recs,
                           __global real* gS, __global real* gPmap) {
-  int i = get_global_id(0), j = get_global_id(1);
-  if (i >= Wm || j >= Hm) return;
-  real accS = 0, accP = 0, Sv = S[j * Wm + i], Pv = Pmap[j * Wm + i], dd, dP;
+  int i0 = get_global_id(0) * 8, j = get_global_id(1);
+  if (i0 >= Wm || j >= Hm) return;
+  const real ss = P[P_SIGMA_S];
+  const int n = min(8, Wm - i0);
+  const real8 Sv = load8(S, j * Wm + i0, n), Pv = load8(Pmap, j * Wm + i0, n);
+  real8 accS = 0, accP = 0, dd, dP;
 #if EXACT
+  const real eps = 0;
   for (int r = 0; r < nrec; ++r) {
+    if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
 #else
-  FOR_EACH_NEARBY_FRAGMENT(i, j, r) {
+  const real eps = P[P_LAMBDA_EPS];
+  const int reach = bucket_reach(P);
+  for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
+    for (int bx = max(i0 - reach, 0); bx <= min(i0 + 7 + reach, Wm - 1); ++bx)
+      for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
+        int r = bucket_recs[bucket_offsets[b] + k];
 #endif
     real4 x = rec_light[r * nl + light];
-    Window w = soft_window(x.xy, P, Wm, Hm);
-    if (i < w.x0 || i > w.x1 || j < w.y0 || j > w.y1) continue;
-    real g = gauss(i, j, x.xy, P[P_SIGMA_S]) - w.eps;
-    if (g <= 0) continue;
-    real dij = x.z + dot(rec_light2[r * nl + light].xy, (real2)(i, j) - x.xy);
-    soft_term(Sv, Pv, dij, P, &dd, &dP);
-    real a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
+    real gy = axis_weight(j - x.y, ss);
+    if (gy <= eps) continue;
+    real8 offx = (real)i0 + LANE8 - x.x;
+    real8 g = fmax(exp(-offx * offx / (2 * ss)) * gy - eps, (real8)0);
+    real2 grad = rec_light2[r * nl + light].xy;
+    soft_term8(Sv, Pv, x.z + grad.x * offx + grad.y * (j - x.y), P, &dd, &dP);
+    real8 a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
     accS -= a * dd;
     accP += a * dP;
   }
-  gS[j * Wm + i] = accS;
-  gPmap[j * Wm + i] = accP;
+  real outS[8], outP[8];
+  vstore8(accS, 0, outS);
+  vstore8(accP, 0, outP);
+  for (int l = 0; l < n; ++l) {
+    gS[j * Wm + i0 + l] = outS[l];
+    gPmap[j * Wm + i0 + l] = outP[l];
+  }
 }
