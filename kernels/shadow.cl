@@ -45,7 +45,7 @@ inline real gauss(int i, int j, real2 mu, real sigma_s) {
 }
 
 // The column weights gx_i of a window, computed once per fragment (a window wider than the
-// cache computes them as it goes).
+// cache computes them as it goes, in window_row8).
 #define WINDOW_CACHE 64
 typedef struct {
   real gx[WINDOW_CACHE + 8];  // + 8: rows are read eight at a time
@@ -57,29 +57,53 @@ inline void columns_init(Columns* c, Window w, real2 mu, real sigma_s) {
   c->n = w.x1 - w.x0 + 1 <= WINDOW_CACHE ? w.x1 - w.x0 + 1 : 0;
   for (int k = 0; k < c->n; ++k) c->gx[k] = axis_weight(w.x0 + k - mu.x, sigma_s);
 }
-inline real column(const Columns* c, int i, real2 mu, real sigma_s) {
-  return c->n ? c->gx[i - c->x0] : axis_weight(i - mu.x, sigma_s);
+
+
+// Rows of a window are processed eight texels at a time as vectors, which is what PoCL turns
+// into SIMD.
+__constant real lane8_values[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+#define LANE8 vload8(0, lane8_values)
+
+inline real hsum8(real8 v) {
+  real4 a = v.lo + v.hi;
+  return a.s0 + a.s1 + a.s2 + a.s3;
+}
+// a[start + 0 .. start + n − 1], zeros past n.
+inline real8 load8(__global const real* a, int start, int n) {
+  if (n >= 8) return vload8(0, a + start);
+  real t[8];
+  for (int l = 0; l < 8; ++l) t[l] = l < n ? a[start + l] : 0;
+  return vload8(0, t);
+}
+
+// Weights g' of window texels i0 .. i0 + 7 of row j (0 past the window's last column x1).
+inline real8 window_row8(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
+  real8 lane = LANE8;
+  real8 gx = c->n ? vload8(0, c->gx + (i0 - c->x0))
+                  : exp(-((real)i0 + lane - mu.x) * ((real)i0 + lane - mu.x) / (2 * ss));
+  real8 g = gx * gy - eps;
+  return select((real8)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
 }
 
 // Filtered depth v = Σ g'·S / Σ g'; returns 0 in `*norm` if no texel has weight.
 inline real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
                          int Wm, real* norm) {
-  real sum = 0, acc = 0, ss = P[P_SIGMA_S];
+  real ss = P[P_SIGMA_S];
+  real8 sum = 0, acc = 0;
   Columns c;
   columns_init(&c, w, mu, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = axis_weight(j - mu.y, ss);
-    for (int i = w.x0; i <= w.x1; ++i) {
-      real g = column(&c, i, mu, ss) * gy - w.eps;
-      if (g > 0) {
-        sum += g;
-        acc += g * S[j * Wm + i];
-      }
+    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
+      real8 g = window_row8(&c, i0, w.x1, gy, mu, ss, w.eps);
+      sum += g;
+      acc += g * load8(S, j * Wm + i0, min(8, Wm - i0));
     }
   }
-  *norm = sum;
-  return sum > 0 ? acc / sum : 0;
+  *norm = hsum8(sum);
+  return *norm > 0 ? hsum8(acc) / *norm : 0;
 }
+
 
 inline real compare(real v, real d, __global const real* P) {
   return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
@@ -110,18 +134,21 @@ __kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int
   }
   real gv = gs * x.w * (1 - x.w) / P[P_GAMMA_S];
   // dv/dμ = Σ ∂g'/∂μ·(S − v)/Σg', with ∂g'/∂μx = g·(i − μx)/σ_s where g' > 0.
-  real2 dv = 0;
+  real8 dvx = 0, dvy = 0;
   real ss = P[P_SIGMA_S];
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = axis_weight(j - x.y, ss);
-    for (int i = w.x0; i <= w.x1; ++i) {
-      real g = column(&c, i, x.xy, ss) * gy;
-      if (g - w.eps > 0) dv += g * (S[j * Wm + i] - v) * (real2)(i - x.x, j - x.y);
+    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
+      real8 lam = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      real8 g = select((real8)0, lam + w.eps, lam > 0);  // g where g' > 0
+      real8 t = g * (load8(S, j * Wm + i0, min(8, Wm - i0)) - v);
+      dvx += t * ((real)i0 + LANE8 - x.x);
+      dvy += t * (j - x.y);
     }
   }
-  dv /= norm * P[P_SIGMA_S];
+  real2 dv = (real2)(hsum8(dvx), hsum8(dvy)) / (norm * ss);
   rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
 }
 
@@ -276,27 +303,11 @@ inline Window soft_window(real2 mu, __global const real* P, int Wm, int Hm) {
 }
 
 // front·(1 − at·(1 − P)) at eight texels of a row at once, with its derivatives by d_ij and
-// by P_ij (its derivative by S_ij is minus the one by d_ij). Rows are processed eight texels
-// per step as vectors, which is what PoCL turns into SIMD.
-__constant real lane8_values[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-#define LANE8 vload8(0, lane8_values)
-
+// by P_ij (its derivative by S_ij is minus the one by d_ij).
 inline real8 sigmoid8(real8 u) {
   real8 e = exp(-fabs(u));
   return select(e / (1 + e), 1 / (1 + e), u >= 0);
 }
-inline real hsum8(real8 v) {
-  real4 a = v.lo + v.hi;
-  return a.s0 + a.s1 + a.s2 + a.s3;
-}
-// a[start + 0 .. start + n − 1], zeros past n.
-inline real8 load8(__global const real* a, int start, int n) {
-  if (n >= 8) return vload8(0, a + start);
-  real t[8];
-  for (int l = 0; l < 8; ++l) t[l] = l < n ? a[start + l] : 0;
-  return vload8(0, t);
-}
-
 inline real8 soft_term8(real8 S, real8 Pv, real8 dij, __global const real* P, real8* dd,
                         real8* dP) {
   real gs = P[P_GAMMA_S];
@@ -305,15 +316,6 @@ inline real8 soft_term8(real8 S, real8 Pv, real8 dij, __global const real* P, re
   *dd = -front * (1 - front) / gs * lit - front * at * (1 - at) / gs * (1 - Pv);
   *dP = front * at;
   return front * lit;
-}
-
-// Weights g' of window texels i0 .. i0 + 7 of row j (0 past the window's last column x1).
-inline real8 window_row8(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
-  real8 lane = LANE8;
-  real8 gx = c->n ? vload8(0, c->gx + (i0 - c->x0))
-                  : exp(-((real)i0 + lane - mu.x) * ((real)i0 + lane - mu.x) / (2 * ss));
-  real8 g = gx * gy - eps;
-  return select((real8)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
 }
 
 __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
