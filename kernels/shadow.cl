@@ -211,6 +211,33 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
 // T = Gx·Sᵀ (n × H_s) and v_r = Σ_j T_rj·Gy_rj / (Σgx_r·Σgy_r). -------------------------------
 // Gx n × W_s, Gy n × H_s; Gxd (backward only) = Gx ⊙ (i − μx)/σ_s; norm n × real4
 // (Σgx, Σgy, inside?, 0).
+// One axis of the weights, eight entries at a time: out[i] = g_i (and dout[i] = g_i·(i − c)/σ_s),
+// i < n, g_i = exp(−(i − c)²/(2σ_s)); returns Σ g_i.
+inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
+                          __global real* dout) {
+  real8 sum = 0;
+  for (int i0 = 0; i0 < n; i0 += 8) {
+    real8 d = (real)i0 + LANE8 - c;
+    real8 g = on ? exp(-d * d / (2 * ss)) : (real8)0;
+    real8 dg = g * d / ss;
+    if (i0 + 8 <= n) {
+      vstore8(g, 0, out + i0);
+      if (dout) vstore8(dg, 0, dout + i0);
+      sum += g;
+    } else {
+      real t[8], dt[8];
+      vstore8(g, 0, t);
+      vstore8(dg, 0, dt);
+      for (int l = 0; i0 + l < n; ++l) {
+        out[i0 + l] = t[l];
+        if (dout) dout[i0 + l] = dt[l];
+        sum.s0 += t[l];
+      }
+    }
+  }
+  return hsum8(sum);
+}
+
 __kernel void exact_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
                            int Hm, __global const real4* rec_light, __global real* Gx,
                            __global real* Gxd, int with_derivative, __global real* Gy,
@@ -218,19 +245,11 @@ __kernel void exact_weights(__global const real* P, int r0, int n, int light, in
   int k = get_global_id(0);
   if (k >= n) return;
   real4 x = rec_light[(r0 + k) * nl + light];
-  real sx = 0, sy = 0, ss = P[P_SIGMA_S];
+  real ss = P[P_SIGMA_S];
   int inside = inside_map(x.xy, Wm, Hm);
-  for (int i = 0; i < Wm; ++i) {
-    real d = i - x.x, g = inside ? exp(-d * d / (2 * ss)) : 0;
-    Gx[(size_t)k * Wm + i] = g;
-    if (with_derivative) Gxd[(size_t)k * Wm + i] = g * d / ss;
-    sx += g;
-  }
-  for (int j = 0; j < Hm; ++j) {
-    real d = j - x.y, g = inside ? exp(-d * d / (2 * ss)) : 0;
-    Gy[(size_t)k * Hm + j] = g;
-    sy += g;
-  }
+  real sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
+                          with_derivative ? Gxd + (size_t)k * Wm : 0);
+  real sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm, 0);
   norm[k] = (real4)(sx, sy, inside, 0);
 }
 
