@@ -1,0 +1,133 @@
+// Whole-frame cost of Renderer::render (forward) and Renderer::backward, each timed alone
+// (both calls are synchronous: they return host images / gradients), over shadows
+// none / hard / soft × sampling truncated / exact / gemm, image size, shadow-map size, face
+// count, σ_s and the number of lights. Every case is the bundled turnaround scene
+// (data/scenes/turnaround.json) with one setting changed from the reference point
+//   image 256², map 256², 1312 faces (1280-face sphere + 32-face ground), σ_s = 2, 1 light.
+//
+// Names: [large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L.
+// Cases under large/ (1024² images or maps, 200k faces, soft exact at 256² maps, ...) take far
+// longer; they run only when the filter names them (see main.cpp).
+#include <set>
+#include <tuple>
+
+#include "common.hpp"
+#include "penumbra/error.hpp"
+#include "suite.hpp"
+
+namespace penumbra::bench {
+
+namespace {
+
+void run_case(benchmark::State& state, const Case& c, bool backward) {
+  reset_peak_rss();
+  Scene s;
+  std::vector<RenderOutput> out;
+  Renderer& r = renderer();
+  std::vector<OutputGrads> grads;
+  try {
+    s = make_scene(c);
+    out = r.render(s);  // warm-up: builds every program this case needs
+    if (backward) {
+      grads = unit_grads(s);
+      r.backward(s, grads);
+    }
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  const double fragments = covered_pixels(out);
+  const double med = timed_frames(state, [&] {
+    if (backward)
+      benchmark::DoNotOptimize(r.backward(s, grads));
+    else
+      benchmark::DoNotOptimize(r.render(s));
+  });
+  throughput_counters(state, s, fragments, med, backward);
+  memory_counter(state);
+}
+
+using Key = std::tuple<bool, int, int, int, int, int, double, int>;
+
+void add(bool backward, const Case& c, bool large = false) {
+  static std::set<Key> seen;  // a case shared by several sweeps runs once
+  const Key key{backward, int(c.shadows), int(c.sampling), c.image, c.map, c.frequency,
+                c.sigma_s, c.lights};
+  if (!seen.insert(key).second) return;
+  const std::string name = (large ? "large/" : "") + case_name("", backward, c).substr(1);
+  benchmark::RegisterBenchmark(name.c_str(),
+                               [c, backward](benchmark::State& st) { run_case(st, c, backward); })
+      ->UseManualTime()
+      ->Unit(benchmark::kMillisecond);
+}
+
+Case with(Shadows sh, Sampling sa) {
+  Case c;
+  c.shadows = sh;
+  c.sampling = sa;
+  return c;
+}
+
+}  // namespace
+
+void register_render_benchmarks() {
+  const Case none = with(Shadows::None, Sampling::Truncated),
+             hard = with(Shadows::Hard, Sampling::Truncated),
+             hard_exact = with(Shadows::Hard, Sampling::Exact),
+             hard_gemm = with(Shadows::Hard, Sampling::Gemm),
+             soft = with(Shadows::Soft, Sampling::Truncated),
+             soft_exact = with(Shadows::Soft, Sampling::Exact);
+  auto set = [](Case c, auto member, auto value) {
+    c.*member = value;
+    return c;
+  };
+
+  // The shadows × sampling matrix at the reference point (soft shadows have no gemm).
+  for (bool bwd : {false, true}) {
+    for (const Case& c : {none, hard, hard_exact, hard_gemm, soft}) add(bwd, c);
+    add(bwd, set(soft_exact, &Case::map, 64));  // exact soft costs N·W_s·H_s sigmoids
+    add(bwd, soft_exact, true);
+  }
+
+  // Image size (map 256²).
+  for (int img : {128, 512, 1024}) {
+    const bool large = img > 512;
+    for (const Case& c : {none, hard, soft}) add(false, set(c, &Case::image, img), large);
+    for (const Case& c : {none, hard}) add(true, set(c, &Case::image, img), large);
+    add(false, set(hard_exact, &Case::image, img), img > 256);
+  }
+
+  // Shadow-map size (image 256²).
+  for (int map : {64, 128, 512, 1024}) {
+    const bool large = map > 512;
+    for (const Case& c : {hard, soft, hard_exact}) add(false, set(c, &Case::map, map), large);
+    add(false, set(hard_gemm, &Case::map, map), map > 128);
+    add(true, set(hard, &Case::map, map), large);
+    add(true, set(hard_exact, &Case::map, map), map > 128);
+  }
+
+  // Face count: icospheres of 1280 to 200 000 faces (frequency 8 to 100) on the ground plane.
+  for (int freq : {0, 16, 32, 50, 71, 100}) {  // 0: the bundled 1280-face sphere
+    const bool large = freq > 71;
+    for (const Case& c : {none, hard, soft}) add(false, set(c, &Case::frequency, freq), large);
+    if (freq == 16 || freq >= 71)
+      for (const Case& c : {none, hard}) add(true, set(c, &Case::frequency, freq), large);
+  }
+  // 512² with a 100k-face mesh.
+  add(false, set(set(none, &Case::frequency, 71), &Case::image, 512));
+  add(false, set(set(hard, &Case::frequency, 71), &Case::image, 512), true);
+
+  // σ_s (texel²): the truncated window grows as sqrt(σ_s); exact sums do not depend on it.
+  for (double ss : {0.5, 1.0, 4.0, 8.0}) {
+    for (const Case& c : {hard, soft}) add(false, set(c, &Case::sigma_s, ss));
+    if (ss == 0.5 || ss == 8.0)
+      for (const Case& c : {hard, soft}) add(true, set(c, &Case::sigma_s, ss));
+  }
+
+  // Lights: one shadow map (and penumbra map) per light.
+  for (int nl : {2, 3})
+    for (bool bwd : {false, true})
+      for (const Case& c : {none, hard, soft}) add(bwd, set(c, &Case::lights, nl));
+}
+
+}  // namespace penumbra::bench
