@@ -4,7 +4,9 @@
 //   d_t distance from q to t (screen units, 0 inside), z_t its depth at q,
 //   b_t = D_L·(S_q − z_t)/S_q cone width, r_t = d_t·z_t·tan(θ/2) (or d_t·h), τ_t = r_t/b_t < 1,
 //   m_t soft membership, v_t = 1 − m_t·(1 − τ_t), weight a_t = (1 − v_t)·e^{−γ_P v_t},
-//   P_q = (e^{−γ_P} + Σ a_t v_t) / (e^{−γ_P} + Σ a_t).
+//   P_q = (e^{−γ_P} + Σ a_t v_t) / (e^{−γ_P} + Σ a_t),
+// summed with every exponent shifted by the smallest v (1 for the lit term), so that a large
+// γ_P cannot underflow the sums to 0/0.
 // The membership is sigmoid((S_q − β − z_t)/γ_s) less its value at z_t = S_q, rescaled to
 // reach 1: m_t = max(0, σ(x) − σ₀)/(1 − σ₀), σ₀ = σ(−β/γ_s). As printed it would stay at σ₀
 // where a face covering the texel (τ_t = 0) meets the receiver depth and is dropped, and P
@@ -13,7 +15,8 @@
 // box widened by D_L/(min z·scale) (or D_L/h) touches, and a texel visits only its tile's list.
 // Buffers (light view; V vertices, F faces, map W × H): vscreen V × real4, faces F × int4,
 // fnormal F × real4 (.w = screen area, 0 for a dropped face), S W·H × real;
-// P W·H × real (output), pen_sums W·H × real2 (Σ a·v, Σ a), gP W·H × real (backward input).
+// P W·H × real (output), pen_sums W·H × real2 (the shift v₀ and the shifted denominator
+// e^{−γ_P(1−v₀)} + Σ (1 − v)·e^{−γ_P(v−v₀)}), gP W·H × real (backward input).
 // Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd and
 // penumbra_bwd_texel one per texel (2-D).
 #include "common/geometry.clh"
@@ -46,7 +49,7 @@ inline real world_per_screen(real z, __global const real* P) {
 // or q outside its cone).
 typedef struct {
   Fragment fr;
-  real d, b, r, tau, sig, m, v, a;
+  real d, b, r, tau, sig, m, v;
 } Occluder;
 
 inline int occluder_fwd(real2 q, real S, const LightFace* F, __global const real* P,
@@ -64,7 +67,6 @@ inline int occluder_fwd(real2 q, real S, const LightFace* F, __global const real
   o->sig = sigmoid((S - P[P_BETA] - z) / P[P_GAMMA_S]);
   o->m = fmax(o->sig - s0, R(0)) / (1 - s0);
   o->v = 1 - o->m * (1 - o->tau);
-  o->a = (1 - o->v) * exp(-P[P_GAMMA_P] * o->v);
   return 1;
 }
 
@@ -87,11 +89,12 @@ inline void occluder_bwd(real S, const Occluder* o, __global const real* P, real
   if (!o->fr.inside && o->d > 0) *gd2 += gr * k / (2 * o->d);
 }
 
-// dP/dv_t for P = N/Dn with a = (1 − v)·e^{−γ_P v}.
-inline real penumbra_dv(const Occluder* o, real Pq, real den, __global const real* P) {
-  real gp = P[P_GAMMA_P], e = exp(-gp * o->v);
-  real da = -e * (1 + gp * (1 - o->v));
-  return (o->a + (o->v - Pq) * da) / den;
+// dP/dv_t for P = N/Dn with a = (1 − v)·e^{−γ_P v}, from the shifted denominator and shift
+// (pen_sums): the ratio is the same for any shift.
+inline real penumbra_dv(const Occluder* o, real Pq, real2 sums, __global const real* P) {
+  real gp = P[P_GAMMA_P], e = exp(-gp * (o->v - sums.x));
+  real a = (1 - o->v) * e, da = -e * (1 + gp * (1 - o->v));
+  return (a + (o->v - Pq) * da) / sums.y;
 }
 
 __kernel void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
@@ -129,7 +132,7 @@ __kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* f
   int i = get_global_id(0), j = get_global_id(1);
   if (i >= W || j >= H) return;
   real2 q = pixel_centre(i, j, W, H);
-  real Sq = S[j * W + i], num = 0, den = 0;
+  real Sq = S[j * W + i], num = 0, den = 0, shift = 1, gp = P[P_GAMMA_P];
   int t = (i / tile) + (j / tile) * tiles_x;
   for (int k = 0; k < tile_counts[t]; ++k) {
     int f = tile_faces[tile_offsets[t] + k];
@@ -138,12 +141,19 @@ __kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* f
     LightFace F = load_light_face(f, vscreen, faces, fnormal);
     Occluder o;
     if (!occluder_fwd(q, Sq, &F, P, &o)) continue;
-    num += o.a * o.v;
-    den += o.a;
+    if (o.v < shift) {  // a new smallest v: rescale what was summed to it
+      real scale = exp(-gp * (shift - o.v));
+      num *= scale;
+      den *= scale;
+      shift = o.v;
+    }
+    real a = (1 - o.v) * exp(-gp * (o.v - shift));
+    num += a * o.v;
+    den += a;
   }
-  real lit = exp(-P[P_GAMMA_P]);
+  real lit = exp(-gp * (1 - shift));
   Pmap[j * W + i] = (lit + num) / (lit + den);
-  pen_sums[j * W + i] = (real2)(num, den);
+  pen_sums[j * W + i] = (real2)(shift, lit + den);
 }
 
 // Backward, per texel: dL/dS_q and dL/dD_L (summed over texels on the host) from dL/dP_q.
@@ -158,7 +168,7 @@ __kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const i
   int tex = j * W + i;
   real2 q = pixel_centre(i, j, W, H);
   real Sq = S[tex], gPq = gP[tex], gs = 0, gd = 0;
-  real den = exp(-P[P_GAMMA_P]) + pen_sums[tex].y;
+  real2 sums = pen_sums[tex];
   int t = (i / tile) + (j / tile) * tiles_x;
   for (int k = 0; gPq != 0 && k < tile_counts[t]; ++k) {
     int f = tile_faces[tile_offsets[t] + k];
@@ -168,7 +178,7 @@ __kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const i
     Occluder o;
     if (!occluder_fwd(q, Sq, &F, P, &o)) continue;
     real gz = 0, gd2 = 0;
-    occluder_bwd(Sq, &o, P, gPq * penumbra_dv(&o, Pmap[tex], den, P), &gs, &gd, &gz, &gd2);
+    occluder_bwd(Sq, &o, P, gPq * penumbra_dv(&o, Pmap[tex], sums, P), &gs, &gd, &gz, &gd2);
   }
   gS[tex] = gs;
   gDL[tex] = gd;
@@ -189,7 +199,7 @@ __kernel void penumbra_bwd_face(__global const real4* vscreen, __global const in
   LightFace F = load_light_face(f, vscreen, faces, fnormal);
   real2 gp[3] = {0, 0, 0};
   real gzk[3] = {0, 0, 0};
-  real lit = exp(-P[P_GAMMA_P]), zero[3] = {0, 0, 0};
+  real zero[3] = {0, 0, 0};
   for (int j = bb.y; j <= bb.w; ++j)
     for (int i = bb.x; i <= bb.z; ++i) {
       int tex = j * W + i;
@@ -198,7 +208,7 @@ __kernel void penumbra_bwd_face(__global const real4* vscreen, __global const in
       Occluder o;
       if (!occluder_fwd(q, S[tex], &F, P, &o)) continue;
       real gz = 0, gd2 = 0, unused = 0, unused2 = 0;
-      real gv = gP[tex] * penumbra_dv(&o, Pmap[tex], lit + pen_sums[tex].y, P);
+      real gv = gP[tex] * penumbra_dv(&o, Pmap[tex], pen_sums[tex], P);
       occluder_bwd(S[tex], &o, P, gv, &unused, &unused2, &gz, &gd2);
       fragment_geometry_bwd(q, F.p, F.z, F.area, P, &o.fr, gd2, gz, zero, gp, gzk);
     }
