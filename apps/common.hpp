@@ -24,6 +24,9 @@ Command add_backward_command(CLI::App& root);
 Command add_gradcheck_command(CLI::App& root);
 Command add_turnaround_command(CLI::App& root);
 Command add_figures_command(CLI::App& root);
+Command add_fit_silhouette_command(CLI::App& root);
+Command add_fit_shadows_command(CLI::App& root);
+Command add_shadow_art_command(CLI::App& root);
 Command add_tune_command(CLI::App& root);
 
 // The camera turned by `angle` radians about the vertical (+y) axis through its target.

@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
   using namespace penumbra::cli;
   CLI::App app{
       "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
-      "gradient checks, turnaround animations)",
+      "gradient checks, turnaround animations, fitting shapes to silhouettes and shadows)",
       "penumbra"};
   // Set before the subcommands are added: they inherit it.
   app.failure_message([](const CLI::App*, const CLI::Error& e) {
@@ -37,6 +37,9 @@ int main(int argc, char** argv) {
     commands.push_back(add_gradcheck_command(app));
     commands.push_back(add_turnaround_command(app));
     commands.push_back(add_figures_command(app));
+    commands.push_back(add_fit_silhouette_command(app));
+    commands.push_back(add_fit_shadows_command(app));
+    commands.push_back(add_shadow_art_command(app));
     commands.push_back(add_tune_command(app));
   } catch (const std::exception& e) {
     return fail(e.what());
@@ -49,7 +52,8 @@ int main(int argc, char** argv) {
     for (const Command& command : commands) known = known || command.app->check_name(argv[1]);
     if (!known) {
       return fail(std::string("unknown command '") + argv[1] +
-                      "' (commands: devices, render, backward, gradcheck, turnaround, figures, tune; see penumbra "
+                      "' (commands: devices, render, backward, gradcheck, turnaround, figures, tune, "
+                      "fit-silhouette, fit-shadows, shadow-art; see penumbra "
                       "--help)",
                   2);
     }
