@@ -3,10 +3,13 @@
 # Skips apt entirely when every package is already installed, so re-runs are fast.
 set -euo pipefail
 
+# clang-15 (with libclang-common-15-dev: libFuzzer and the ASan/UBSan runtimes) builds the
+# fuzzers of scripts/fuzz.sh; PoCL depends on it already, so listing it costs nothing. The
+# sanitizer build of the test suite uses g++'s own runtimes (libasan, libubsan).
 PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
   libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev
-  libcli11-dev nlohmann-json3-dev cmake ninja-build g++ pkg-config clinfo
+  libcli11-dev nlohmann-json3-dev cmake ninja-build g++ pkg-config clinfo clang-15
 )
 
 missing=()

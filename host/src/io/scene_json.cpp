@@ -316,25 +316,56 @@ std::string json_message(const std::exception& e) {
   return m;
 }
 
+// The error thrown for a scene: one line whatever the document holds. Strings from the document
+// (keys, names, file names, enum values) are quoted in messages and may contain line breaks
+// ("a\nb" in JSON); control characters are written as escapes.
+Error scene_error(const std::string& label, const std::string& message) {
+  const std::string text = label + ": " + message;
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (char ch : text) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else if (c < 0x20 || c == 0x7f) {
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    } else {
+      out += ch;
+    }
+  }
+  return Error(out);
+}
+
 Scene parse(const std::string& text, const std::filesystem::path& base, const std::string& label) {
   json doc;
   try {
     doc = json::parse(text);
   } catch (const json::parse_error& e) {
-    throw Error(label + ": JSON syntax error: " + json_message(e));
+    throw scene_error(label, "JSON syntax error: " + json_message(e));
+  } catch (const json::exception& e) {
+    // Well-formed text nlohmann cannot represent, e.g. a number beyond double's range (1e999).
+    throw scene_error(label, "invalid JSON: " + json_message(e));
   }
   Scene scene;
   try {
     scene = parse_document(doc, base);
   } catch (const SceneError& e) {
-    throw Error(label + ": " + e.message);
+    throw scene_error(label, e.message);
   } catch (const json::exception& e) {
-    throw Error(label + ": " + json_message(e));
+    throw scene_error(label, json_message(e));
+  } catch (const Error& e) {
+    throw scene_error(label, e.what());  // from fit_light_frusta
   }
   try {
     validate(scene);
   } catch (const Error& e) {
-    throw Error(label + ": " + e.what());
+    throw scene_error(label, e.what());
   }
   return scene;
 }

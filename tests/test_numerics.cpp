@@ -1,0 +1,581 @@
+// Numerical robustness: no NaN or inf anywhere, for extreme but legal parameters and awkward
+// geometry; and determinism, run to run and across raster tunings.
+//
+//   Numerics/NumericsCases.Finite/<case>   every case of kCases below, rendered and
+//       differentiated in float and double with shadows none, hard and soft: every colour,
+//       silhouette and depth value, every shadow-map and penumbra-map texel and every gradient
+//       (vertices, albedo, light positions, colours and sizes, ambient) must be finite, and the
+//       silhouette must lie in [0, 1]. Each case prints one line of the table below.
+//   NumericsDeterminism.*  the same inputs give bit-identical images, maps and gradients, run
+//       twice on one renderer, on a fresh renderer, and across raster tunings (tile, pixels per
+//       work-item, brute force) and penumbra-map tiles — which keep the summation order — with
+//       hard and soft shadows.
+//   NumericsReference.*  double-precision kernels against the CPU reference for the extreme
+//       cases where the reference is cheap (shadows none and hard).
+//
+// The scene (scaled by `scale`): an icosphere occluder (42 vertices, 80 faces, radius 0.5)
+// above a 2×2-cell ground grid (8 faces, 4 × 4 units), a 40×32 perspective camera, a point light
+// of diameter 0.3, 32² shadow maps, truncated sampling unless the case says exact. Depth-unit
+// parameters scale with the scene (γ_s = 0.02·scale, β = 0.1·scale, D_L = 0.3·scale). Base
+// σ = 1e-4, γ = 1e-3; σ, γ, ε_D stay in (0, 1) and γ_s in (0, 1e2] as the scene validation
+// allows.
+//
+//   case                  what is extreme
+//   baseline              nothing (reference row)
+//   sigma_1e-8            σ = 1e-8: coverage is a step at the pixel scale
+//   sigma_0.9             σ = 0.9: every face covers every pixel
+//   gamma_1e-8            γ = 1e-8: aggregation is a hard z-buffer
+//   gamma_0.9             γ = 0.9: aggregation nearly uniform
+//   gamma_s_1e-8          γ_s = 1e-8: depth comparisons are steps
+//   gamma_s_1e2           γ_s = 1e2: depth comparisons nearly flat
+//   dist_eps_1e-8         ε_D = 1e-8: the coverage cut-off far out
+//   dist_eps_0.9          ε_D = 0.9: the cut-off inside the face (renders nothing today:
+//                         see NumericsReference.DISABLED_CoverageCutoffAboveOneHalf...)
+//   all_sharp             σ = γ = 1e-8, γ_s = 1e-8
+//   all_sharp_exact       the same with exact (every-texel) sampling
+//   all_soft              σ = γ = 0.9, γ_s = 1e2
+//   gamma_p_100           γ_P = 1e2: the penumbra soft minimum nearly a hard minimum
+//   light_size_0          D_L = 0: no penumbra (the cone has zero width)
+//   huge_1e4              the scene 1e4 times larger (camera, lights, γ_s, β, D_L scaled)
+//   tiny_1e-4             the scene 1e-4 times as large
+//   huge_sharp            1e4 scene with σ = γ = 1e-8, γ_s = 1e-8·scale
+//   tiny_sharp            1e-4 scene with σ = γ = 1e-8, γ_s = 1e-8·scale
+//   coincident_vertices   two vertices of the occluder at one position (a seam: the faces
+//                         around one vertex split between it and its copy)
+//   edge_on_camera        the camera at ground level (every ground face edge-on to it) and a
+//                         fin whose plane holds the eye
+//   edge_on_light         the point light at ground level (the ground edge-on to it) and a fin
+//                         whose plane holds the light
+//   grazing_directional   a directional light parallel to the ground, orthographic camera
+//   light_inside_offset   the point light inside the closed occluder, off its centre
+//
+// Cases that produced NaN before the kernels were fixed, kept as regressions
+// (NumericsKnownBugs.Finite):
+//   light_inside          the point light at the occluder's centre: occluder vertices lie
+//                         exactly in the light camera's eye plane (view depth 0). Images are
+//                         finite; with shadows on, d/dvertices of the occluder and d/dlight
+//                         position are NaN. Cause: project_bwd (kernels/common/geometry.clh)
+//                         divides by the view depth s.z even for a vertex whose gradient is 0
+//                         (its faces are dropped, z < near): 0·inf and 0/0.
+//   vertex_on_eye_plane   the same through the camera, shadows off: ground vertices exactly in
+//                         the camera's eye plane get NaN gradients.
+//   gamma_p_1e3           γ_P = 1e3 (legal: positive): soft-shadow colour, penumbra map and
+//                         every gradient NaN. Cause: penumbra.cl computes P = (e^−γ_P + Σ a·v) /
+//                         (e^−γ_P + Σ a), a = (1 − v)·e^−γ_P·v, unshifted: e^−γ_P underflows to
+//                         0 (float from γ_P ≈ 104, double from γ_P ≈ 746) and a texel with no
+//                         occluder gives 0/0. A shifted (log-sum-exp) form avoids it.
+//
+// Images are small so that the whole file runs in a few seconds on PoCL.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/gradcheck.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/reference.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+#include "penumbra/tuning.hpp"
+
+namespace {
+
+using glm::dvec3;
+using penumbra::AlbedoMode;
+using penumbra::Camera;
+using penumbra::Context;
+using penumbra::Image;
+using penumbra::Light;
+using penumbra::LightType;
+using penumbra::Mesh;
+using penumbra::OutputGrads;
+using penumbra::Precision;
+using penumbra::Projection;
+using penumbra::Renderer;
+using penumbra::RenderOutput;
+using penumbra::Sampling;
+using penumbra::Scene;
+using penumbra::SceneGrads;
+using penumbra::Shadows;
+
+Context& context() {
+  static Context ctx;
+  return ctx;
+}
+
+// ---- scenes -------------------------------------------------------------------------------
+
+// Icosahedron subdivided once (42 vertices, 80 faces), counter-clockwise seen from outside.
+Mesh icosphere(dvec3 center, double radius) {
+  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
+  std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  for (dvec3& p : v) p = glm::normalize(p);
+  const std::vector<glm::ivec3> f = {
+      {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+      {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+      {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  std::map<std::pair<int, int>, int> midpoint;
+  auto mid = [&](int a, int b) {
+    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
+    auto it = midpoint.find(key);
+    if (it != midpoint.end()) return it->second;
+    v.push_back(glm::normalize(v[size_t(a)] + v[size_t(b)]));
+    return midpoint[key] = int(v.size()) - 1;
+  };
+  Mesh mesh;
+  mesh.name = "occluder";
+  for (const glm::ivec3& tri : f) {
+    const int a = mid(tri.x, tri.y), b = mid(tri.y, tri.z), c = mid(tri.z, tri.x);
+    mesh.faces.insert(mesh.faces.end(), {{tri.x, a, c}, {tri.y, b, a}, {tri.z, c, b}, {a, b, c}});
+  }
+  for (const dvec3& p : v) {
+    mesh.vertices.push_back(center + radius * p);
+    mesh.albedo.push_back(dvec3(0.6, 0.5, 0.45) + dvec3(0.25 * p.x, 0.2 * p.y, -0.2 * p.z));
+  }
+  mesh.albedo_mode = AlbedoMode::PerVertex;
+  return mesh;
+}
+
+// Horizontal n×n grid in y = 0 over [−half, half]², facing +y.
+Mesh ground(double half, int n) {
+  Mesh mesh;
+  mesh.name = "ground";
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      mesh.vertices.push_back({-half + 2 * half * i / n, 0.0, -half + 2 * half * j / n});
+      mesh.albedo.push_back({0.7, 0.7 - 0.1 * i / n, 0.6 + 0.1 * j / n});
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
+      mesh.faces.push_back({a, c, b});
+      mesh.faces.push_back({b, c, d});
+    }
+  mesh.albedo_mode = AlbedoMode::PerFace;
+  mesh.albedo.assign(mesh.faces.size(), dvec3(0.7, 0.65, 0.6));
+  return mesh;
+}
+
+// One triangle in the plane through `origin` spanned by `along` and `across`: seen from
+// `origin` it is a line (edge-on). Offsets are fractions of `along` and world units `across`.
+Mesh fin(dvec3 origin, dvec3 along, dvec3 across, double scale) {
+  Mesh mesh;
+  mesh.name = "fin";
+  const dvec3 a = glm::normalize(across) * scale;
+  mesh.vertices = {origin + 0.55 * along, origin + 0.7 * along + 0.4 * a,
+                   origin + 0.8 * along - 0.3 * a};
+  mesh.faces = {{0, 1, 2}};
+  mesh.albedo = {dvec3(0.9, 0.3, 0.2)};
+  mesh.albedo_mode = AlbedoMode::PerFace;
+  return mesh;
+}
+
+Scene base_scene(double s) {
+  Scene scene;
+  scene.meshes = {icosphere(dvec3(0, 1, 0) * s, 0.5 * s), ground(2 * s, 2)};
+  Camera cam;
+  cam.eye = dvec3(0.6, 3.2, 4.6) * s;
+  cam.target = dvec3(0, 0.3, 0) * s;
+  cam.fov_deg = 48;
+  cam.half_height = 2.4 * s;
+  cam.near = 0.5 * s;
+  cam.far = 12 * s;
+  cam.width = 40;
+  cam.height = 32;
+  scene.cameras = {cam};
+  Light light;
+  light.type = LightType::Point;
+  light.position = dvec3(1.5, 5, 2) * s;
+  light.color = {0.9, 0.85, 0.8};
+  light.size = 0.3 * s;
+  scene.lights = {light};
+  scene.ambient = {0.2, 0.2, 0.25};
+  scene.params.sigma = 1e-4;
+  scene.params.gamma = 1e-3;
+  scene.params.gamma_s = 0.02 * s;
+  scene.params.beta = 0.1 * s;
+  scene.params.shadow_map_size = 32;
+  return scene;
+}
+
+struct Case {
+  const char* name;
+  double scale;
+  std::function<void(Scene&, double)> edit;  // (scene, scale)
+};
+
+void sharp(Scene& s, double scale) {
+  s.params.sigma = 1e-8;
+  s.params.gamma = 1e-8;
+  s.params.gamma_s = 1e-8 * scale;
+}
+
+const std::vector<Case>& cases() {
+  static const std::vector<Case> table = {
+      {"baseline", 1, [](Scene&, double) {}},
+      {"sigma_1e-8", 1, [](Scene& s, double) { s.params.sigma = 1e-8; }},
+      {"sigma_0.9", 1, [](Scene& s, double) { s.params.sigma = 0.9; }},
+      {"gamma_1e-8", 1, [](Scene& s, double) { s.params.gamma = 1e-8; }},
+      {"gamma_0.9", 1, [](Scene& s, double) { s.params.gamma = 0.9; }},
+      {"gamma_s_1e-8", 1, [](Scene& s, double) { s.params.gamma_s = 1e-8; }},
+      {"gamma_s_1e2", 1, [](Scene& s, double) { s.params.gamma_s = 1e2; }},
+      {"dist_eps_1e-8", 1, [](Scene& s, double) { s.params.dist_eps = 1e-8; }},
+      {"dist_eps_0.9", 1, [](Scene& s, double) { s.params.dist_eps = 0.9; }},
+      {"all_sharp", 1, sharp},
+      {"all_sharp_exact", 1,
+       [](Scene& s, double k) {
+         sharp(s, k);
+         s.params.sampling = Sampling::Exact;
+       }},
+      {"all_soft", 1,
+       [](Scene& s, double) {
+         s.params.sigma = 0.9;
+         s.params.gamma = 0.9;
+         s.params.gamma_s = 1e2;
+       }},
+      {"gamma_p_100", 1, [](Scene& s, double) { s.params.gamma_p = 1e2; }},
+      {"light_size_0", 1, [](Scene& s, double) { s.lights[0].size = 0; }},
+      {"huge_1e4", 1e4, [](Scene&, double) {}},
+      {"tiny_1e-4", 1e-4, [](Scene&, double) {}},
+      {"huge_sharp", 1e4, sharp},
+      {"tiny_sharp", 1e-4, sharp},
+      {"coincident_vertices", 1,
+       [](Scene& s, double) {
+         // A copy of vertex 0 at the same position; every other face around vertex 0 uses it.
+         Mesh& m = s.meshes[0];
+         const int copy = int(m.vertices.size());
+         m.vertices.push_back(m.vertices[0]);
+         m.albedo.push_back(m.albedo[0]);
+         int around = 0;
+         for (glm::ivec3& f : m.faces)
+           for (int k = 0; k < 3; ++k)
+             if (f[k] == 0 && (around++ % 2 == 1)) f[k] = copy;
+       }},
+      {"edge_on_camera", 1,
+       [](Scene& s, double k) {
+         Camera& c = s.cameras[0];
+         c.eye = dvec3(0.4, 0.0, 5.0) * k;  // in the ground's plane
+         c.target = dvec3(0, 0.0, 0) * k;
+         s.meshes.push_back(fin(c.eye, c.target - c.eye + dvec3(0, 0.6, 0) * k, {0, 1, 0}, k));
+       }},
+      {"edge_on_light", 1,
+       [](Scene& s, double k) {
+         Light& l = s.lights[0];
+         l.position = dvec3(3.0, 0.0, 1.0) * k;  // in the ground's plane
+         const dvec3 to_centre = dvec3(0, 0.5, 0) * k - l.position;
+         s.meshes.push_back(fin(l.position, to_centre, glm::cross(to_centre, {0, 1, 0}), k));
+       }},
+      {"grazing_directional", 1,
+       [](Scene& s, double) {
+         s.lights[0].type = LightType::Directional;
+         s.lights[0].direction = {1.0, 0.0, 0.2};  // parallel to the ground
+         s.cameras[0].projection = Projection::Orthographic;
+       }},
+      {"light_inside_offset", 1,
+       [](Scene& s, double k) { s.lights[0].position = dvec3(0.07, 1.04, -0.05) * k; }},
+  };
+  return table;
+}
+
+// Cases that once failed (see the header); NumericsKnownBugs.Finite runs them.
+const std::vector<Case>& known_bugs() {
+  static const std::vector<Case> table = {
+      {"light_inside", 1,
+       [](Scene& s, double k) { s.lights[0].position = dvec3(0, 1, 0) * k; }},
+      {"vertex_on_eye_plane", 1,
+       [](Scene& s, double k) {
+         // Looking along −z from z = 2: the ground's vertices at z = 2 have view depth 0.
+         s.cameras[0].eye = dvec3(0, 0.5, 2) * k;
+         s.cameras[0].target = dvec3(0, 0.5, -1) * k;
+         s.cameras[0].fov_deg = 90;
+         s.cameras[0].near = 0.1 * k;
+       }},
+      {"gamma_p_1e3", 1, [](Scene& s, double) { s.params.gamma_p = 1e3; }},
+  };
+  return table;
+}
+
+Scene case_scene(const Case& c, Shadows shadows) {
+  Scene s = base_scene(c.scale);
+  c.edit(s, c.scale);
+  s.params.shadows = shadows;
+  penumbra::fit_light_frusta(s);
+  return s;
+}
+
+// ---- checks -------------------------------------------------------------------------------
+
+// Counts the non-finite values of `values` into `bad` under `label`.
+struct FiniteCheck {
+  std::vector<std::string> problems;
+  void values(const std::string& label, const std::vector<double>& v) {
+    size_t n = 0;
+    for (double x : v) n += !std::isfinite(x);
+    if (n) problems.push_back(label + ": " + std::to_string(n) + " of " +
+                              std::to_string(v.size()) + " not finite");
+  }
+  void vecs(const std::string& label, const std::vector<dvec3>& v) {
+    std::vector<double> flat;
+    for (const dvec3& p : v) flat.insert(flat.end(), {p.x, p.y, p.z});
+    values(label, flat);
+  }
+};
+
+// Renders and differentiates; returns the problems found (empty: all finite) and the largest
+// |gradient| in `max_grad`.
+std::vector<std::string> check_case(const Case& c, Precision precision, Shadows shadows,
+                                   double* max_grad) {
+  const Scene scene = case_scene(c, shadows);
+  Renderer renderer(context(), precision);
+  FiniteCheck check;
+  std::vector<RenderOutput> out;
+  SceneGrads g;
+  try {
+    out = renderer.render(scene);
+    for (size_t v = 0; v < out.size(); ++v) {
+      const std::string view = "view " + std::to_string(v) + " ";
+      check.values(view + "colour", out[v].color.data);
+      check.values(view + "silhouette", out[v].silhouette.data);
+      check.values(view + "depth", out[v].depth.data);
+      size_t outside = 0;
+      for (double a : out[v].silhouette.data) outside += !(a >= 0.0 && a <= 1.0);
+      if (outside) check.problems.push_back(view + "silhouette outside [0, 1]");
+    }
+    for (const Image& m : renderer.shadow_maps()) check.values("shadow map", m.data);
+    for (const Image& m : renderer.penumbra_maps()) check.values("penumbra map", m.data);
+    g = renderer.backward(scene, penumbra::random_loss_weights(scene, 7));
+  } catch (const std::exception& e) {
+    check.problems.push_back(std::string("threw: ") + e.what());
+    return check.problems;
+  }
+  for (size_t m = 0; m < g.vertices.size(); ++m) {
+    check.vecs("d/dvertices of mesh " + std::to_string(m), g.vertices[m]);
+    check.vecs("d/dalbedo of mesh " + std::to_string(m), g.albedo[m]);
+  }
+  check.vecs("d/dlight position", g.light_position);
+  check.vecs("d/dlight colour", g.light_color);
+  check.values("d/dlight size", g.light_size);
+  check.vecs("d/dambient", {g.ambient});
+  *max_grad = penumbra::max_abs_gradient(g);
+  return check.problems;
+}
+
+// Runs one case in both precisions with every shadow mode, prints its row of the table and
+// fails the test for every non-finite value.
+void run_case(const Case& c) {
+  std::ostringstream row;
+  row << "numerics | " << std::left << std::setw(20) << c.name;
+  for (Precision p : {Precision::Float, Precision::Double}) {
+    for (Shadows sh : {Shadows::None, Shadows::Hard, Shadows::Soft}) {
+      const char* pname = p == Precision::Float ? "float" : "double";
+      const char* sname = sh == Shadows::None ? "none" : sh == Shadows::Hard ? "hard" : "soft";
+      double max_grad = 0;
+      const std::vector<std::string> problems = check_case(c, p, sh, &max_grad);
+      row << " | " << pname << "/" << sname << " ";
+      if (problems.empty()) {
+        row << "ok (max|g| " << std::setprecision(2) << std::scientific << max_grad << ")";
+      } else {
+        row << "FAIL";
+        for (const std::string& why : problems)
+          ADD_FAILURE() << c.name << " " << pname << " shadows " << sname << ": " << why;
+      }
+      row << std::defaultfloat;
+    }
+  }
+  std::cout << row.str() << std::endl;
+}
+
+std::string case_name(const std::vector<Case>& table, size_t i) {
+  std::string name = table[i].name;
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
+}
+
+class NumericsCases : public ::testing::TestWithParam<size_t> {};
+TEST_P(NumericsCases, Finite) { run_case(cases()[GetParam()]); }
+INSTANTIATE_TEST_SUITE_P(Numerics, NumericsCases, ::testing::Range<size_t>(0, cases().size()),
+                         [](const ::testing::TestParamInfo<size_t>& info) {
+                           return case_name(cases(), info.param);
+                         });
+
+// Disabled until the kernels are fixed (see the header for each cause).
+class NumericsKnownBugs : public ::testing::TestWithParam<size_t> {};
+TEST_P(NumericsKnownBugs, Finite) { run_case(known_bugs()[GetParam()]); }
+INSTANTIATE_TEST_SUITE_P(Numerics, NumericsKnownBugs,
+                         ::testing::Range<size_t>(0, known_bugs().size()),
+                         [](const ::testing::TestParamInfo<size_t>& info) {
+                           return case_name(known_bugs(), info.param);
+                         });
+
+// ---- extremes against the CPU reference ----------------------------------------------------
+
+// Largest |a − b| over two images of one size (inf if the sizes differ or a value is NaN).
+double max_diff(const Image& a, const Image& b) {
+  if (a.data.size() != b.data.size()) return INFINITY;
+  double worst = 0;
+  for (size_t i = 0; i < a.data.size(); ++i) {
+    const double d = std::fabs(a.data[i] - b.data[i]);
+    worst = std::isnan(d) ? INFINITY : std::max(worst, d);
+  }
+  return worst;
+}
+
+// Double-precision kernels against reference::render for a case (shadows none and hard):
+// colour and silhouette to 1e-6, depth to 1e-6 of the far plane.
+void expect_matches_reference(const Case& c) {
+  for (Shadows sh : {Shadows::None, Shadows::Hard}) {
+    const Scene scene = case_scene(c, sh);
+    Renderer renderer(context(), Precision::Double);
+    const std::vector<RenderOutput> got = renderer.render(scene);
+    const RenderOutput want = penumbra::reference::render(scene, 0);
+    const char* tag = sh == Shadows::None ? "shadows none" : "shadows hard";
+    EXPECT_LE(max_diff(got[0].color, want.color), 1e-6) << c.name << " " << tag << " colour";
+    EXPECT_LE(max_diff(got[0].silhouette, want.silhouette), 1e-6)
+        << c.name << " " << tag << " silhouette";
+    EXPECT_LE(max_diff(got[0].depth, want.depth), 1e-6 * scene.cameras[0].far)
+        << c.name << " " << tag << " depth";
+  }
+}
+
+TEST(NumericsReference, ExtremesMatchTheReference) {
+  for (const char* name : {"sigma_1e-8", "sigma_0.9", "gamma_0.9", "gamma_s_1e-8", "gamma_s_1e2",
+                           "dist_eps_1e-8", "huge_1e4", "tiny_1e-4", "coincident_vertices",
+                           "edge_on_camera", "edge_on_light"})
+    for (const Case& c : cases())
+      if (std::string(c.name) == name) expect_matches_reference(c);
+}
+
+// Known bug: with ε_D > 0.5 the cut-off d² ≥ σ·ln(1/ε_D − 1) has a negative right-hand side,
+// so every outside face is skipped (SPEC §1) but inside faces still cover their pixels, as the
+// reference renders them. The kernels render nothing at all (silhouette 0 everywhere): the
+// host passes P_CUTOFF_D2 = σ·ln(1/ε_D − 1) < 0 (host/src/renderer.cpp) and face_setup
+// (kernels/transform.cl) widens each face's screen box by r = sqrt(P_CUTOFF_D2) = NaN, so every
+// box comes out empty. Clamping the square root's argument at 0 would fix it.
+TEST(NumericsReference, DISABLED_CoverageCutoffAboveOneHalfMatchesTheReference) {
+  for (double dist_eps : {0.6, 0.9}) {
+    const Case c{"dist_eps_above_half", 1, [dist_eps](Scene& s, double) {
+                   s.params.dist_eps = dist_eps;
+                 }};
+    expect_matches_reference(c);
+  }
+}
+
+// ---- determinism --------------------------------------------------------------------------
+
+// Everything a render + backward produces, flattened in a fixed order.
+std::vector<double> everything(Renderer& renderer, const Scene& scene) {
+  std::vector<double> all;
+  auto add = [&](const std::vector<double>& v) { all.insert(all.end(), v.begin(), v.end()); };
+  for (const RenderOutput& o : renderer.render(scene)) {
+    add(o.color.data);
+    add(o.silhouette.data);
+    add(o.depth.data);
+  }
+  for (const Image& m : renderer.shadow_maps()) add(m.data);
+  for (const Image& m : renderer.penumbra_maps()) add(m.data);
+  const SceneGrads g = renderer.backward(scene, penumbra::random_loss_weights(scene, 11));
+  auto add3 = [&](const std::vector<dvec3>& v) {
+    for (const dvec3& p : v) all.insert(all.end(), {p.x, p.y, p.z});
+  };
+  for (const auto& v : g.vertices) add3(v);
+  for (const auto& a : g.albedo) add3(a);
+  add3(g.light_position);
+  add3(g.light_color);
+  add(g.light_size);
+  add3({g.ambient});
+  return all;
+}
+
+// Bit-for-bit equality (NaN compares equal to the same NaN; −0 differs from +0).
+::testing::AssertionResult bit_identical(const std::vector<double>& a,
+                                         const std::vector<double>& b) {
+  if (a.size() != b.size())
+    return ::testing::AssertionFailure() << "sizes differ: " << a.size() << " vs " << b.size();
+  size_t differ = 0, first = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(&a[i], &b[i], sizeof(double)) != 0 && differ++ == 0) first = i;
+  if (differ == 0) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure()
+         << differ << " of " << a.size() << " values differ; first at " << first << ": "
+         << std::setprecision(17) << a[first] << " vs " << b[first];
+}
+
+// A scene where shadows show: the icosphere's shadow falls on the ground; two lights (point
+// and directional) so that the per-light loops run more than once.
+Scene determinism_scene(Shadows shadows) {
+  Scene s = base_scene(1);
+  Light sun;
+  sun.type = LightType::Directional;
+  sun.direction = {-0.4, -1, -0.3};
+  sun.color = {0.3, 0.3, 0.35};
+  sun.size = 0.2;
+  s.lights.push_back(sun);
+  s.params.shadows = shadows;
+  penumbra::fit_light_frusta(s);
+  return s;
+}
+
+TEST(NumericsDeterminism, RepeatedRunsAreBitIdentical) {
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+      SCOPED_TRACE(std::string(p == Precision::Float ? "float" : "double") +
+                   (sh == Shadows::Hard ? " hard" : " soft"));
+      const Scene scene = determinism_scene(sh);
+      Renderer a(context(), p);
+      const std::vector<double> first = everything(a, scene);
+      EXPECT_TRUE(bit_identical(first, everything(a, scene))) << "same renderer, second run";
+      Renderer b(context(), p);
+      EXPECT_TRUE(bit_identical(first, everything(b, scene))) << "fresh renderer";
+    }
+}
+
+TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
+  struct Variant {
+    int tile, pixels_per_item;
+    bool brute_force;
+    int penumbra_tile;
+  };
+  const std::vector<Variant> variants = {{16, 8, false, 16}, {8, 1, false, 16},
+                                         {8, 8, false, 8},   {16, 1, false, 16},
+                                         {16, 4, false, 4},  {16, 16, false, 32},
+                                         {32, 2, false, 16}, {32, 8, false, 64},
+                                         {16, 8, true, 16}};
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+      const std::string label = std::string(p == Precision::Float ? "float" : "double") +
+                                (sh == Shadows::Hard ? " hard" : " soft");
+      const Scene scene = determinism_scene(sh);
+      std::vector<double> reference;
+      for (const Variant& v : variants) {
+        penumbra::Tuning t;
+        t.raster.tile = v.tile;
+        t.raster.pixels_per_item = v.pixels_per_item;
+        t.raster.brute_force = v.brute_force;
+        t.penumbra.tile = v.penumbra_tile;
+        Renderer r(context(), p, t);
+        const std::vector<double> all = everything(r, scene);
+        if (reference.empty()) {
+          reference = all;
+          continue;
+        }
+        EXPECT_TRUE(bit_identical(reference, all))
+            << label << ": tile " << v.tile << ", " << v.pixels_per_item << " px/item"
+            << (v.brute_force ? ", brute force" : "") << ", penumbra tile " << v.penumbra_tile
+            << " differs from tile 16, 8 px/item, penumbra tile 16";
+      }
+    }
+}
+
+}  // namespace
