@@ -82,7 +82,7 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
   o.o_gamma = cmd.add_option("--gamma", o.gamma, "aggregation sharpness γ (> 0)")->group(group);
   o.o_eps = cmd.add_option("--eps", o.eps, "background depth ε of the aggregation")->group(group);
   o.o_dist_eps =
-      cmd.add_option("--dist-eps,--dist_eps", o.dist_eps, "coverage cut-off ε_D, in (0, 0.5)")
+      cmd.add_option("--dist-eps,--dist_eps", o.dist_eps, "coverage cut-off ε_D, in (0, 1)")
           ->group(group);
   o.o_sigma_s =
       cmd.add_option("--sigma-s", o.sigma_s, "shadow-map Gaussian variance σ_s (texel², > 0)")
@@ -136,7 +136,7 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     p.eps = o.eps;
   }
   if (given(o.o_dist_eps)) {
-    require(positive(o.dist_eps) && o.dist_eps < 0.5, "--dist-eps", "in (0, 0.5)", o.dist_eps);
+    require(positive(o.dist_eps) && o.dist_eps < 1, "--dist-eps", "in (0, 1)", o.dist_eps);
     p.dist_eps = o.dist_eps;
   }
   if (given(o.o_sigma_s)) {

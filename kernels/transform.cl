@@ -47,7 +47,8 @@ __kernel void face_setup(__global const real4* vworld, __global const real4* vsc
   if (valid) {
     // Pixel centres: x = (2px + 1 − W)/H, y = (H − 2py − 1)/H. One pixel of margin on each
     // side keeps the box conservative under rounding; the raster re-tests every pixel exactly.
-    real r = sqrt(P[P_CUTOFF_D2]);
+    // With ε_D > 0.5 the cut-off radius² is negative: no outside pixel is covered, r = 0.
+    real r = sqrt(fmax(P[P_CUTOFF_D2], (real)0));
     real xlo = fmin(s0.x, fmin(s1.x, s2.x)) - r, xhi = fmax(s0.x, fmax(s1.x, s2.x)) + r;
     real ylo = fmin(s0.y, fmin(s1.y, s2.y)) - r, yhi = fmax(s0.y, fmax(s1.y, s2.y)) + r;
     real fx0 = clamp((xlo * H + W - 1) / 2 - 1, R(-1), (real)W);

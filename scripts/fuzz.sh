@@ -13,6 +13,10 @@
 #   PENUMBRA_FUZZ_BUILD_DIR  build folder (default build-fuzz)
 #   PENUMBRA_FUZZ_CXX        the clang++ to use (default clang++-15, which PoCL depends on on
 #                            Debian 12, else clang++)
+#   PENUMBRA_FUZZ_SEED       libFuzzer's random seed. Default: random, except in CI (CI=true),
+#                            where it is 1, so that every CI run tries the same inputs in the
+#                            same order (a finding there is reproducible, not a matter of luck;
+#                            new ground is for longer local runs)
 # A crash, a sanitizer report, an uncaught exception other than penumbra::Error, a timeout
 # (10 s per input) or a memory blow-up (2 GiB) fails the run: the input is saved as
 # <build>/fuzz/artifacts/<target>-crash-<sha1> (or -timeout-, -oom-, ...), its first bytes are
@@ -25,6 +29,8 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 seconds=${PENUMBRA_FUZZ_SECONDS:-25}
 build=${PENUMBRA_FUZZ_BUILD_DIR:-build-fuzz}
+seed=${PENUMBRA_FUZZ_SEED:-}
+[[ -n "$seed" || "${CI:-}" != "true" ]] || seed=1
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || targets=(obj scene image npy)
 
@@ -55,11 +61,11 @@ for t in "${targets[@]}"; do
   log="$build/fuzz/fuzz_$t.log"
   [[ -x "$bin" && -d "$seeds" ]] || { echo "fuzz: unknown target '$t'" >&2; exit 2; }
   mkdir -p "$corpus"
-  echo "fuzz: $t for ${seconds}s (seeds: $seeds, $(ls "$seeds" | wc -l) files)"
+  echo "fuzz: $t for ${seconds}s (seeds: $seeds, $(ls "$seeds" | wc -l) files; random seed ${seed:-random})"
   start=$(date +%s)
   set +e
   "$bin" "$corpus" "$seeds" -dict="tests/fuzz/$t.dict" -max_total_time="$seconds" \
-    -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+    -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 ${seed:+-seed="$seed"} \
     -artifact_prefix="$build/fuzz/artifacts/$t-" >"$log" 2>&1
   rc=$?
   set -e

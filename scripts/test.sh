@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Fresh machine to green tests: installs the packages, builds, runs the whole test suite.
-# With PENUMBRA_HARDENING=1 (or the argument `all`) it then runs the hardening checks too
-# (README, "Hardening"):
+# In CI (CI=true, as .ci/run sets it), with PENUMBRA_HARDENING=1 or with the argument `all`
+# it then runs the hardening checks too (README, "Hardening"):
 #   asan  the library, the tool and the whole test suite built with ASan+UBSan (preset `asan`,
 #         build-asan/), every test run under the sanitizers;
 #   fuzz  the libFuzzer targets of the file loaders, 25 s each (scripts/fuzz.sh, build-fuzz/).
-# Usage: scripts/test.sh [suite|asan|fuzz|all]   (no argument: the suite)
+# Usage: scripts/test.sh [suite|asan|fuzz|all]   (no argument: the suite, plus the rest in CI)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -63,7 +63,7 @@ case "${1:-}" in
   all) step suite; step asan; step fuzz ;;
   "")
     step suite
-    if [[ "${PENUMBRA_HARDENING:-}" == "1" ]]; then
+    if [[ "${CI:-}" == "true" || "${PENUMBRA_HARDENING:-}" == "1" ]]; then
       step asan
       step fuzz
     fi

@@ -29,8 +29,7 @@
 //   gamma_s_1e-8          γ_s = 1e-8: depth comparisons are steps
 //   gamma_s_1e2           γ_s = 1e2: depth comparisons nearly flat
 //   dist_eps_1e-8         ε_D = 1e-8: the coverage cut-off far out
-//   dist_eps_0.9          ε_D = 0.9: the cut-off inside the face (renders nothing today:
-//                         see NumericsReference.DISABLED_CoverageCutoffAboveOneHalf...)
+//   dist_eps_0.9          ε_D = 0.9: a negative cut-off radius², only inside pixels covered
 //   all_sharp             σ = γ = 1e-8, γ_s = 1e-8
 //   all_sharp_exact       the same with exact (every-texel) sampling
 //   all_soft              σ = γ = 0.9, γ_s = 1e2
@@ -50,7 +49,7 @@
 //   light_inside_offset   the point light inside the closed occluder, off its centre
 //
 // Cases that produced NaN before the kernels were fixed, kept as regressions
-// (NumericsKnownBugs.Finite):
+// (NumericsRegressions.Finite):
 //   light_inside          the point light at the occluder's centre: occluder vertices lie
 //                         exactly in the light camera's eye plane (view depth 0). Images are
 //                         finite; with shadows on, d/dvertices of the occluder and d/dlight
@@ -288,8 +287,8 @@ const std::vector<Case>& cases() {
   return table;
 }
 
-// Cases that once failed (see the header); NumericsKnownBugs.Finite runs them.
-const std::vector<Case>& known_bugs() {
+// Cases that once failed (see the header); NumericsRegressions.Finite runs them.
+const std::vector<Case>& regressions() {
   static const std::vector<Case> table = {
       {"light_inside", 1,
        [](Scene& s, double k) { s.lights[0].position = dvec3(0, 1, 0) * k; }},
@@ -411,12 +410,12 @@ INSTANTIATE_TEST_SUITE_P(Numerics, NumericsCases, ::testing::Range<size_t>(0, ca
                          });
 
 // Disabled until the kernels are fixed (see the header for each cause).
-class NumericsKnownBugs : public ::testing::TestWithParam<size_t> {};
-TEST_P(NumericsKnownBugs, Finite) { run_case(known_bugs()[GetParam()]); }
-INSTANTIATE_TEST_SUITE_P(Numerics, NumericsKnownBugs,
-                         ::testing::Range<size_t>(0, known_bugs().size()),
+class NumericsRegressions : public ::testing::TestWithParam<size_t> {};
+TEST_P(NumericsRegressions, Finite) { run_case(regressions()[GetParam()]); }
+INSTANTIATE_TEST_SUITE_P(Numerics, NumericsRegressions,
+                         ::testing::Range<size_t>(0, regressions().size()),
                          [](const ::testing::TestParamInfo<size_t>& info) {
-                           return case_name(known_bugs(), info.param);
+                           return case_name(regressions(), info.param);
                          });
 
 // ---- extremes against the CPU reference ----------------------------------------------------
@@ -457,13 +456,10 @@ TEST(NumericsReference, ExtremesMatchTheReference) {
       if (std::string(c.name) == name) expect_matches_reference(c);
 }
 
-// Known bug: with ε_D > 0.5 the cut-off d² ≥ σ·ln(1/ε_D − 1) has a negative right-hand side,
-// so every outside face is skipped (SPEC §1) but inside faces still cover their pixels, as the
-// reference renders them. The kernels render nothing at all (silhouette 0 everywhere): the
-// host passes P_CUTOFF_D2 = σ·ln(1/ε_D − 1) < 0 (host/src/renderer.cpp) and face_setup
-// (kernels/transform.cl) widens each face's screen box by r = sqrt(P_CUTOFF_D2) = NaN, so every
-// box comes out empty. Clamping the square root's argument at 0 would fix it.
-TEST(NumericsReference, DISABLED_CoverageCutoffAboveOneHalfMatchesTheReference) {
+// With ε_D > 0.5 the cut-off d² ≥ σ·ln(1/ε_D − 1) has a negative right-hand side, so every
+// outside face is skipped (SPEC §1) but inside faces still cover their pixels. (The screen
+// boxes once took the square root of that negative number: NaN, every box empty, nothing drawn.)
+TEST(NumericsReference, CoverageCutoffAboveOneHalfMatchesTheReference) {
   for (double dist_eps : {0.6, 0.9}) {
     const Case c{"dist_eps_above_half", 1, [dist_eps](Scene& s, double) {
                    s.params.dist_eps = dist_eps;

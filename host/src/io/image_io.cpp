@@ -96,6 +96,21 @@ std::string check_png_chunks(const unsigned char* p, size_t n) {
   return "";  // truncated before IEND: stb_image reports it
 }
 
+// The PNG without its empty IDAT chunks, which carry no data. stb_image copies the first IDAT
+// chunk into a buffer it has not yet allocated when that chunk is empty: memcpy(NULL, src, 0),
+// undefined behaviour (found by fuzz_image). Call after check_png_chunks.
+std::string without_empty_idat(const std::string& png) {
+  std::string out = png.substr(0, 8);
+  size_t at = 8;
+  while (at + 12 <= png.size()) {
+    const auto* p = reinterpret_cast<const unsigned char*>(png.data() + at);
+    const size_t length = (size_t(p[0]) << 24) | (size_t(p[1]) << 16) | (size_t(p[2]) << 8) | p[3];
+    if (length != 0 || png.compare(at + 4, 4, "IDAT") != 0) out.append(png, at, 12 + length);
+    at += 12 + length;
+  }
+  return out + png.substr(std::min(at, png.size()));  // a truncated tail, for stb to report
+}
+
 // stb_image's reason for the last failure, made printable (some quote bytes of the file).
 std::string failure_reason() {
   const char* reason = stbi_failure_reason();
@@ -325,19 +340,22 @@ Image load_image(const std::string& path, int channels) {
   std::ostringstream s;
   s << f.rdbuf();
   if (f.bad()) throw fail("read failed");
-  const std::string bytes = s.str();
-  const auto* p = reinterpret_cast<const stbi_uc*>(bytes.data());
+  std::string bytes = s.str();
+  const stbi_uc* p = reinterpret_cast<const stbi_uc*>(bytes.data());
   if (bytes.size() > size_t(std::numeric_limits<int>::max())) throw fail("file too large");
-  const int len = int(bytes.size());
 
   const char* refused = refused_format(p, bytes.size());
   if (refused)
     throw fail(std::string(refused) + " files are not read (" + kImageFormats + " are)");
   if (!known_format(p, bytes.size()))
     throw fail(std::string("unknown image format (") + kImageFormats + " are read)");
-  if (p[0] == 0x89)  // PNG
+  if (p[0] == 0x89) {  // PNG
     if (const std::string why = check_png_chunks(p, bytes.size()); !why.empty()) throw fail(why);
+    bytes = without_empty_idat(bytes);
+    p = reinterpret_cast<const stbi_uc*>(bytes.data());
+  }
 
+  const int len = int(bytes.size());
   // Pixel counts come from the header, before anything is decoded: a few bytes of header can
   // declare a huge image (stb_image would allocate it, several times over for GIF).
   int w = 0, h = 0, n = 0;
