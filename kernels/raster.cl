@@ -72,48 +72,114 @@ inline int depth_in_range(real z, __global const real* P) {
   return z >= P[P_NEAR] && z <= P[P_FAR];
 }
 
-inline real depth_normalised(real z, __global const real* P) {
-  return (P[P_FAR] - z) / (P[P_FAR] - P[P_NEAR]);
-}
 
-// Could the face cover any of the PPW pixels (px0.., py)? One vector test for all of them, so
-// that the many faces of a tile's list that miss a pixel run cheaply on CPUs, where explicit
-// vectors are what PoCL turns into SIMD. Conservative by a margin: an exact per-pixel test
-// follows for the faces it lets through, so it can only save work, never change the result.
+// ---- a run of PPW pixels of a row, as the lanes of one vector ------------------------------
+// PoCL does not vectorise across the work-items of a kernel that loops (every pixel loops over
+// faces), so the per-pixel math of count and fragments is written on vectors whose lanes are
+// PPW consecutive pixels (a scalar when PPW is 1). Every lane computes exactly what the scalar
+// fragment_fwd computes, in the same order, whatever PPW is.
 #if PPW > 1
 #define realP CAT(real, PPW)
+#ifdef PENUMBRA_DOUBLE
+#define maskP CAT(long, PPW)
+#else
+#define maskP CAT(int, PPW)
+#endif
+#define ANY(c) any(c)
 #define VLOADP CAT(vload, PPW)
+#define VSTOREP CAT(vstore, PPW)
+#else
+#define realP real
+#define maskP int
+#define ANY(c) (c)
+#define VLOADP(i, p) ((p)[i])
+#define VSTOREP(v, i, p) ((p)[i] = (v))
+#endif
 __constant real lane_offsets[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 
-inline int any_covered(int f, __global const real4* vscreen, __global const int4* faces,
-                       __global const real4* fnormal, int px0, int py, int W, int H,
-                       __global const real* P) {
-  int4 idx = faces[f];
-  real2 p[3] = {vscreen[idx.x].xy, vscreen[idx.y].xy, vscreen[idx.z].xy};
-  real area = fnormal[f].w;
-  realP qx = ((real)(2 * px0 + 1 - W) + 2 * VLOADP(0, lane_offsets)) / H;
-  real qy = (real)(H - 2 * py - 1) / H;
-  realP d2 = INFINITY, wmin = INFINITY;
-  for (int e = 0; e < 3; ++e) {
-    real2 a = p[e], b = p[(e + 1) % 3], ab = b - a;
-    // barycentric of the opposite corner: cross2(a − q, b − q)/area
-    realP w = ((a.x - qx) * (b.y - qy) - (a.y - qy) * (b.x - qx)) / area;
-    wmin = fmin(wmin, w);
-    real len2 = dot(ab, ab);
-    realP t = len2 > 0 ? clamp(((qx - a.x) * ab.x + (qy - a.y) * ab.y) / len2, (realP)0, (realP)1)
-                       : (realP)0;
-    realP rx = qx - (a.x + t * ab.x), ry = qy - (a.y + t * ab.y);
-    d2 = fmin(d2, rx * rx + ry * ry);
-  }
-  return any(wmin > (real)-1e-3 || d2 < P[P_CUTOFF_D2] * (real)1.01);
+// The lanes' pixel centres (pixel_centre) and which lanes are inside the image.
+inline realP lanes_x(int px0, int W, int H) {
+  return ((real)(2 * px0 + 1 - W) + 2 * VLOADP(0, lane_offsets)) / H;
 }
-#define SKIP_UNCOVERED(f) \
-  if (!any_covered(f, vscreen, faces, fnormal, px0, py, W, H, P)) continue;
-#else
-#define SKIP_UNCOVERED(f)
-#endif
+inline maskP lanes_valid(int px0, int W) {
+  return (real)px0 + VLOADP(0, lane_offsets) < (real)W;
+}
 
-// The faces a work-item visits: its tile's list, or every face.
+// fragment_shape and the cut-off of fragment_fwd on every lane: screen barycentrics w, the
+// squared distance d² to the boundary, `inside`; returns the lanes the face covers (inside, or
+// outside within the cut-off).
+inline maskP lanes_shape(realP qx, real qy, const real2* p, real area, __global const real* P,
+                         realP* w, realP* d2, maskP* inside) {
+  real inv_area = 1 / area;
+  for (int k = 0; k < 3; ++k) {
+    real2 a = p[(k + 1) % 3], b = p[(k + 2) % 3];
+    realP ax = a.x - qx, bx = b.x - qx;
+    real ay = a.y - qy, by = b.y - qy;
+    w[k] = (ax * by - ay * bx) * inv_area;
+  }
+  *inside = w[0] > 0 && w[1] > 0 && w[2] > 0;
+  *d2 = INFINITY;
+  for (int e = 0; e < 3; ++e) {
+    real2 a = p[e], ab = p[(e + 1) % 3] - a;
+    real len2 = ab.x * ab.x + ab.y * ab.y, inv_len2 = len2 > 0 ? 1 / len2 : 0;
+    realP qax = qx - a.x;
+    real qay = qy - a.y;
+    realP t = clamp((qax * ab.x + qay * ab.y) * inv_len2, R(0), R(1));
+    realP rx = qx - (a.x + t * ab.x), ry = qy - (a.y + t * ab.y);
+    *d2 = fmin(*d2, rx * rx + ry * ry);
+  }
+  return *inside || *d2 < P[P_CUTOFF_D2];
+}
+
+// fragment_depth on every lane: view depth z and perspective-correct barycentrics b.
+inline realP lanes_depth(const realP* w, const real* z, __global const real* P, realP* b) {
+  realP wc[3], inv_sum = 1 / (fmax(w[0], R(0)) + fmax(w[1], R(0)) + fmax(w[2], R(0)));
+  for (int k = 0; k < 3; ++k) wc[k] = fmax(w[k], R(0)) * inv_sum;
+  realP zq;
+  if (P[P_FRAME + FR_ORTHO] > 0) {
+    zq = wc[0] * z[0] + wc[1] * z[1] + wc[2] * z[2];
+    for (int k = 0; k < 3; ++k) b[k] = wc[k];
+  } else {
+    real iz[3] = {1 / z[0], 1 / z[1], 1 / z[2]};
+    zq = 1 / (wc[0] * iz[0] + wc[1] * iz[1] + wc[2] * iz[2]);
+    for (int k = 0; k < 3; ++k) b[k] = zq * wc[k] * iz[k];
+  }
+  return zq;
+}
+
+// log1p(e^{−|u|}) on every lane, the shared part of log(1 − D) = −(max(u, 0) + log1p(e^{−|u|}))
+// and log D = −(max(−u, 0) + log1p(e^{−|u|})), in plain arithmetic: a math library may evaluate
+// exp and log1p differently on vectors and on scalars (PoCL does), and every PPW must give the
+// same bits. e^x (x ≤ 0): x = k·ln 2 + r, |r| ≤ ln 2/2, Taylor
+// series in r (error below an ulp), times 2^k. log1p(e), e in [0, 1]: 2·atanh(s) with
+// s = e/(2 + e) ≤ 1/3, an odd series in s.
+#ifdef PENUMBRA_DOUBLE
+#define EXP_TERMS 14
+#define ATANH_TERMS 16
+#else
+#define EXP_TERMS 8
+#define ATANH_TERMS 8
+#endif
+#if PPW > 1
+#define convert_intP CAT(convert_int, PPW)
+#define convert_intP_sat CAT(CAT(convert_int, PPW), _sat)
+#else
+#define convert_intP_sat convert_int_sat
+#endif
+inline realP lanes_log1p_exp_neg_abs(realP u) {
+  realP x = fmax(-fabs(u), R(-800));  // e^−800 is 0 in double and float alike
+  realP k = rint(x * R(1.44269504088896340736));
+  realP r = (x - k * R(0.693145751953125)) - k * R(1.42860682030941723212e-6);
+  realP e = (realP)1;
+  for (int n = EXP_TERMS; n >= 1; --n) e = 1 + e * r * (R(1) / n);
+  e = ldexp(e, convert_intP_sat(k));
+  realP s = e / (2 + e), s2 = s * s, series = (realP)(R(1) / (2 * ATANH_TERMS + 1));
+  for (int n = ATANH_TERMS - 1; n >= 0; --n) series = R(1) / (2 * n + 1) + s2 * series;
+  return 2 * s * series;
+}
+
+// The faces a work-item visits: its tile's list, or every face; and the face's screen corners,
+// depths and area.
 #if BRUTE_FORCE
 #define FACE_LIST_BEGIN(px0, py) int list_begin = 0, list_count = nf;
 #define FACE_AT(i) (i)
@@ -127,47 +193,72 @@ inline int any_covered(int f, __global const real4* vscreen, __global const int4
   int tiles_x, __global const int *tile_offsets, __global const int *tile_counts,     \
       __global const int *tile_faces
 
+inline void load_screen(int f, __global const real4* vscreen, __global const int4* faces,
+                        __global const real4* fnormal, real2* p, real* z, real* area) {
+  int4 idx = faces[f];
+  real4 s0 = vscreen[idx.x], s1 = vscreen[idx.y], s2 = vscreen[idx.z];
+  p[0] = s0.xy, p[1] = s1.xy, p[2] = s2.xy;
+  z[0] = s0.z, z[1] = s1.z, z[2] = s2.z;
+  *area = fnormal[f].w;
+}
+
+// The lanes of one face (a `continue` when it covers none): `covered`, `in_range` (covered,
+// view depth within [near, far]), the coverage logit u, log D, depth zq and normalised z̃ (zt),
+// the perspective-correct barycentrics b.
+#define LANES_OF_FACE(f)                                                                  \
+  int4 bb = fbbox[f];                                                                     \
+  if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;             \
+  real2 p[3];                                                                             \
+  real z[3], area;                                                                        \
+  load_screen(f, vscreen, faces, fnormal, p, z, &area);                                   \
+  realP w[3], d2, b[3];                                                                   \
+  maskP inside;                                                                           \
+  maskP covered = lanes_shape(qx, qy, p, area, P, w, &d2, &inside) && valid;              \
+  if (!ANY(covered)) continue;                                                            \
+  realP u = (inside ? d2 : -d2) / P[P_SIGMA];                                             \
+  realP log1p_e = lanes_log1p_exp_neg_abs(u);                                             \
+  realP log_D = -(fmax(-u, R(0)) + log1p_e);                                              \
+  realP zq = lanes_depth(w, z, P, b);                                                     \
+  maskP in_range = covered && zq >= P[P_NEAR] && zq <= P[P_FAR];                          \
+  realP zt = (P[P_FAR] - zq) / (P[P_FAR] - P[P_NEAR]);
+
 __kernel __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
-void raster_count(__global const real4* vscreen, __global const real4* vworld,
-                  __global const int4* faces, __global const int4* fbbox,
-                  __global const real4* fnormal, __global const real4* albedo,
+void raster_count(__global const real4* vscreen, __global const int4* faces,
+                  __global const int4* fbbox, __global const real4* fnormal,
                   __global const real* P, int W, int H, int nf, TILE_ARGS,
                   __global real4* aux, __global int* pix_count) {
   int px0 = get_global_id(0) * PPW, py = get_global_id(1);
   if (py >= H || px0 >= W) return;
-  const real gamma = P[P_GAMMA];
+  const real gamma = P[P_GAMMA], weight_log = P[P_WEIGHT_LOG];
+  const realP qx = lanes_x(px0, W, H);
+  const real qy = (real)(H - 2 * py - 1) / H;
+  const maskP valid = lanes_valid(px0, W);
   // m: running max of z̃ (stabilises the exponentials); M: running max of the log-weights
   // log D + (z̃ − m)/γ, the background's (ε − m)/γ included, relative to the running m.
-  real m[PPW], M[PPW], slog[PPW];
-  int count[PPW];
-  for (int j = 0; j < PPW; ++j) m[j] = P[P_EPS], M[j] = 0, slog[j] = 0, count[j] = 0;
+  realP m = P[P_EPS], M = 0, slog = 0, count = 0;
   FACE_LIST_BEGIN(px0, py)
   for (int i = 0; i < list_count; ++i) {
     int f = FACE_AT(i);
-    int4 bb = fbbox[f];
-    if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;
-    SKIP_UNCOVERED(f)
-    Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
-    for (int j = 0; j < PPW && px0 + j < W; ++j) {
-      Fragment fr;
-      if (!fragment_fwd(pixel_centre(px0 + j, py, W, H), F.p, F.z, F.area, P, &fr)) continue;
-      slog[j] += log1m_sigmoid(fr.u);
-      if (!depth_in_range(fr.z, P)) continue;
-      real zt = depth_normalised(fr.z, P);
-      if (zt > m[j]) {
-        M[j] -= (zt - m[j]) / gamma;
-        m[j] = zt;
-      }
-      real lw = log1m_sigmoid(-fr.u) + (zt - m[j]) / gamma;
-      M[j] = fmax(M[j], lw);
-      // The running maxima never exceed the final ones, so this counts a superset of the
-      // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
-      if (lw >= M[j] - P[P_WEIGHT_LOG] - 1) ++count[j];
-    }
+    LANES_OF_FACE(f)
+    slog += covered ? -(fmax(u, R(0)) + log1p_e) : (realP)0;
+    if (!ANY(in_range)) continue;
+    maskP higher = in_range && zt > m;
+    M = higher ? M - (zt - m) / gamma : M;
+    m = higher ? zt : m;
+    realP lw = log_D + (zt - m) / gamma;
+    M = in_range ? fmax(M, lw) : M;
+    // The running maxima never exceed the final ones, so this counts a superset of the
+    // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
+    count += in_range && lw >= M - weight_log - 1 ? (realP)1 : (realP)0;
   }
+  real ms[PPW], Ms[PPW], slogs[PPW], counts[PPW];
+  VSTOREP(m, 0, ms);
+  VSTOREP(M, 0, Ms);
+  VSTOREP(slog, 0, slogs);
+  VSTOREP(count, 0, counts);
   for (int j = 0; j < PPW && px0 + j < W; ++j) {
-    aux[py * W + px0 + j] = (real4)(M[j], m[j], 0, slog[j]);
-    pix_count[py * W + px0 + j] = count[j];
+    aux[py * W + px0 + j] = (real4)(Ms[j], ms[j], 0, slogs[j]);
+    pix_count[py * W + px0 + j] = (int)counts[j];
   }
 }
 
@@ -185,33 +276,42 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
   if (py >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA];
   const int nl = (int)P[P_NLIGHTS];
-  real m[PPW], keep[PPW];
-  int n[PPW];
-  for (int j = 0; j < PPW && px0 + j < W; ++j) {
-    real4 ax = aux[py * W + px0 + j];
-    m[j] = ax.y;
-    keep[j] = ax.x - P[P_WEIGHT_LOG];
+  const realP qx = lanes_x(px0, W, H);
+  const real qy = (real)(H - 2 * py - 1) / H;
+  const maskP valid = lanes_valid(px0, W);
+  real ms[PPW], keeps[PPW];
+  int n[PPW], first[PPW], bound[PPW];
+  for (int j = 0; j < PPW; ++j) {
+    int pix = py * W + min(px0 + j, W - 1);
+    real4 ax = aux[pix];
+    ms[j] = ax.y;
+    keeps[j] = ax.x - P[P_WEIGHT_LOG];
     n[j] = 0;
+    first[j] = pix_offset[pix];
+    bound[j] = pix_count[pix];
   }
+  const realP m = VLOADP(0, ms), keep = VLOADP(0, keeps);
   FACE_LIST_BEGIN(px0, py)
   for (int i = 0; i < list_count; ++i) {
     int f = FACE_AT(i);
-    int4 bb = fbbox[f];
-    if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;
-    SKIP_UNCOVERED(f)
+    LANES_OF_FACE(f)
+    realP lw = log_D + (zt - m) / gamma;
+    maskP kept = in_range && lw >= keep;
+    if (!ANY(kept)) continue;
+    // The kept lanes, one at a time: their records.
+    real lws[PPW], zs[PPW], keptj[PPW], bs[3][PPW];
+    VSTOREP(lw, 0, lws);
+    VSTOREP(zq, 0, zs);
+    VSTOREP(kept ? (realP)1 : (realP)0, 0, keptj);
+    for (int k = 0; k < 3; ++k) VSTOREP(b[k], 0, bs[k]);
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
-    for (int j = 0; j < PPW && px0 + j < W; ++j) {
-      int pix = py * W + px0 + j;
-      Fragment fr;
-      if (!fragment_fwd(pixel_centre(px0 + j, py, W, H), F.p, F.z, F.area, P, &fr)) continue;
-      if (!depth_in_range(fr.z, P)) continue;
-      real lw = log1m_sigmoid(-fr.u) + (depth_normalised(fr.z, P) - m[j]) / gamma;
-      if (lw < keep[j] || n[j] >= pix_count[pix]) continue;  // (the bound holds by construction)
-      int r = pix_offset[pix] + n[j]++;
+    for (int j = 0; j < PPW; ++j) {
+      if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
+      int r = first[j] + n[j]++;
       rec_face[r] = f;
-      rec_frag[r] = (real4)(exp(lw), fr.z, 0, 0);
-      real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
-      real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
+      rec_frag[r] = (real4)(exp(lws[j]), zs[j], 0, 0);
+      real3 X = bs[0][j] * F.V[0] + bs[1][j] * F.V[1] + bs[2][j] * F.V[2];
+      real3 a = bs[0][j] * F.a[0] + bs[1][j] * F.a[1] + bs[2][j] * F.a[2];
       real3 direct[P_MAX_LIGHTS];
       rec_shade[r * (1 + nl)] =
           (real4)(shade_terms(X, facing_sign(F.n, X, P) * F.n, a, P, direct), 0);
@@ -229,7 +329,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     pix_n[pix] = n[j];
     // Slots the bound reserved but no fragment took: weight 0, outside every light's map, so
     // that kernels running over all slots (shadow sampling) read nothing undefined.
-    for (int r = pix_offset[pix] + n[j]; r < pix_offset[pix] + pix_count[pix]; ++r) {
+    for (int r = first[j] + n[j]; r < first[j] + bound[j]; ++r) {
       rec_face[r] = -1;
       rec_frag[r] = 0;
       for (int l = 0; l < nl; ++l) {

@@ -44,25 +44,40 @@ inline real gauss(int i, int j, real2 mu, real sigma_s) {
   return axis_weight(i - mu.x, sigma_s) * axis_weight(j - mu.y, sigma_s);
 }
 
-// The column weights gx_i of a window, computed once per fragment (a window wider than the
-// cache computes them as it goes, in window_row8).
-#define WINDOW_CACHE 64
-typedef struct {
-  real gx[WINDOW_CACHE + 8];  // + 8: rows are read eight at a time
-  int x0, n;
-} Columns;
-
-inline void columns_init(Columns* c, Window w, real2 mu, real sigma_s) {
-  c->x0 = w.x0;
-  c->n = w.x1 - w.x0 + 1 <= WINDOW_CACHE ? w.x1 - w.x0 + 1 : 0;
-  for (int k = 0; k < c->n; ++k) c->gx[k] = axis_weight(w.x0 + k - mu.x, sigma_s);
-}
-
-
 // Rows of a window are processed eight texels at a time as vectors, which is what PoCL turns
 // into SIMD.
 __constant real lane8_values[8] = {0, 1, 2, 3, 4, 5, 6, 7};
 #define LANE8 vload8(0, lane8_values)
+
+// The axis weights of a window, gx_i of its columns and gy_j of its rows, computed once per
+// fragment eight at a time (scalar exp calls cost more than the whole row loop). A window
+// wider than the cache computes its columns as it goes, in window_row8, and its rows one by one.
+#define WINDOW_CACHE 64
+typedef struct {
+  real gx[WINDOW_CACHE + 8];  // + 8: written and read eight at a time
+  real gy[WINDOW_CACHE + 8];
+  int x0, n, y0, ny;
+} Columns;
+
+inline int axis_cache(real* g, int first, int last, real c, real sigma_s) {
+  int n = last - first + 1 <= WINDOW_CACHE ? last - first + 1 : 0;
+  for (int k = 0; k < n; k += 8) {
+    real8 d = (real)(first + k) + LANE8 - c;
+    vstore8(exp(-d * d / (2 * sigma_s)), 0, g + k);
+  }
+  return n;
+}
+
+inline void columns_init(Columns* c, Window w, real2 mu, real sigma_s) {
+  c->x0 = w.x0;
+  c->y0 = w.y0;
+  c->n = axis_cache(c->gx, w.x0, w.x1, mu.x, sigma_s);
+  c->ny = axis_cache(c->gy, w.y0, w.y1, mu.y, sigma_s);
+}
+
+inline real row_weight(const Columns* c, int j, real mu_y, real sigma_s) {
+  return c->ny ? c->gy[j - c->y0] : axis_weight(j - mu_y, sigma_s);
+}
 
 inline real hsum8(real8 v) {
   real4 a = v.lo + v.hi;
@@ -93,7 +108,7 @@ inline real filter_depth(real2 mu, Window w, __global const real* P, __global co
   Columns c;
   columns_init(&c, w, mu, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = axis_weight(j - mu.y, ss);
+    real gy = row_weight(&c, j, mu.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
       real8 g = window_row8(&c, i0, w.x1, gy, mu, ss, w.eps);
       sum += g;
@@ -139,7 +154,7 @@ __kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = axis_weight(j - x.y, ss);
+    real gy = row_weight(&c, j, x.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
       real8 lam = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
       real8 g = select((real8)0, lam + w.eps, lam > 0);  // g where g' > 0
@@ -350,7 +365,7 @@ __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, i
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = axis_weight(j - x.y, ss);
+    real gy = row_weight(&c, j, x.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
       real8 g = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
       real8 dij = x.z + grad.x * ((real)i0 + LANE8 - x.x) + grad.y * (j - x.y);
@@ -379,7 +394,7 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   columns_init(&c, w, x.xy, ss);
   real sum = 0;
   for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = axis_weight(j - x.y, ss);
+    real gy = row_weight(&c, j, x.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += 8) sum += hsum8(window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps));
   }
   if (sum <= 0) {
@@ -391,7 +406,7 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ).
   real8 gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
   for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = axis_weight(j - x.y, ss), offy = j - x.y;
+    real gy = row_weight(&c, j, x.y, ss), offy = j - x.y;
     for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
       real8 lam = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
       real8 g = select((real8)0, lam + w.eps, lam > 0);

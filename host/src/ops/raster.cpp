@@ -28,8 +28,7 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   v.aux = alloc_reals(ctx, p, npix * 4);
   v.pix_count = alloc_ints(ctx, npix);
   auto& count = k.get("raster.cl", "raster_count");
-  set_args(count, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
-           g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
+  set_args(count, v.vscreen, g.faces, v.fbbox, v.fnormal, v.P, v.W, v.H, g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
            v.pix_count);
   launch_tiled(k, count, v);
 
