@@ -1,5 +1,6 @@
 // Tuning: every candidate of every stage gives the default configuration's result, the
 // database falls back cleanly, the heuristic reacts to the workload, the tuner runs.
+#include <clblast.h>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -101,6 +102,88 @@ TEST(Tuning, EveryExactSumCandidateAgreesToRounding) {
     blas.exact.clblast = true;
     EXPECT_LE(max_difference(render_with(s, blas, p), ref), tol) << "CLBlast";
   }
+}
+
+// CLBlast's parameters as it reports them for this device (what its next GEMM will use).
+std::unordered_map<std::string, size_t> clblast_xgemm(Precision p) {
+  std::unordered_map<std::string, size_t> out;
+  EXPECT_EQ(clblast::RetrieveParameters(context().info().device(), "Xgemm",
+                                        p == Precision::Double ? clblast::Precision::kDouble
+                                                               : clblast::Precision::kSingle,
+                                        out),
+            clblast::StatusCode::kSuccess);
+  return out;
+}
+
+// Every Xgemm set the tuner can try, forced onto CLBlast's Xgemm kernel (these products are
+// far below the size where CLBlast leaves its direct kernel), agrees with penumbra's kernels;
+// CLBlast really runs with the set, and an unset tuning gives CLBlast back its own parameters.
+TEST(Tuning, EveryClblastCandidateAgreesToRounding) {
+  const Scene s = small_scene(Shadows::Hard, Sampling::Exact);
+  Tuning own;  // CLBlast with its own parameters
+  own.exact.clblast = true;
+  render_with(s, own, Precision::Float);
+  const auto clblast_own = clblast_xgemm(Precision::Float);
+  for (Precision p : {Precision::Float, Precision::Double}) {
+    const double tol = p == Precision::Double ? 1e-12 : 2e-5;
+    const auto ref = render_with(s, Tuning{}, p);
+    std::vector<XgemmParameters> sets = xgemm_candidates(false);
+    if (p == Precision::Double) sets.resize(1);  // each set is a cold CLBlast compile (seconds)
+    for (const XgemmParameters& x : sets) {
+      Tuning t;
+      t.exact.clblast = true;
+      t.exact.xgemm = x;
+      t.exact.min_indirect_size = 1;
+      EXPECT_LE(max_difference(render_with(s, t, p), ref), tol) << x.describe();
+      const auto used = clblast_xgemm(p);
+      for (const auto& [name, field] : XgemmParameters::fields())
+        EXPECT_EQ(used.at(name), size_t(x.*field)) << name << " of " << x.describe();
+    }
+  }
+  EXPECT_NE(clblast_xgemm(Precision::Float), clblast_own);  // the last candidate's set
+  render_with(s, own, Precision::Float);
+  EXPECT_EQ(clblast_xgemm(Precision::Float), clblast_own);
+}
+
+TEST(Tuning, IllegalClblastParametersAreRejectedWithAClearMessage) {
+  const DeviceInfo& dev = context().info();
+  EXPECT_NO_THROW(validate(XgemmParameters{}, dev));  // CLBlast's own float set for PoCL
+  for (const XgemmParameters& x : xgemm_candidates(false)) EXPECT_NO_THROW(validate(x, dev));
+  auto message = [&](const XgemmParameters& x, const DeviceInfo& d) {
+    try {
+      validate(x, d);
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  XgemmParameters x = xgemm_candidates(false).front();  // MDIMC 4, VWM 16
+  x.MWG = 48;
+  EXPECT_NE(message(x, dev).find("MWG 48 must be a multiple of MDIMC·VWM = 64"), std::string::npos)
+      << message(x, dev);
+  x = XgemmParameters{};
+  x.KWG = 24;  // KDIMA = MDIMC·NDIMC/MDIMA = 16
+  EXPECT_NE(message(x, dev).find("KWG 24 must be a multiple of MDIMC·NDIMC/MDIMA = 16"),
+            std::string::npos)
+      << message(x, dev);
+  x = XgemmParameters{};
+  x.SA = 2;
+  EXPECT_NE(message(x, dev).find("SA is 2; expected 0 or 1"), std::string::npos) << message(x, dev);
+  x = XgemmParameters{};
+  x.VWN = 3;
+  EXPECT_NE(message(x, dev).find("VWM and VWN must be"), std::string::npos) << message(x, dev);
+  DeviceInfo small = dev;
+  small.max_work_group = 64;
+  x = XgemmParameters{};  // 8 × 16 threads
+  EXPECT_NE(message(x, small).find("MDIMC·NDIMC = 128 work-items per group"), std::string::npos)
+      << message(x, small);
+  // A renderer refuses it before any CLBlast call.
+  Tuning t;
+  t.exact.clblast = true;
+  t.exact.xgemm = XgemmParameters{};
+  t.exact.xgemm->MWG = 48;
+  EXPECT_THROW({ Renderer r(context(), Precision::Float, t); }, Error);
 }
 
 TEST(Tuning, IllegalValuesAreRejectedWithAClearMessage) {
@@ -224,4 +307,48 @@ TEST(Tuning, TunerTimesEveryStageAndReturnsALegalWinner) {
   EXPECT_TRUE(raster && exact && pen);
   EXPECT_NO_THROW(validate(report.best, context().info()));
   EXPECT_EQ(report.best.source.rfind("tuned:", 0), 0u);
+}
+
+TEST(Tuning, DatabaseRoundTripsClblastParametersAndReadsOldEntries) {
+  const std::string path = ::testing::TempDir() + "/tuning_xgemm.json";
+  DeviceInfo dev;
+  dev.name = "Exact Device 2", dev.vendor = "Acme", dev.max_work_group = 1024;
+  Tuning t;
+  t.raster.pixels_per_item = 8;
+  t.exact.clblast = true;
+  t.exact.xgemm = xgemm_candidates(false).back();
+  t.exact.xgemm->KWI = 8;  // differs from every default
+  t.exact.min_indirect_size = 1;
+  TuningDatabase db = TuningDatabase::load({});
+  db.set(dev.name, t);
+  db.save(path);
+  Tuning back = TuningDatabase::load({path}).lookup(dev, WorkloadStats{});
+  ASSERT_TRUE(back.exact.xgemm.has_value());
+  EXPECT_EQ(*back.exact.xgemm, *t.exact.xgemm) << back.exact.xgemm->describe();
+  EXPECT_EQ(back.exact.xgemm->KWI, 8);
+  EXPECT_EQ(back.exact.min_indirect_size, 1);
+  EXPECT_TRUE(back.exact.clblast);
+
+  // A database written before these fields existed: CLBlast's own parameters.
+  {
+    std::ofstream out(path);
+    out << R"({"version": 1, "entries": {"Exact Device 2":
+      {"raster": {"pixels_per_item": 8},
+       "exact": {"clblast": true, "vector_width": 4, "row_block": 2}}}})";
+  }
+  back = TuningDatabase::load({path}).lookup(dev, WorkloadStats{});
+  EXPECT_FALSE(back.exact.xgemm.has_value());
+  EXPECT_EQ(back.exact.min_indirect_size, 0);
+  EXPECT_EQ(back.exact.vector_width, 4);
+
+  // An incomplete set is refused with a warning naming the missing parameter.
+  {
+    std::ofstream out(path);
+    out << R"({"version": 1, "entries": {"Exact Device 2":
+      {"exact": {"clblast": true, "xgemm": {"MWG": 64, "NWG": 64}}}}})";
+  }
+  ::testing::internal::CaptureStderr();
+  EXPECT_EQ(TuningDatabase::load({path}).size(), 0u);
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("\"xgemm\" lacks GEMMK"), std::string::npos) << err;
 }

@@ -2,7 +2,9 @@
 // Launch parameters of the kernels, chosen per device and per workload: named structs per
 // stage, a database of tuned values (shipped defaults in data/tuning/, the user's results in a
 // cache folder), a heuristic from scene statistics, and a tuner that times candidates.
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "penumbra/context.hpp"
@@ -19,12 +21,34 @@ struct RasterTuning {
   bool brute_force = false;  // ignore the bins: every pixel visits every face
 };
 
+// The parameters of CLBlast's Xgemm kernel, in CLBlast's names (its tuner's documentation
+// explains each): work-group tile MWG × NWG × KWG, threads MDIMC × NDIMC, vector widths VWM and
+// VWN, local-memory caching SA and SB, and so on. The defaults are CLBlast 1.5's own for
+// PoCL in float.
+struct XgemmParameters {
+  int GEMMK = 0, KREG = 1, KWG = 32, KWI = 2, MDIMA = 8, MDIMC = 8, MWG = 32, NDIMB = 16,
+      NDIMC = 16, NWG = 32, SA = 1, SB = 1, STRM = 0, STRN = 0, VWM = 4, VWN = 2;
+
+  // Every field with its name, in CLBlast's order: one table for storage, comparison, printing.
+  using Field = std::pair<const char*, int XgemmParameters::*>;
+  static const std::vector<Field>& fields();
+  bool operator==(const XgemmParameters& o) const;
+  bool operator!=(const XgemmParameters& o) const { return !(*this == o); }
+  std::string describe() const;  // "MWG 64 NWG 64 KWG 32 ...": the fields that matter most
+};
+
 // kernels/matmul.cl and CLBlast: the products of exact-sum hard shadows. Changing them changes
 // the summation order of those sums (results agree to rounding).
 struct ExactSumTuning {
   bool clblast = false;   // sampling `exact`: CLBlast's GEMM instead of penumbra's kernels
   int vector_width = 8;   // MM_VW: 1, 2, 4, 8 or 16
   int row_block = 4;      // MM_RB: rows of the product per work-item, 1 to 8
+  // CLBlast's GEMM (sampling `gemm`, or `exact` with clblast), set with
+  // clblast::OverrideParameters. Unset: CLBlast's built-in parameters for the device.
+  std::optional<XgemmParameters> xgemm;
+  // CLBlast runs its Xgemm kernel when m·n·k ≥ min_indirect_size³ and its direct kernel (which
+  // xgemm does not affect) below. 0: CLBlast's default (896 in float on PoCL); 1: always Xgemm.
+  int min_indirect_size = 0;
 };
 
 // kernels/penumbra.cl: map tile of the per-face culling (same result for every value).
@@ -44,6 +68,9 @@ struct Tuning {
 
 // Throws penumbra::Error naming the first illegal value for this device.
 void validate(const Tuning& tuning, const DeviceInfo& device);
+// The same for CLBlast's Xgemm parameters, with the checks of CLBlast's own tuner (local
+// memory counted for double, the widest real, so that a legal set is legal in both precisions).
+void validate(const XgemmParameters& xgemm, const DeviceInfo& device);
 
 // Statistics of a workload that the heuristic looks at.
 struct WorkloadStats {
@@ -106,5 +133,9 @@ struct TuneReport {
   Tuning best;
 };
 TuneReport tune(Context& context, const Scene& scene, const TuneOptions& options = {});
+
+// The CLBlast Xgemm parameter sets the tuner tries (chosen for CPUs with wide vectors; quick:
+// fewer). Each is legal wherever 64 work-items per group and 32 KiB of local memory are.
+std::vector<XgemmParameters> xgemm_candidates(bool quick);
 
 }  // namespace penumbra

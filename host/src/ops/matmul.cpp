@@ -2,6 +2,11 @@
 // direct kernels or by CLBlast's GEMM (the same numbers up to summation order).
 #include <clblast.h>
 
+#include <map>
+#include <mutex>
+#include <tuple>
+#include <unordered_map>
+
 #include "ops/ops.hpp"
 #include "penumbra/error.hpp"
 
@@ -9,9 +14,74 @@ namespace penumbra::detail {
 
 namespace {
 
+using ClblastParams = std::unordered_map<std::string, size_t>;
+
+std::string status_name(clblast::StatusCode s) {
+  using S = clblast::StatusCode;
+  switch (s) {
+    case S::kOpenCLBuildProgramFailure: return "kOpenCLBuildProgramFailure";
+    case S::kInvalidLocalThreadsTotal: return "kInvalidLocalThreadsTotal";
+    case S::kInvalidLocalThreadsDim: return "kInvalidLocalThreadsDim";
+    case S::kInvalidOverrideKernel: return "kInvalidOverrideKernel";
+    case S::kMissingOverrideParameter: return "kMissingOverrideParameter";
+    case S::kInvalidLocalMemUsage: return "kInvalidLocalMemUsage";
+    case S::kNoDoublePrecision: return "kNoDoublePrecision";
+    case S::kDatabaseError: return "kDatabaseError";
+    case S::kUnexpectedError: return "kUnexpectedError";
+    default: return "status " + std::to_string(int(s));
+  }
+}
+
+// CLBlast keeps one parameter set per (device, precision, kernel) for the whole process, so
+// the tuning's set is applied only when it differs from the one applied last (an unset one
+// restores CLBlast's own, read before the first override). Each new set makes the next GEMM
+// compile CLBlast's GEMM program cold, about 5 s on PoCL (CLBlast then keeps the program).
+void apply_clblast_parameters(Kernels& k) {
+  struct Applied {
+    ClblastParams defaults, current;
+  };
+  static std::mutex mutex;
+  static std::map<std::tuple<cl_device_id, Precision, std::string>, Applied> applied;
+
+  const ExactSumTuning& e = k.tuning().exact;
+  const cl_device_id device = k.ctx().info().device();
+  const auto precision = k.precision() == Precision::Double ? clblast::Precision::kDouble
+                                                            : clblast::Precision::kSingle;
+  auto apply = [&](const char* kernel, const ClblastParams* wanted) {
+    auto [it, first] = applied.try_emplace({device, k.precision(), kernel});
+    Applied& a = it->second;
+    if (first) {
+      const auto status = clblast::RetrieveParameters(device, kernel, precision, a.defaults);
+      if (status != clblast::StatusCode::kSuccess) {
+        applied.erase(it);
+        throw Error(std::string("CLBlast cannot report its ") + kernel + " parameters (" +
+                    status_name(status) + ")");
+      }
+      a.current = a.defaults;
+    }
+    const ClblastParams& target = wanted ? *wanted : a.defaults;
+    if (target == a.current) return;
+    const auto status = clblast::OverrideParameters(device, kernel, precision, target);
+    if (status != clblast::StatusCode::kSuccess)
+      throw Error(std::string("CLBlast rejected the ") + kernel + " parameters (" +
+                  status_name(status) + ")");
+    a.current = target;
+  };
+
+  std::lock_guard<std::mutex> lock(mutex);
+  ClblastParams xgemm, routine;
+  if (e.xgemm)
+    for (const auto& [name, field] : XgemmParameters::fields())
+      xgemm[name] = size_t((*e.xgemm).*field);
+  if (e.min_indirect_size > 0) routine["XGEMM_MIN_INDIRECT_SIZE"] = size_t(e.min_indirect_size);
+  apply("Xgemm", e.xgemm ? &xgemm : nullptr);
+  apply("GemmRoutine", e.min_indirect_size > 0 ? &routine : nullptr);
+}
+
 void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
                   const cl::Buffer& A, size_t lda, const cl::Buffer& B, size_t ldb, double beta,
                   cl::Buffer& C, size_t ldc) {
+  apply_clblast_parameters(k);
   // CLBlast computes β·C even for β = 0: C must not hold NaN from old memory.
   cl_command_queue q = k.ctx().queue()();
   auto t = [](bool x) { return x ? clblast::Transpose::kYes : clblast::Transpose::kNo; };
@@ -22,7 +92,7 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
           : clblast::Gemm<float>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0f, A(),
                                  0, lda, B(), 0, ldb, float(beta), C(), 0, ldc, &q);
   if (status != clblast::StatusCode::kSuccess)
-    throw Error("CLBlast GEMM failed with status " + std::to_string(int(status)));
+    throw Error("CLBlast GEMM failed (" + status_name(status) + ")");
 }
 
 void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const cl::Buffer& A,

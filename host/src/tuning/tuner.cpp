@@ -54,15 +54,41 @@ double difference(const std::vector<RenderOutput>& a, const std::vector<RenderOu
 std::string describe(const Tuning& t, const std::string& stage) {
   std::ostringstream s;
   if (stage == "raster") s << "tile " << t.raster.tile << ", " << t.raster.pixels_per_item << " px/item";
-  if (stage == "exact")
-    s << (t.exact.clblast ? std::string("CLBlast GEMM")
-                          : "matmul vw " + std::to_string(t.exact.vector_width) + ", rb " +
-                                std::to_string(t.exact.row_block));
+  if (stage == "exact" && !t.exact.clblast)
+    s << "matmul vw " << t.exact.vector_width << ", rb " << t.exact.row_block;
+  if (stage == "exact" && t.exact.clblast)
+    s << "CLBlast GEMM " << (t.exact.xgemm ? t.exact.xgemm->describe() : "(its defaults)");
   if (stage == "penumbra") s << "tile " << t.penumbra.tile;
   return s.str();
 }
 
 }  // namespace
+
+std::vector<XgemmParameters> xgemm_candidates(bool quick) {
+  // Each work-item accumulates a block of MWG/MDIMC × NWG/NDIMC outputs held in float16 (AVX-512)
+  // or float8 vectors: PoCL does not vectorize the Xgemm loops across work-items, so the
+  // explicit vector widths VWM and VWN carry the SIMD. MDIMA = MDIMC and NDIMB = NDIMC.
+  auto make = [](int mwg, int nwg, int kwg, int mdimc, int ndimc, int vwm, int vwn, int cache) {
+    XgemmParameters x;
+    x.MWG = mwg, x.NWG = nwg, x.KWG = kwg, x.KWI = 2;
+    x.MDIMC = x.MDIMA = mdimc, x.NDIMC = x.NDIMB = ndimc;
+    x.VWM = vwm, x.VWN = vwn, x.SA = x.SB = cache;
+    x.GEMMK = 0, x.KREG = 1, x.STRM = x.STRN = 0;
+    return x;
+  };
+  // --quick tries the first two: the fastest of these in both of two runs on a 2-core AVX-512
+  // EPYC (docs/tuning.md), and one with float16 vectors.
+  std::vector<XgemmParameters> all = {
+      make(64, 64, 32, 8, 8, 8, 8, 0),     // 8 × 8 outputs per item in float8, no local memory
+      make(128, 64, 32, 8, 8, 16, 8, 0),   // 16 × 8 outputs per item in float16
+      make(64, 64, 32, 4, 8, 16, 8, 0),    // the same per item, half the tile
+      make(64, 64, 32, 4, 8, 16, 8, 1),    // as the last, A and B tiles in local memory
+      make(64, 128, 32, 4, 8, 16, 16, 0),  // 16 × 16 outputs per item
+      make(32, 32, 16, 2, 4, 16, 8, 0),    // small tiles: little padding
+  };
+  if (quick) all.resize(2);
+  return all;
+}
 
 TuneReport tune(Context& context, const Scene& base, const TuneOptions& options) {
   const DeviceInfo& device = context.info();
@@ -104,12 +130,27 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
                       : std::vector<std::pair<int, int>>{{4, 4}, {8, 2}, {8, 4}, {16, 2}, {16, 4}};
     for (auto [vw, rb] : shapes) {
       Tuning t = best;
-      t.exact = {false, vw, rb};
+      t.exact.clblast = false;
+      t.exact.vector_width = vw;
+      t.exact.row_block = rb;
       exact.candidates.push_back(t);
     }
+    // CLBlast with its own parameters, then with each Xgemm candidate, forced to its Xgemm
+    // kernel (below m·n·k = 896³ it would run its direct kernel, where they do nothing).
     Tuning blas = best;
     blas.exact.clblast = true;
+    blas.exact.xgemm.reset();
+    blas.exact.min_indirect_size = 0;
     exact.candidates.push_back(blas);
+    for (const XgemmParameters& x : xgemm_candidates(options.quick)) {
+      blas.exact.xgemm = x;
+      blas.exact.min_indirect_size = 1;
+      try {
+        validate(blas, device);
+        exact.candidates.push_back(blas);
+      } catch (const Error&) {  // not legal on this device
+      }
+    }
     stages.push_back(exact);
     Stage pen{"penumbra", Shadows::Soft, Sampling::Truncated, 0.0, {}};
     for (int tile : options.quick ? std::vector<int>{16} : std::vector<int>{8, 16, 32}) {
@@ -132,8 +173,9 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
     // The reference output: the configuration the stage starts from.
     Tuning reference = best;
     const Trial ref = time_candidate(context, scene, reference, 1);
-    double best_ms = INFINITY;
+    double best_ms = INFINITY, best_blas_ms = INFINITY;
     Tuning winner = best;
+    ExactSumTuning best_blas;  // the fastest CLBlast candidate: sampling `gemm` always uses it
     for (Tuning candidate : stage.candidates) {
       // Candidates of the later stages inherit the winners of the earlier ones.
       if (stage.name != "raster") candidate.raster = best.raster;
@@ -152,7 +194,14 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
         row.note = e.what();
       }
       if (row.accepted && row.median_ms < best_ms) best_ms = row.median_ms, winner = candidate;
+      if (row.accepted && stage.name == "exact" && candidate.exact.clblast &&
+          row.median_ms < best_blas_ms)
+        best_blas_ms = row.median_ms, best_blas = candidate.exact;
       report.candidates.push_back(row);
+    }
+    if (best_blas_ms < INFINITY) {
+      winner.exact.xgemm = best_blas.xgemm;
+      winner.exact.min_indirect_size = best_blas.min_indirect_size;
     }
     best = winner;
   }

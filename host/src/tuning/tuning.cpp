@@ -24,6 +24,28 @@ using json = nlohmann::json;
 
 const char* type_key(const DeviceInfo& d) { return d.is_gpu ? "gpu" : "cpu"; }
 
+// CLBlast's Xgemm parameters: null (CLBlast's defaults) or an object with every field, each
+// named as CLBlast names it.
+std::optional<XgemmParameters> read_xgemm(const json& j) {
+  if (j.is_null()) return std::nullopt;
+  if (!j.is_object()) throw std::runtime_error("\"xgemm\" must be an object or null");
+  XgemmParameters x;
+  for (const auto& [name, field] : XgemmParameters::fields()) {
+    if (!j.contains(name)) throw std::runtime_error(std::string("\"xgemm\" lacks ") + name);
+    x.*field = j.at(name).get<int>();
+  }
+  if (j.size() != XgemmParameters::fields().size())
+    throw std::runtime_error("\"xgemm\" has fields other than CLBlast's Xgemm parameters");
+  return x;
+}
+
+json xgemm_json(const std::optional<XgemmParameters>& x) {
+  if (!x) return nullptr;
+  json j = json::object();
+  for (const auto& [name, field] : XgemmParameters::fields()) j[name] = (*x).*field;
+  return j;
+}
+
 // The fields present in `j` override `t` (so that class entries can give only some of them).
 void read_into(const json& j, Tuning& t) {
   auto get = [](const json& obj, const char* key, auto& out) {
@@ -39,6 +61,8 @@ void read_into(const json& j, Tuning& t) {
     get(e, "clblast", t.exact.clblast);
     get(e, "vector_width", t.exact.vector_width);
     get(e, "row_block", t.exact.row_block);
+    get(e, "min_indirect_size", t.exact.min_indirect_size);
+    if (e.contains("xgemm")) t.exact.xgemm = read_xgemm(e.at("xgemm"));
   }
   if (j.contains("penumbra")) get(j.at("penumbra"), "tile", t.penumbra.tile);
 }
@@ -48,7 +72,9 @@ json to_json(const Tuning& t) {
           {"exact",
            {{"clblast", t.exact.clblast},
             {"vector_width", t.exact.vector_width},
-            {"row_block", t.exact.row_block}}},
+            {"row_block", t.exact.row_block},
+            {"min_indirect_size", t.exact.min_indirect_size},
+            {"xgemm", xgemm_json(t.exact.xgemm)}}},
           {"penumbra", {{"tile", t.penumbra.tile}}}};
 }
 
@@ -57,6 +83,75 @@ void warn(const std::string& message) {
 }
 
 }  // namespace
+
+const std::vector<XgemmParameters::Field>& XgemmParameters::fields() {
+  using X = XgemmParameters;
+  static const std::vector<Field> all = {
+      {"GEMMK", &X::GEMMK}, {"KREG", &X::KREG},   {"KWG", &X::KWG},     {"KWI", &X::KWI},
+      {"MDIMA", &X::MDIMA}, {"MDIMC", &X::MDIMC}, {"MWG", &X::MWG},     {"NDIMB", &X::NDIMB},
+      {"NDIMC", &X::NDIMC}, {"NWG", &X::NWG},     {"SA", &X::SA},       {"SB", &X::SB},
+      {"STRM", &X::STRM},   {"STRN", &X::STRN},   {"VWM", &X::VWM},     {"VWN", &X::VWN}};
+  return all;
+}
+
+bool XgemmParameters::operator==(const XgemmParameters& o) const {
+  return std::all_of(fields().begin(), fields().end(),
+                     [&](const Field& f) { return this->*f.second == o.*f.second; });
+}
+
+std::string XgemmParameters::describe() const {
+  std::ostringstream s;
+  s << "MWG " << MWG << " NWG " << NWG << " KWG " << KWG << " MDIMC " << MDIMC << " NDIMC "
+    << NDIMC << " VWM " << VWM << " VWN " << VWN << " SA " << SA << " SB " << SB;
+  if (GEMMK) s << " GEMMK 1 KREG " << KREG;
+  return s.str();
+}
+
+void validate(const XgemmParameters& x, const DeviceInfo& device) {
+  auto fail = [&](const std::string& why) {
+    throw Error("CLBlast Xgemm parameters (" + x.describe() + "): " + why);
+  };
+  auto str = [](size_t v) { return std::to_string(v); };
+  for (const auto& [name, field] : XgemmParameters::fields()) {
+    const int v = x.*field;
+    const std::string n = name;
+    const bool flag = n == "GEMMK" || n == "SA" || n == "SB" || n == "STRM" || n == "STRN";
+    if (flag ? (v != 0 && v != 1) : v < 1)
+      fail(n + " is " + std::to_string(v) + "; expected " +
+           (flag ? "0 or 1" : "a positive integer"));
+  }
+  for (int vw : {x.VWM, x.VWN})
+    if (vw > 16 || (vw & (vw - 1))) fail("VWM and VWN must be 1, 2, 4, 8 or 16");
+  // The constraints of CLBlast's Xgemm tuner: whole numbers of vectors per thread, of threads
+  // per tile when loading A and B, and of KWI unrolled steps per KWG.
+  auto multiple = [&](int a, const char* an, int b, const std::string& bn) {
+    if (b == 0 || a % b)
+      fail(std::string(an) + " " + str(a) + " must be a multiple of " + bn + " = " + str(b));
+  };
+  multiple(x.KWG, "KWG", x.KWI, "KWI");
+  multiple(x.MWG, "MWG", x.MDIMC * x.VWM, "MDIMC·VWM");
+  multiple(x.NWG, "NWG", x.NDIMC * x.VWN, "NDIMC·VWN");
+  multiple(x.MWG, "MWG", x.MDIMA * x.VWM, "MDIMA·VWM");
+  multiple(x.NWG, "NWG", x.NDIMB * x.VWN, "NDIMB·VWN");
+  if (x.GEMMK == 0) {
+    multiple(x.MDIMC * x.NDIMC, "MDIMC·NDIMC", x.MDIMA, "MDIMA");
+    multiple(x.MDIMC * x.NDIMC, "MDIMC·NDIMC", x.NDIMB, "NDIMB");
+    multiple(x.KWG, "KWG", x.MDIMC * x.NDIMC / x.MDIMA, "MDIMC·NDIMC/MDIMA");
+    multiple(x.KWG, "KWG", x.MDIMC * x.NDIMC / x.NDIMB, "MDIMC·NDIMC/NDIMB");
+  } else {
+    multiple(x.KREG, "KREG", x.VWN, "VWN");
+    if (x.MDIMA != x.MDIMC || x.NDIMB != x.NDIMC)
+      fail("GEMMK 1 needs MDIMA = MDIMC and NDIMB = NDIMC");
+  }
+  const size_t group = size_t(x.MDIMC) * x.NDIMC;
+  if (group > device.max_work_group)
+    fail("MDIMC·NDIMC = " + str(group) + " work-items per group; device '" + device.name +
+         "' allows " + str(device.max_work_group));
+  const size_t local = (size_t(x.SA) * x.MWG + size_t(x.SB) * x.NWG) * x.KWG * sizeof(double);
+  if (device.device() && local > device.device.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>())
+    fail(str(local) + " bytes of local memory (in double); device '" + device.name + "' has " +
+         str(device.device.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>()));
+}
 
 void validate(const Tuning& t, const DeviceInfo& device) {
   const RasterTuning& r = t.raster;
@@ -77,6 +172,10 @@ void validate(const Tuning& t, const DeviceInfo& device) {
     throw Error("exact-sum tuning: vector_width " + std::to_string(vw) +
                 " must be 1, 2, 4, 8 or 16 and row_block " + std::to_string(t.exact.row_block) +
                 " in 1 to 8");
+  if (t.exact.min_indirect_size < 0)
+    throw Error("exact-sum tuning: min_indirect_size " + std::to_string(t.exact.min_indirect_size) +
+                " must be 0 (CLBlast's default) or positive");
+  if (t.exact.xgemm) validate(*t.exact.xgemm, device);
   if (t.penumbra.tile < 1 || t.penumbra.tile > 256)
     throw Error("penumbra tuning: tile " + std::to_string(t.penumbra.tile) + " must be in 1 to 256");
 }
