@@ -17,9 +17,13 @@
 // fnormal F × real4 (.w = screen area, 0 for a dropped face), S W·H × real;
 // P W·H × real (output), pen_sums W·H × real2 (the shift v₀ and the shifted denominator
 // e^{−γ_P(1−v₀)} + Σ (1 − v)·e^{−γ_P(v−v₀)}), gP W·H × real (backward input).
-// Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd and
+// Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd PPW
+// consecutive texels of a row per work-item (2-D; a run never straddles two tiles);
 // penumbra_bwd_texel one per texel (2-D).
-#include "common/geometry.clh"
+#ifndef PPW
+#define PPW 1  // texels per work-item in penumbra_fwd; divides the tile
+#endif
+#include "common/lanes.clh"
 
 typedef struct {
   real2 p[3];
@@ -129,31 +133,59 @@ __kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* f
                            __global const real4* fnormal, __global const int4* boxes,
                            __global const real* P, int W, int H, __global const real* S,
                            TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
-  int i = get_global_id(0), j = get_global_id(1);
-  if (i >= W || j >= H) return;
-  real2 q = pixel_centre(i, j, W, H);
-  real Sq = S[j * W + i], num = 0, den = 0, shift = 1, gp = P[P_GAMMA_P];
-  int t = (i / tile) + (j / tile) * tiles_x;
-  for (int k = 0; k < tile_counts[t]; ++k) {
+  int i0 = get_global_id(0) * PPW, j = get_global_id(1);
+  if (i0 >= W || j >= H) return;
+  // occluder_fwd on every lane.
+  const realP qx = lanes_x(i0, W, H);
+  const real qy = (real)(H - 2 * j - 1) / H;
+  const maskP valid = lanes_valid(i0, W);
+  real Sj[PPW];
+  for (int l = 0; l < PPW; ++l) Sj[l] = S[j * W + min(i0 + l, W - 1)];
+  const realP Sq = VLOADP(0, Sj);
+  const real gp = P[P_GAMMA_P], DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S], beta = P[P_BETA];
+  const real s0 = sigmoid(-beta / gs);
+  const int ortho = P[P_FRAME + FR_ORTHO] > 0;
+  realP num = 0, den = 0, shift = 1;
+  int t = (i0 / tile) + (j / tile) * tiles_x;
+  for (int k = 0; DL > 0 && k < tile_counts[t]; ++k) {
     int f = tile_faces[tile_offsets[t] + k];
     int4 bb = boxes[f];
-    if (i < bb.x || i > bb.z || j < bb.y || j > bb.w) continue;
+    if (j < bb.y || j > bb.w || i0 + PPW - 1 < bb.x || i0 > bb.z) continue;
     LightFace F = load_light_face(f, vscreen, faces, fnormal);
-    Occluder o;
-    if (!occluder_fwd(q, Sq, &F, P, &o)) continue;
-    if (o.v < shift) {  // a new smallest v: rescale what was summed to it
-      real scale = exp(-gp * (shift - o.v));
-      num *= scale;
-      den *= scale;
-      shift = o.v;
-    }
-    real a = (1 - o.v) * exp(-gp * (o.v - shift));
-    num += a * o.v;
-    den += a;
+    realP w[3], d2, b3[3];
+    maskP inside;
+    lanes_shape(qx, qy, F.p, F.area, P, w, &d2, &inside);
+    realP z = lanes_depth(w, F.z, P, b3);
+    maskP front = valid && z < Sq;
+    if (!ANY(front)) continue;
+    realP d = inside ? (realP)0 : sqrt(d2);
+    realP b = DL * (Sq - z) / Sq;
+    realP r = d * (ortho ? (realP)P[P_FRAME + FR_SCALE] : z * P[P_FRAME + FR_SCALE]);
+    realP tau = r / b;
+    maskP in_cone = front && tau < 1;
+    if (!ANY(in_cone)) continue;
+    realP x = (Sq - beta - z) / gs, e = exp(-fabs(x));
+    realP sig = x >= 0 ? 1 / (1 + e) : e / (1 + e);
+    realP m = fmax(sig - s0, R(0)) / (1 - s0);
+    realP v = 1 - m * (1 - tau);
+    maskP lower = in_cone && v < shift;  // a new smallest v: rescale what was summed to it
+    realP scale = exp(-gp * (shift - v));
+    num = lower ? num * scale : num;
+    den = lower ? den * scale : den;
+    shift = lower ? v : shift;
+    realP a = (1 - v) * exp(-gp * (v - shift));
+    num += in_cone ? a * v : (realP)0;
+    den += in_cone ? a : (realP)0;
   }
-  real lit = exp(-gp * (1 - shift));
-  Pmap[j * W + i] = (lit + num) / (lit + den);
-  pen_sums[j * W + i] = (real2)(shift, lit + den);
+  realP lit = exp(-gp * (1 - shift));
+  real Pj[PPW], shiftj[PPW], denj[PPW];
+  VSTOREP((lit + num) / (lit + den), 0, Pj);
+  VSTOREP(shift, 0, shiftj);
+  VSTOREP(lit + den, 0, denj);
+  for (int l = 0; l < PPW && i0 + l < W; ++l) {
+    Pmap[j * W + i0 + l] = Pj[l];
+    pen_sums[j * W + i0 + l] = (real2)(shiftj[l], denj[l]);
+  }
 }
 
 // Backward, per texel: dL/dS_q and dL/dD_L (summed over texels on the host) from dL/dP_q.

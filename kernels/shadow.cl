@@ -44,18 +44,25 @@ inline real gauss(int i, int j, real2 mu, real sigma_s) {
   return axis_weight(i - mu.x, sigma_s) * axis_weight(j - mu.y, sigma_s);
 }
 
-// Rows of a window are processed eight texels at a time as vectors, which is what PoCL turns
-// into SIMD.
-__constant real lane8_values[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-#define LANE8 vload8(0, lane8_values)
+// Rows of a window are processed ROW texels at a time as vectors, which is what PoCL turns
+// into SIMD (16 fills an AVX-512 register with floats; the host's shadow_row_width).
+#ifndef ROW
+#define ROW 8
+#endif
+#define realR CAT(real, ROW)
+#define vloadR CAT(vload, ROW)
+#define vstoreR CAT(vstore, ROW)
+__constant real lane_values[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+#define LANE8 vload8(0, lane_values)
+#define LANER vloadR(0, lane_values)
 
 // The axis weights of a window, gx_i of its columns and gy_j of its rows, computed once per
 // fragment eight at a time (scalar exp calls cost more than the whole row loop). A window
 // wider than the cache computes its columns as it goes, in window_row8, and its rows one by one.
 #define WINDOW_CACHE 64
 typedef struct {
-  real gx[WINDOW_CACHE + 8];  // + 8: written and read eight at a time
-  real gy[WINDOW_CACHE + 8];
+  real gx[WINDOW_CACHE + 16];  // + 16: written eight and read ROW at a time
+  real gy[WINDOW_CACHE + 16];
   int x0, n, y0, ny;
 } Columns;
 
@@ -83,40 +90,45 @@ inline real hsum8(real8 v) {
   real4 a = v.lo + v.hi;
   return a.s0 + a.s1 + a.s2 + a.s3;
 }
+#if ROW == 16
+inline real hsumR(real16 v) { return hsum8(v.lo + v.hi); }
+#else
+#define hsumR hsum8
+#endif
 // a[start + 0 .. start + n − 1], zeros past n.
-inline real8 load8(__global const real* a, int start, int n) {
-  if (n >= 8) return vload8(0, a + start);
-  real t[8];
-  for (int l = 0; l < 8; ++l) t[l] = l < n ? a[start + l] : 0;
-  return vload8(0, t);
+inline realR loadR(__global const real* a, int start, int n) {
+  if (n >= ROW) return vloadR(0, a + start);
+  real t[ROW];
+  for (int l = 0; l < ROW; ++l) t[l] = l < n ? a[start + l] : 0;
+  return vloadR(0, t);
 }
 
 // Weights g' of window texels i0 .. i0 + 7 of row j (0 past the window's last column x1).
-inline real8 window_row8(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
-  real8 lane = LANE8;
-  real8 gx = c->n ? vload8(0, c->gx + (i0 - c->x0))
+inline realR window_row(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
+  realR lane = LANER;
+  realR gx = c->n ? vloadR(0, c->gx + (i0 - c->x0))
                   : exp(-((real)i0 + lane - mu.x) * ((real)i0 + lane - mu.x) / (2 * ss));
-  real8 g = gx * gy - eps;
-  return select((real8)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
+  realR g = gx * gy - eps;
+  return select((realR)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
 }
 
 // Filtered depth v = Σ g'·S / Σ g'; returns 0 in `*norm` if no texel has weight.
 inline real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
                          int Wm, real* norm) {
   real ss = P[P_SIGMA_S];
-  real8 sum = 0, acc = 0;
+  realR sum = 0, acc = 0;
   Columns c;
   columns_init(&c, w, mu, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, mu.y, ss);
-    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
-      real8 g = window_row8(&c, i0, w.x1, gy, mu, ss, w.eps);
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
+      realR g = window_row(&c, i0, w.x1, gy, mu, ss, w.eps);
       sum += g;
-      acc += g * load8(S, j * Wm + i0, min(8, Wm - i0));
+      acc += g * loadR(S, j * Wm + i0, min(ROW, Wm - i0));
     }
   }
-  *norm = hsum8(sum);
-  return *norm > 0 ? hsum8(acc) / *norm : 0;
+  *norm = hsumR(sum);
+  return *norm > 0 ? hsumR(acc) / *norm : 0;
 }
 
 
@@ -149,21 +161,21 @@ __kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int
   }
   real gv = gs * x.w * (1 - x.w) / P[P_GAMMA_S];
   // dv/dμ = Σ ∂g'/∂μ·(S − v)/Σg', with ∂g'/∂μx = g·(i − μx)/σ_s where g' > 0.
-  real8 dvx = 0, dvy = 0;
+  realR dvx = 0, dvy = 0;
   real ss = P[P_SIGMA_S];
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss);
-    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
-      real8 lam = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
-      real8 g = select((real8)0, lam + w.eps, lam > 0);  // g where g' > 0
-      real8 t = g * (load8(S, j * Wm + i0, min(8, Wm - i0)) - v);
-      dvx += t * ((real)i0 + LANE8 - x.x);
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
+      realR lam = window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      realR g = select((realR)0, lam + w.eps, lam > 0);  // g where g' > 0
+      realR t = g * (loadR(S, j * Wm + i0, min(ROW, Wm - i0)) - v);
+      dvx += t * ((real)i0 + LANER - x.x);
       dvy += t * (j - x.y);
     }
   }
-  real2 dv = (real2)(hsum8(dvx), hsum8(dvy)) / (norm * ss);
+  real2 dv = (real2)(hsumR(dvx), hsumR(dvy)) / (norm * ss);
   rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
 }
 
@@ -336,17 +348,23 @@ inline Window soft_window(real2 mu, __global const real* P, int Wm, int Hm) {
 #endif
 }
 
-// front·(1 − at·(1 − P)) at eight texels of a row at once, with its derivatives by d_ij and
+// front·(1 − at·(1 − P)) at ROW texels of a row at once, with its derivatives by d_ij and
 // by P_ij (its derivative by S_ij is minus the one by d_ij).
-inline real8 sigmoid8(real8 u) {
-  real8 e = exp(-fabs(u));
-  return select(e / (1 + e), 1 / (1 + e), u >= 0);
-}
-inline real8 soft_term8(real8 S, real8 Pv, real8 dij, __global const real* P, real8* dd,
-                        real8* dP) {
-  real gs = P[P_GAMMA_S];
-  real8 front = sigmoid8((S - dij + P[P_BETA]) / gs), at = sigmoid8((dij - S + P[P_BETA]) / gs);
-  real8 lit = 1 - at * (1 - Pv);
+// Both sigmoids come from one exponential (the exponentials are most of the cost): with
+// x = (S − d_ij)/γ_s and c = e^{−β/γ_s}, front = 1/(1 + c·e^{−x}) and at = 1/(1 + c/e^{−x}).
+// x is clamped so that e^{−x} stays finite and nonzero; beyond the clamp each sigmoid is within
+// 1e-34 (float; 1e-304 in double) of 0 or 1.
+#ifdef PENUMBRA_DOUBLE
+#define SIGMOID_CLAMP 700
+#else
+#define SIGMOID_CLAMP 80
+#endif
+inline realR soft_term(realR S, realR Pv, realR dij, __global const real* P, realR* dd,
+                        realR* dP) {
+  real gs = P[P_GAMMA_S], c = exp(-P[P_BETA] / gs);
+  realR e = exp(-clamp((S - dij) / gs, (real)-SIGMOID_CLAMP, (real)SIGMOID_CLAMP));
+  realR front = 1 / (1 + c * e), at = 1 / (1 + c / e);
+  realR lit = 1 - at * (1 - Pv);
   *dd = -front * (1 - front) / gs * lit - front * at * (1 - at) / gs * (1 - Pv);
   *dP = front * at;
   return front * lit;
@@ -360,23 +378,24 @@ __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, i
   real4 x = rec_light[r * nl + light];
   real2 grad = rec_light2[r * nl + light].xy;
   Window w = soft_window(x.xy, P, Wm, Hm);
-  real sum = 0, acc = 0, ss = P[P_SIGMA_S];
-  real8 dd, dP;
+  real ss = P[P_SIGMA_S];
+  realR sum = 0, acc = 0, dd, dP;
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss);
-    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
-      real8 g = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
-      real8 dij = x.z + grad.x * ((real)i0 + LANE8 - x.x) + grad.y * (j - x.y);
-      int n = min(8, Wm - i0);
-      real8 term = soft_term8(load8(S, j * Wm + i0, n), load8(Pmap, j * Wm + i0, n), dij, P,
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
+      realR g = window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      realR dij = x.z + grad.x * ((real)i0 + LANER - x.x) + grad.y * (j - x.y);
+      int n = min(ROW, Wm - i0);
+      realR term = soft_term(loadR(S, j * Wm + i0, n), loadR(Pmap, j * Wm + i0, n), dij, P,
                               &dd, &dP);
-      sum += hsum8(g);
-      acc += hsum8(g * term);
+      sum += g;
+      acc += g * term;
     }
   }
-  rec_light[r * nl + light].w = sum > 0 ? acc / sum : 1;
+  real norm = hsumR(sum);
+  rec_light[r * nl + light].w = norm > 0 ? hsumR(acc) / norm : 1;
 }
 
 __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
@@ -392,11 +411,12 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   Window w = soft_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
-  real sum = 0;
+  realR sumR = 0;
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss);
-    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) sum += hsum8(window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps));
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) sumR += window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
   }
+  real sum = hsumR(sumR);
   if (sum <= 0) {
     rec_lgrad[r * nl + light] = 0;
     rec_lgrad2[r * nl + light] = 0;
@@ -404,17 +424,17 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   }
   // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s where g' > 0) and
   // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ).
-  real8 gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
+  realR gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss), offy = j - x.y;
-    for (int i0 = w.x0; i0 <= w.x1; i0 += 8) {
-      real8 lam = window_row8(&c, i0, w.x1, gy, x.xy, ss, w.eps);
-      real8 g = select((real8)0, lam + w.eps, lam > 0);
-      real8 offx = (real)i0 + LANE8 - x.x;
-      int n = min(8, Wm - i0);
-      real8 term = soft_term8(load8(S, j * Wm + i0, n), load8(Pmap, j * Wm + i0, n),
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
+      realR lam = window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      realR g = select((realR)0, lam + w.eps, lam > 0);
+      realR offx = (real)i0 + LANER - x.x;
+      int n = min(ROW, Wm - i0);
+      realR term = soft_term(loadR(S, j * Wm + i0, n), loadR(Pmap, j * Wm + i0, n),
                               x.z + grad.x * offx + grad.y * offy, P, &dd, &dP);
-      real8 wmu = g * (term - s) / ss;
+      realR wmu = g * (term - s) / ss;
       gmux += wmu * offx - lam * dd * grad.x;
       gmuy += wmu * offy - lam * dd * grad.y;
       gd += lam * dd;
@@ -423,8 +443,8 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
     }
   }
   real k = gs / sum;
-  rec_lgrad[r * nl + light] = (real4)(k, k * hsum8(gmux), k * hsum8(gmuy), k * hsum8(gd));
-  rec_lgrad2[r * nl + light] = (real4)(k * hsum8(ggx), k * hsum8(ggy), 0, 0);
+  rec_lgrad[r * nl + light] = (real4)(k, k * hsumR(gmux), k * hsumR(gmuy), k * hsumR(gd));
+  rec_lgrad2[r * nl + light] = (real4)(k * hsumR(ggx), k * hsumR(ggy), 0, 0);
 }
 
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
@@ -436,12 +456,12 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
                           __global const real4* rec_lgrad, __global const int* bucket_offsets,
                           __global const int* bucket_counts, __global const int* bucket_recs,
                           __global real* gS, __global real* gPmap) {
-  int i0 = get_global_id(0) * 8, j = get_global_id(1);
+  int i0 = get_global_id(0) * ROW, j = get_global_id(1);
   if (i0 >= Wm || j >= Hm) return;
   const real ss = P[P_SIGMA_S];
-  const int n = min(8, Wm - i0);
-  const real8 Sv = load8(S, j * Wm + i0, n), Pv = load8(Pmap, j * Wm + i0, n);
-  real8 accS = 0, accP = 0, dd, dP;
+  const int n = min(ROW, Wm - i0);
+  const realR Sv = loadR(S, j * Wm + i0, n), Pv = loadR(Pmap, j * Wm + i0, n);
+  realR accS = 0, accP = 0, dd, dP;
 #if EXACT
   const real eps = 0;
   for (int r = 0; r < nrec; ++r) {
@@ -450,24 +470,24 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
   const real eps = P[P_LAMBDA_EPS];
   const int reach = bucket_reach(P);
   for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
-    for (int bx = max(i0 - reach, 0); bx <= min(i0 + 7 + reach, Wm - 1); ++bx)
+    for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
       for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
 #endif
     real4 x = rec_light[r * nl + light];
     real gy = axis_weight(j - x.y, ss);
     if (gy <= eps) continue;
-    real8 offx = (real)i0 + LANE8 - x.x;
-    real8 g = fmax(exp(-offx * offx / (2 * ss)) * gy - eps, (real8)0);
+    realR offx = (real)i0 + LANER - x.x;
+    realR g = fmax(exp(-offx * offx / (2 * ss)) * gy - eps, (realR)0);
     real2 grad = rec_light2[r * nl + light].xy;
-    soft_term8(Sv, Pv, x.z + grad.x * offx + grad.y * (j - x.y), P, &dd, &dP);
-    real8 a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
+    soft_term(Sv, Pv, x.z + grad.x * offx + grad.y * (j - x.y), P, &dd, &dP);
+    realR a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
     accS -= a * dd;
     accP += a * dP;
   }
-  real outS[8], outP[8];
-  vstore8(accS, 0, outS);
-  vstore8(accP, 0, outP);
+  real outS[ROW], outP[ROW];
+  vstoreR(accS, 0, outS);
+  vstoreR(accP, 0, outP);
   for (int l = 0; l < n; ++l) {
     gS[j * Wm + i0 + l] = outS[l];
     gPmap[j * Wm + i0 + l] = outP[l];

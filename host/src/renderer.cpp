@@ -20,6 +20,8 @@ std::string Kernels::options(const std::string& file) const {
   if (file == "raster.cl")
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
+  if (file == "shadow.cl") o += " -DROW=" + std::to_string(detail::shadow_row_width(ctx_.info()));
+  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(ctx_.info(), tuning_));
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning_.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning_.exact.row_block);

@@ -3,6 +3,7 @@
 // transform.cpp ↔ transform.cl, bin.cpp ↔ bin.cl, raster.cpp ↔ raster.cl,
 // shadow.cpp ↔ shadow.cl, matmul.cpp ↔ matmul.cl.
 #include <CL/opencl.hpp>
+#include <algorithm>
 #include <map>
 #include <string>
 
@@ -48,6 +49,17 @@ struct Bins {
   size_t total = 0;  // entries over all tiles
   cl::Buffer offsets, counts, items;
 };
+
+// Texels per work-item of penumbra_fwd: vectors of 8 on CPUs (one on GPUs), at most the
+// penumbra tile so that a run stays within one tile's list. Not tied to the raster's tuning,
+// so that raster candidates leave the shadows' bits alone.
+inline int penumbra_lanes(const DeviceInfo& d, const Tuning& t) {
+  return std::min(d.is_gpu ? 1 : 8, t.penumbra.tile);
+}
+
+// Texels per vector in shadow.cl's window rows (ROW): 16 floats fill an AVX-512 register on
+// CPUs; GPUs keep 8.
+inline int shadow_row_width(const DeviceInfo& d) { return d.is_gpu ? 8 : 16; }
 
 // Per-view device state (a camera, or a light rendering its shadow map).
 struct ViewState {

@@ -18,7 +18,9 @@ void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv) {
   const Bins& b = lv.pen_bins;
   set_args(pf, lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, lv.W, lv.H, lv.depth, kTile,
            b.tiles_x, b.offsets, b.counts, b.items, lv.pen_map, lv.pen_sums);
-  launch(ctx, pf, cl::NDRange(lv.W, lv.H), cl::NDRange(8, 8));
+  const int lanes = penumbra_lanes(k.ctx().info(), k.tuning());
+  launch(ctx, pf, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
+         cl::NDRange(std::max(1, 8 / lanes), 8));
 }
 
 cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewState& lv,

@@ -92,7 +92,8 @@ MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState&
     auto& ga = k.get("shadow.cl", "soft_gather", variant);
     set_args(ga, v.P, n, light, nl, Wm, Hm, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
              v.rec_lgrad, bins.offsets, bins.counts, bins.items, g.S, g.P);
-    launch(ctx, ga, cl::NDRange((Wm + 7) / 8, Hm), cl::NDRange(8, 8));  // 8 texels per item
+    const int row = shadow_row_width(k.ctx().info());  // texels per item
+    launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
     return g;
   }
   if (sampling == Sampling::Truncated) {
