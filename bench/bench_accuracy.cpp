@@ -324,11 +324,16 @@ void run_accuracy(benchmark::State& state, const Case& c, const std::string& tag
   reset_peak_rss();
   Scene s;
   std::vector<RenderOutput> out;
-  Renderer& r = renderer();
   try {
     ground_truth(false);
     ground_truth(true);
     s = accuracy_scene(c);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  Renderer& r = renderer(s);
+  try {
     out = r.render(s);  // warm-up; also the image that is compared
   } catch (const std::exception& e) {
     state.SkipWithError(e.what());

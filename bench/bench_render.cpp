@@ -23,10 +23,15 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
   reset_peak_rss();
   Scene s;
   std::vector<RenderOutput> out;
-  Renderer& r = renderer();
   std::vector<OutputGrads> grads;
   try {
     s = make_scene(c);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  Renderer& r = renderer(s);
+  try {
     out = r.render(s);  // warm-up: builds every program this case needs
     if (backward) {
       grads = unit_grads(s);

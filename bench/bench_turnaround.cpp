@@ -33,7 +33,7 @@ void run_turnaround(benchmark::State& state, Shadows shadows) {
   c.shadows = shadows;
   Scene s = make_scene(c);
   const Camera base = s.cameras.front();
-  Renderer& r = renderer();
+  Renderer& r = renderer(s);
   std::vector<double> frame_s;
   double fragments = 0;
   try {

@@ -142,7 +142,7 @@ Scene make_scene(const Case& c) {
 
 namespace {
 std::unique_ptr<Context> g_context;
-std::unique_ptr<Renderer> g_renderer;
+std::unique_ptr<Renderer> g_renderer, g_direct_renderer;
 }  // namespace
 
 Context& context() {
@@ -150,12 +150,21 @@ Context& context() {
   return *g_context;
 }
 
-Renderer& renderer() {
+Renderer& renderer(const Scene& scene) {
+  if (scene.params.sampling == Sampling::Exact) {
+    if (!g_direct_renderer) {
+      Tuning t = TuningDatabase::load_default().lookup(context().info(), workload_stats(scene));
+      t.exact.clblast = false;
+      g_direct_renderer = std::make_unique<Renderer>(context(), Precision::Float, t);
+    }
+    return *g_direct_renderer;
+  }
   if (!g_renderer) g_renderer = std::make_unique<Renderer>(context(), Precision::Float);
   return *g_renderer;
 }
 
 void release_device() {
+  g_direct_renderer.reset();
   g_renderer.reset();
   g_context.reset();
 }

@@ -56,8 +56,11 @@ const char* word(Sampling s);
 // ---- device and renderer -------------------------------------------------------------------
 
 Context& context();
-// One float renderer for the whole process, so programs are built once.
-Renderer& renderer();
+// One float renderer for the whole process, so programs are built once, with the tuning the
+// library picks for the device and workload. For a scene with sampling `exact` it is a second
+// renderer whose exact sum always runs penumbra's direct product kernels (the tuning may pick
+// CLBlast there, which sampling `gemm` measures), so that the two exact-sum paths stay apart.
+Renderer& renderer(const Scene& scene);
 // Releases the renderer and the device before exit (PoCL's own exit handlers, such as its
 // POCL_TRACING=cq summary, then find no live objects).
 void release_device();
