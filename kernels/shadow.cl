@@ -202,36 +202,43 @@ inline int bucket_reach(__global const real* P) {
   return (int)ceil(sqrt(2 * P[P_SIGMA_S] * log(1 / P[P_LAMBDA_EPS]))) + 1;
 }
 
+// Whether a fragment's window (radius² r2) can reach texels i0 .. i0 + ROW − 1 of row j: if
+// not, its weight g' = max(0, gx·gy − ε_λ) is 0 at all of them (gx, gy ≤ 1 and one of them
+// ≤ ε_λ), and the gathers skip it before computing any exponential.
+inline int window_reaches(real2 mu, int i0, int j, real r2) {
+  real dx = mu.x < i0 ? i0 - mu.x : (mu.x > i0 + ROW - 1 ? mu.x - (i0 + ROW - 1) : 0);
+  real dy = j - mu.y;
+  return dx * dx < r2 && dy * dy < r2;
+}
+
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed
-// order (no atomics). A work-item takes GATHER_W consecutive texels of a row as one vector:
+// order (no atomics). A work-item takes ROW consecutive texels of a row as one vector:
 // g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no bounds test is needed.
-#define GATHER_W 8
 __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real4* rec_light, __global const real4* rec_lgrad,
                             __global const int* bucket_offsets, __global const int* bucket_counts,
                             __global const int* bucket_recs, __global real* gS) {
-  int i0 = get_global_id(0) * GATHER_W, j = get_global_id(1);
+  int i0 = get_global_id(0) * ROW, j = get_global_id(1);
   if (i0 >= Wm || j >= Hm) return;
-  const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS];
-  const real8 lane = (real8)(0, 1, 2, 3, 4, 5, 6, 7);
-  real8 acc = 0;
+  const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = 2 * ss * log(1 / eps);
+  realR acc = 0;
   int reach = bucket_reach(P);
   for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
-    for (int bx = max(i0 - reach, 0); bx <= min(i0 + GATHER_W - 1 + reach, Wm - 1); ++bx) {
+    for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx) {
       int b = by * Wm + bx;
       for (int k = 0; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
         real4 x = rec_light[r * nl + light];
+        if (!window_reaches(x.xy, i0, j, r2)) continue;
         real gy = axis_weight(j - x.y, ss);
-        if (gy <= eps) continue;
-        real8 d = (real)i0 + lane - x.x;
-        real8 g = fmax(exp(-d * d / (2 * ss)) * gy - eps, (real8)0);
+        realR d = (real)i0 + LANER - x.x;
+        realR g = fmax(exp(-d * d / (2 * ss)) * gy - eps, (realR)0);
         acc += rec_lgrad[r * nl + light].x * g;
       }
     }
-  real out[GATHER_W];
-  vstore8(acc, 0, out);
-  for (int l = 0; l < GATHER_W && i0 + l < Wm; ++l) gS[j * Wm + i0 + l] = out[l];
+  real out[ROW];
+  vstoreR(acc, 0, out);
+  for (int l = 0; l < ROW && i0 + l < Wm; ++l) gS[j * Wm + i0 + l] = out[l];
 }
 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
@@ -467,12 +474,13 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
   for (int r = 0; r < nrec; ++r) {
     if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
 #else
-  const real eps = P[P_LAMBDA_EPS];
+  const real eps = P[P_LAMBDA_EPS], r2 = 2 * ss * log(1 / eps);
   const int reach = bucket_reach(P);
   for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
     for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
       for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
+        if (!window_reaches(rec_light[r * nl + light].xy, i0, j, r2)) continue;
 #endif
     real4 x = rec_light[r * nl + light];
     real gy = axis_weight(j - x.y, ss);

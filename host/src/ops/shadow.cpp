@@ -104,7 +104,8 @@ MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState&
     auto& ga = k.get("shadow.cl", "shadow_gather");
     set_args(ga, v.P, n, light, nl, Wm, Hm, v.rec_light, v.rec_lgrad, bins.offsets, bins.counts,
              bins.items, g.S);
-    launch(ctx, ga, cl::NDRange((Wm + 7) / 8, Hm), cl::NDRange(8, 8));  // 8 texels per item
+    const int row = shadow_row_width(k.ctx().info());  // texels per item
+    launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
     return g;
   }
   const bool clblast = sampling == Sampling::Gemm || k.tuning().exact.clblast;
