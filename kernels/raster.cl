@@ -119,11 +119,18 @@ inline void load_screen(int f, __global const real4* vscreen, __global const int
   maskP in_range = covered && zq >= P[P_NEAR] && zq <= P[P_FAR];                          \
   realP zt = (P[P_FAR] - zq) / (P[P_FAR] - P[P_NEAR]);
 
+// raster_count also notes, per run of PPW pixels, which of the first 64 entries of its face
+// list counted a fragment at any of its pixels (run_hits, bit i for entry i). Only those can
+// hold kept fragments, so raster_fragments skips the others without testing them; past entry
+// 63 it tests every face, as raster_count did.
+inline int run_index(int px0, int py, int W) { return py * ((W + PPW - 1) / PPW) + px0 / PPW; }
+inline int may_keep(ulong hits, int i) { return i >= 64 || ((hits >> i) & 1); }
+
 __kernel __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
 void raster_count(__global const real4* vscreen, __global const int4* faces,
                   __global const int4* fbbox, __global const real4* fnormal,
                   __global const real* P, int W, int H, int nf, TILE_ARGS,
-                  __global real4* aux, __global int* pix_count) {
+                  __global real4* aux, __global int* pix_count, __global ulong* run_hits) {
   int px0 = get_global_id(0) * PPW, py = get_global_id(1);
   if (py >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA], weight_log = P[P_WEIGHT_LOG];
@@ -133,6 +140,7 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
   // m: running max of z̃ (stabilises the exponentials); M: running max of the log-weights
   // log D + (z̃ − m)/γ, the background's (ε − m)/γ included, relative to the running m.
   realP m = P[P_EPS], M = 0, slog = 0, count = 0;
+  ulong hits = 0;
   FACE_LIST_BEGIN(px0, py)
   for (int i = 0; i < list_count; ++i) {
     int f = FACE_AT(i);
@@ -146,8 +154,11 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
     M = in_range ? fmax(M, lw) : M;
     // The running maxima never exceed the final ones, so this counts a superset of the
     // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
-    count += in_range && lw >= M - weight_log - 1 ? (realP)1 : (realP)0;
+    maskP counted = in_range && lw >= M - weight_log - 1;
+    count += counted ? (realP)1 : (realP)0;
+    if (i < 64 && ANY(counted)) hits |= (ulong)1 << i;
   }
+  run_hits[run_index(px0, py, W)] = hits;
   real ms[PPW], Ms[PPW], slogs[PPW], counts[PPW];
   VSTOREP(m, 0, ms);
   VSTOREP(M, 0, Ms);
@@ -165,7 +176,8 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global const real4* fnormal, __global const real4* albedo,
                       __global const real* P, int W, int H, int nf, TILE_ARGS,
                       __global const real4* aux, __global const int* pix_count,
-                      __global const int* pix_offset, __global int* pix_n,
+                      __global const ulong* run_hits, __global const int* pix_offset,
+                      __global int* pix_n,
                       __global int* rec_face, __global real4* rec_frag,
                       __global real4* rec_shade, __global real4* rec_light,
                       __global real4* rec_light2) {
@@ -188,8 +200,10 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     bound[j] = pix_count[pix];
   }
   const realP m = VLOADP(0, ms), keep = VLOADP(0, keeps);
+  const ulong hits = run_hits[run_index(px0, py, W)];
   FACE_LIST_BEGIN(px0, py)
   for (int i = 0; i < list_count; ++i) {
+    if (!may_keep(hits, i)) continue;
     int f = FACE_AT(i);
     LANES_OF_FACE(f)
     realP lw = log_D + (zt - m) / gamma;

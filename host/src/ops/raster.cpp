@@ -27,9 +27,11 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   }
   v.aux = alloc_reals(ctx, p, npix * 4);
   v.pix_count = alloc_ints(ctx, npix);
+  const int ppw = k.tuning().raster.pixels_per_item;
+  const cl::Buffer run_hits = alloc_ints(ctx, size_t(v.H) * ((v.W + ppw - 1) / ppw) * 2);  // ulong
   auto& count = k.get("raster.cl", "raster_count");
-  set_args(count, v.vscreen, g.faces, v.fbbox, v.fnormal, v.P, v.W, v.H, g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
-           v.pix_count);
+  set_args(count, v.vscreen, g.faces, v.fbbox, v.fnormal, v.P, v.W, v.H, g.nf, v.bins.tiles_x,
+           v.bins.offsets, v.bins.counts, v.bins.items, v.aux, v.pix_count, run_hits);
   launch_tiled(k, count, v);
 
   // Fragment storage of exactly the counted size.
@@ -58,7 +60,7 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   auto& frag = k.get("raster.cl", "raster_fragments");
   set_args(frag, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
            g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
-           v.pix_count, v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
+           v.pix_count, run_hits, v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
            v.rec_light, v.rec_light2);
   launch_tiled(k, frag, v);
 }
