@@ -3,10 +3,14 @@
 // and shadow options of SPEC §7 (each defined once, here), device and precision options, file
 // helpers.
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "penumbra/io.hpp"
+#include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
 
@@ -91,5 +95,83 @@ void make_parent_dirs(const std::string& file);
 std::string cl_error_name(int code);
 // Replaces line breaks so that an error message prints as one line.
 std::string one_line(const std::string& text);
+
+// ---------------------------------------------------------------------------------------------
+// The fitting commands (fit-silhouette, fit-shadows, shadow-art): their common options, checks,
+// inputs and outputs.
+
+// --iterations, -o/--output ("folder for <files>"), --gif-every, --radius, --light-dir and
+// --device, worded alike in every fitting command.
+void add_iterations_option(CLI::App& cmd, int& iterations);
+void add_output_option(CLI::App& cmd, std::string& output, const std::string& files);
+void add_gif_every_option(CLI::App& cmd, int& gif_every);
+void add_radius_option(CLI::App& cmd, double& radius);
+void add_light_dir_option(CLI::App& cmd, std::vector<std::string>& light_dirs);
+void add_fit_device_option(CLI::App& cmd, std::string& device);
+
+// Throws unless min_iterations ≤ iterations ≤ 100000 and gif_every ≥ 1.
+void check_fit_counts(int iterations, int min_iterations, int gif_every);
+// Throws unless the starting sphere's radius is in (0, 1).
+void check_radius(double radius);
+
+// The lights of the targets: the --light-dir values, or the defaults −z, −x, −y in order, one
+// per target; throws when there are not as many lights as targets.
+std::vector<glm::dvec3> light_directions(const std::vector<std::string>& light_dirs,
+                                         size_t targets);
+// Loads and checks the target images (optim::load_target, check_targets) into `targets`; returns
+// their size, which must be 16 to max_size pixels.
+int load_fit_targets(const std::vector<std::string>& files, int max_size,
+                     std::vector<Image>& targets);
+// The bundled icosphere with the given radius, named "shape": the starting mesh of the fits.
+Mesh start_sphere(double radius);
+// The coverage sharpness σ whose square root spans `pixels` pixels of a view of `resolution`
+// pixels across the screen's [−1, 1].
+double sigma_for_pixels(double pixels, int resolution);
+
+// Seconds since construction.
+class Stopwatch {
+ public:
+  double seconds() const;
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+// What a fitting command shows and writes while and after it runs: the progress lines, DIR/fit.gif
+// (each target next to the current mask, at the targets' size), DIR/result.png, DIR/mesh.obj and
+// the last two lines of its output.
+class FitRecorder {
+ public:
+  // Creates the folder `dir`.
+  FitRecorder(std::string command, const std::string& dir, const std::vector<Image>& targets,
+              int iterations, int gif_every, const Stopwatch& clock);
+  // The fit's observer: a progress line, and an animation frame every gif_every iterations and
+  // at the last.
+  void update(const optim::FitProgress& p);
+  // The IoU of each final mask with its target; holds the final frame in the animation, then
+  // writes result.png and mesh.obj.
+  std::vector<double> finish(const Mesh& result, const std::vector<Image>& masks);
+  // "wrote ..." (naming `scene_png` too when given) and
+  // "<command>: iterations=N seconds=T iou=[...]".
+  void report(double seconds, const std::vector<double>& ious,
+              const std::string& scene_png = "") const;
+  // DIR/scene.png, the shape between its walls and lights (optim::room_scene, `size` pixels
+  // square), written only for mutually orthogonal lights; its path, or "" when not written.
+  std::string save_scene(Renderer& renderer, const Mesh& result,
+                         const std::vector<glm::dvec3>& directions, int size,
+                         const optim::WallSetup& setup) const;
+  // DIR/name.
+  std::string path(const std::string& name) const;
+
+ private:
+  Image frame(const std::vector<Image>& masks) const;
+
+  std::string command_, dir_;
+  std::vector<Image> targets_, target_pictures_;
+  int size_, gif_every_, done_ = 0;
+  const Stopwatch& clock_;
+  optim::ProgressPrinter progress_;
+  std::unique_ptr<GifWriter> gif_;
+};
 
 }  // namespace penumbra::cli

@@ -9,10 +9,7 @@
 // is always
 //   fit-shadows: iterations=N seconds=T iou=[v1,v2,...]
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,8 +20,6 @@
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
-
-namespace fs = std::filesystem;
 
 namespace penumbra::cli {
 
@@ -50,11 +45,8 @@ int map_size_for(int resolution, double texels_per_pixel, const optim::WallSetup
 
 int run_fit_shadows(const FitShadowsArgs& a) {
   using namespace optim;
-  if (a.iterations < 2 || a.iterations > 100000)
-    throw Error("--iterations must be in 2 to 100000 (got " + std::to_string(a.iterations) + ")");
-  if (a.gif_every < 1) throw Error("--gif-every must be positive");
-  if (!(a.radius > 0 && a.radius < 1))
-    throw Error("--radius must be in (0, 1) (got " + std::to_string(a.radius) + ")");
+  check_fit_counts(a.iterations, 2, a.gif_every);
+  check_radius(a.radius);
   if (!(a.light_size >= 0 && a.light_size < 1))
     throw Error("--light-size must be in [0, 1) (got " + std::to_string(a.light_size) + ")");
   const Shadows mode = parse_shadows(a.shadows);
@@ -65,29 +57,12 @@ int run_fit_shadows(const FitShadowsArgs& a) {
   std::vector<std::string> files = a.targets;
   if (files.empty())
     files = {data_dir() + "/targets/shadow_back.png", data_dir() + "/targets/shadow_side.png"};
-  std::vector<glm::dvec3> directions;
-  for (const std::string& d : a.light_dirs) directions.push_back(parse_direction(d));
-  if (directions.empty()) {
-    const std::vector<glm::dvec3> order = {{0, 0, -1}, {-1, 0, 0}, {0, -1, 0}};
-    if (files.size() > order.size())
-      throw Error(std::to_string(files.size()) +
-                  " targets but 3 default lights; give --light-dir for each target");
-    directions.assign(order.begin(), order.begin() + long(files.size()));
-  }
-  if (files.size() != directions.size())
-    throw Error(std::string(files.size() < directions.size() ? "fewer" : "more") + " targets (" +
-                std::to_string(files.size()) + ") than lights (" +
-                std::to_string(directions.size()) + "): give one --target per --light-dir");
+  const std::vector<glm::dvec3> directions = light_directions(a.light_dirs, files.size());
 
   ShadowProblem problem;
   problem.directions = directions;
   problem.params.shadows = mode;
-  for (const std::string& f : files) problem.targets.push_back(load_target(f));
-  check_targets(problem.targets, files);
-  const int size = problem.targets.front().width;
-  if (size < 16 || size > 512)
-    throw Error("target " + files.front() + " is " + std::to_string(size) + "x" +
-                std::to_string(size) + "; targets must be 16 to 512 pixels on a side");
+  const int size = load_fit_targets(files, 512, problem.targets);
   const WallSetup& w = problem.setup;
 
   // Coarse to fine (docs/applications.md): the icosphere at about 48 pixels with a map of about
@@ -110,66 +85,19 @@ int run_fit_shadows(const FitShadowsArgs& a) {
   stages[0] = {r0, n - fine, m0, light_sigma(m0), 0.01, 0, reg, size0};
   stages[1] = {size, fine, m1, light_sigma(m1), 0.003, 1, reg, size0 / 4};
 
-  Mesh sphere = load_obj(data_dir() + "/meshes/icosphere.obj");
-  for (glm::dvec3& v : sphere.vertices) v *= a.radius;
-  sphere.name = "shape";
-
+  const Mesh sphere = start_sphere(a.radius);
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
-  make_dirs(a.output);
-  const fs::path dir(a.output);
-
-  std::vector<Image> target_pictures;
-  for (const Image& t : problem.targets) target_pictures.push_back(mask_picture(t));
-  auto frame_of = [&](const std::vector<Image>& shadows) {
-    std::vector<Image> panels;
-    for (size_t v = 0; v < shadows.size(); ++v) {
-      panels.push_back(target_pictures[v]);
-      panels.push_back(upscale(mask_picture(shadows[v]), size / shadows[v].width));
-    }
-    return side_by_side(panels);
-  };
-  std::unique_ptr<GifWriter> gif;
-  ProgressPrinter progress("fit-shadows", n);
-  const auto t0 = std::chrono::steady_clock::now();
-  auto seconds = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  };
-  int done = 0;
-  Mesh result = fit_shadows(renderer, sphere, problem, stages, [&](const FitProgress& p) {
-    done = p.iteration;
-    progress.update(p.iteration, p.loss, p.ious, seconds());
-    if ((p.iteration - 1) % a.gif_every == 0 || p.iteration == p.total) {
-      const Image frame = frame_of(*p.images);
-      if (!gif)
-        gif = std::make_unique<GifWriter>((dir / "fit.gif").string(), frame.width, frame.height, 8);
-      gif->add_frame(frame);
-    }
-  });
+  const Stopwatch clock;
+  FitRecorder recorder("fit-shadows", a.output, problem.targets, n, a.gif_every, clock);
+  const Mesh result = fit_shadows(renderer, sphere, problem, stages,
+                                  [&](const FitProgress& p) { recorder.update(p); });
   // Final: the hard shadows at the targets' size.
   const std::vector<Image> hard = hard_shadows(renderer, result, directions, size, w);
-  const double total_seconds = seconds();
-  std::vector<double> ious;
-  for (size_t v = 0; v < hard.size(); ++v) ious.push_back(binary_iou(hard[v], problem.targets[v]));
-  const Image final_frame = frame_of(hard);
-  if (gif) {
-    for (int k = 0; k < 10; ++k) gif->add_frame(final_frame);
-    gif->close();
-  }
-  save_png(final_frame, (dir / "result.png").string());
-  save_obj(result, (dir / "mesh.obj").string());
-  std::string scene_png;
-  if (orthogonal(directions)) {
-    scene_png = (dir / "scene.png").string();
-    save_png(renderer.render(room_scene(result, directions, 400, 400, w)).front().color,
-             scene_png);
-  }
-  std::printf("wrote %s, %s%s%s and %s\n", (dir / "mesh.obj").string().c_str(),
-              (dir / "result.png").string().c_str(), scene_png.empty() ? "" : ", ",
-              scene_png.c_str(), (dir / "fit.gif").string().c_str());
-  std::printf("fit-shadows: iterations=%d seconds=%.1f iou=%s\n", done, total_seconds,
-              iou_list(ious).c_str());
-  std::fflush(stdout);
+  const double total_seconds = clock.seconds();
+  const std::vector<double> ious = recorder.finish(result, hard);
+  const std::string scene_png = recorder.save_scene(renderer, result, directions, 400, w);
+  recorder.report(total_seconds, ious, scene_png);
   return 0;
 }
 
@@ -189,23 +117,15 @@ Command add_fit_shadows_command(CLI::App& root) {
                     "target shadow image (repeatable, one per light): the shadow dark on a light "
                     "background, square, all the same size; default: the bundled "
                     "data/targets/shadow_back.png and shadow_side.png");
-  c.app->add_option("--light-dir", args->light_dirs,
-                    "direction x,y,z the light of the target at the same position travels "
-                    "(repeatable; default: 0,0,-1 then -1,0,0 then 0,-1,0)");
-  c.app->add_option("--iterations", args->iterations, "Adam iterations over all stages")
-      ->capture_default_str();
+  add_light_dir_option(*c.app, args->light_dirs);
+  add_iterations_option(*c.app, args->iterations);
   c.app->add_option("--light-size", args->light_size,
                     "diameter D_L of the lights with --shadows soft (world units)")
       ->capture_default_str();
-  c.app->add_option("-o,--output", args->output,
-                    "folder for mesh.obj, result.png, scene.png and fit.gif")
-      ->capture_default_str();
-  c.app->add_option("--gif-every", args->gif_every, "one animation frame every N iterations")
-      ->capture_default_str();
-  c.app->add_option("--radius", args->radius, "radius of the starting sphere (world units)")
-      ->capture_default_str();
-  c.app->add_option("--device", args->device,
-                    "OpenCL device: index from `penumbra devices` or part of its name");
+  add_output_option(*c.app, args->output, "mesh.obj, result.png, scene.png and fit.gif");
+  add_gif_every_option(*c.app, args->gif_every);
+  add_radius_option(*c.app, args->radius);
+  add_fit_device_option(*c.app, args->device);
   c.run = [args] { return run_fit_shadows(*args); };
   return c;
 }

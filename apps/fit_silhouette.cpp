@@ -6,10 +6,6 @@
 // DIR/fit.gif (the optimisation). The last line of its output is always
 //   fit-silhouette: iterations=N seconds=T iou=[v1,v2,...]
 #include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,8 +16,6 @@
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
-
-namespace fs = std::filesystem;
 
 namespace penumbra::cli {
 
@@ -40,11 +34,8 @@ struct FitSilhouetteArgs {
 
 int run_fit_silhouette(const FitSilhouetteArgs& a) {
   using namespace optim;
-  if (a.iterations < 4 || a.iterations > 100000)
-    throw Error("--iterations must be in 4 to 100000 (got " + std::to_string(a.iterations) + ")");
-  if (a.gif_every < 1) throw Error("--gif-every must be positive");
-  if (!(a.radius > 0 && a.radius < kHalfHeight))
-    throw Error("--radius must be in (0, 1) (got " + std::to_string(a.radius) + ")");
+  check_fit_counts(a.iterations, 4, a.gif_every);
+  check_radius(a.radius);
 
   // Targets and views: bundled targets for the named views (default front and side), or the
   // user's own, paired with --view in order.
@@ -76,12 +67,7 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
   SilhouetteProblem problem;
   problem.directions = directions;
   problem.half_height = kHalfHeight;
-  for (const std::string& f : files) problem.targets.push_back(load_target(f));
-  check_targets(problem.targets, files);
-  const int size = problem.targets.front().width;
-  if (size < 16 || size > 1024)
-    throw Error("target " + files.front() + " is " + std::to_string(size) + "x" +
-                std::to_string(size) + "; targets must be 16 to 1024 pixels on a side");
+  const int size = load_fit_targets(files, 1024, problem.targets);
 
   // Coarse to fine (docs/applications.md): the icosphere at about 32 pixels with a wide σ
   // (√σ half a pixel), then subdivided at about 64 pixels, then at the targets' size with σ
@@ -89,10 +75,7 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
   // does. Regularisers: strong while the sphere moves far, weak for the fine fit.
   const int n = a.iterations;
   const int r0 = stage_resolution(size, 32), r1 = std::max(r0, stage_resolution(size, 64));
-  auto sigma = [](double pixels, int resolution) {  // σ whose square root is `pixels` pixels
-    const double s = pixels * 2.0 / resolution;
-    return s * s;
-  };
+  const auto sigma = sigma_for_pixels;
   std::vector<SilhouetteStage> stages(4);
   stages[0] = {r0, n / 2, sigma(0.5, r0), 0.01, 0, {1.0, 0.0, 0.01, EdgeLoss::Variance}};
   stages[1] = {r1, n / 4, sigma(0.32, r1), 0.005, 1, {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
@@ -100,60 +83,17 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
   stages[3] = {size, n - n / 2 - n / 4 - n / 6, sigma(0.09, size), 0.001, 0,
                {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
 
-  Mesh sphere = load_obj(data_dir() + "/meshes/icosphere.obj");
-  for (glm::dvec3& v : sphere.vertices) v *= a.radius;
-  sphere.name = "shape";
-
+  const Mesh sphere = start_sphere(a.radius);
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
-  make_dirs(a.output);
-  const fs::path dir(a.output);
-
-  // The animation: each target next to the current silhouette, at the target's size.
-  std::vector<Image> target_pictures;
-  for (const Image& t : problem.targets) target_pictures.push_back(mask_picture(t));
-  auto frame_of = [&](const std::vector<Image>& silhouettes) {
-    std::vector<Image> panels;
-    for (size_t v = 0; v < silhouettes.size(); ++v) {
-      panels.push_back(target_pictures[v]);
-      panels.push_back(upscale(mask_picture(silhouettes[v]), size / silhouettes[v].width));
-    }
-    return side_by_side(panels);
-  };
-  std::unique_ptr<GifWriter> gif;
-  ProgressPrinter progress("fit-silhouette", n);
-  const auto t0 = std::chrono::steady_clock::now();
-  auto seconds = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  };
-  int done = 0;
-  Mesh result = fit_silhouettes(renderer, sphere, problem, stages, [&](const FitProgress& p) {
-    done = p.iteration;
-    progress.update(p.iteration, p.loss, p.ious, seconds());
-    if ((p.iteration - 1) % a.gif_every == 0 || p.iteration == p.total) {
-      const Image frame = frame_of(*p.images);
-      if (!gif)
-        gif = std::make_unique<GifWriter>((dir / "fit.gif").string(), frame.width, frame.height, 8);
-      gif->add_frame(frame);
-    }
-  });
+  const Stopwatch clock;
+  FitRecorder recorder("fit-silhouette", a.output, problem.targets, n, a.gif_every, clock);
+  const Mesh result = fit_silhouettes(renderer, sphere, problem, stages,
+                                      [&](const FitProgress& p) { recorder.update(p); });
   // Final: hard silhouettes at the targets' size.
   const std::vector<Image> hard = hard_silhouettes(renderer, result, directions, kHalfHeight, size);
-  const double total_seconds = seconds();
-  std::vector<double> ious;
-  for (size_t v = 0; v < hard.size(); ++v) ious.push_back(binary_iou(hard[v], problem.targets[v]));
-  const Image final_frame = frame_of(hard);
-  if (gif) {
-    for (int k = 0; k < 10; ++k) gif->add_frame(final_frame);  // hold the result a moment
-    gif->close();
-  }
-  save_png(final_frame, (dir / "result.png").string());
-  save_obj(result, (dir / "mesh.obj").string());
-  std::printf("wrote %s, %s and %s\n", (dir / "mesh.obj").string().c_str(),
-              (dir / "result.png").string().c_str(), (dir / "fit.gif").string().c_str());
-  std::printf("fit-silhouette: iterations=%d seconds=%.1f iou=%s\n", done, total_seconds,
-              iou_list(ious).c_str());
-  std::fflush(stdout);
+  const double total_seconds = clock.seconds();
+  recorder.report(total_seconds, recorder.finish(result, hard));
   return 0;
 }
 
@@ -174,17 +114,11 @@ Command add_fit_silhouette_command(CLI::App& root) {
                     "view of the target at the same position: front, side or top (repeatable; "
                     "default: front side)")
       ->check(CLI::IsMember({"front", "side", "top"}));
-  c.app->add_option("--iterations", args->iterations, "Adam iterations over all stages")
-      ->capture_default_str();
-  c.app->add_option("-o,--output", args->output,
-                    "folder for mesh.obj, result.png and fit.gif")
-      ->capture_default_str();
-  c.app->add_option("--gif-every", args->gif_every, "one animation frame every N iterations")
-      ->capture_default_str();
-  c.app->add_option("--radius", args->radius, "radius of the starting sphere (world units)")
-      ->capture_default_str();
-  c.app->add_option("--device", args->device,
-                    "OpenCL device: index from `penumbra devices` or part of its name");
+  add_iterations_option(*c.app, args->iterations);
+  add_output_option(*c.app, args->output, "mesh.obj, result.png and fit.gif");
+  add_gif_every_option(*c.app, args->gif_every);
+  add_radius_option(*c.app, args->radius);
+  add_fit_device_option(*c.app, args->device);
   c.run = [args] { return run_fit_silhouette(*args); };
   return c;
 }

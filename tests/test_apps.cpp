@@ -22,16 +22,14 @@
 
 #include "penumbra/image.hpp"
 #include "penumbra/io.hpp"
+#include "cli_run.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct RunResult {
-  bool signaled = false;
-  int exit_code = -1;
-  std::string out, err, command;
-};
+// Running the tool (cli_run.hpp).
+using namespace penumbra_tests;
 
 // Files of the running test: ctest runs tests in parallel processes, so no two tests share one.
 std::string temp_path(const std::string& name) {
@@ -40,57 +38,8 @@ std::string temp_path(const std::string& name) {
          name;
 }
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::vector<std::string> lines(const std::string& text) {
-  std::vector<std::string> result;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) result.push_back(line);
-  return result;
-}
-
 RunResult run_cli(const std::string& args, const std::string& tag) {
-  RunResult r;
-  const std::string out = temp_path(tag + ".stdout"), err = temp_path(tag + ".stderr");
-  r.command = quote(PENUMBRA_CLI) + " " + args;
-  const int status = std::system((r.command + " >" + quote(out) + " 2>" + quote(err)).c_str());
-  if (status == -1 || WIFSIGNALED(status)) {
-    r.signaled = true;
-  } else if (WIFEXITED(status)) {
-    r.exit_code = WEXITSTATUS(status);
-    r.signaled = r.exit_code >= 128;
-  }
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
-}
-
-std::string show(const RunResult& r) {
-  return "command: " + r.command + "\nexit: " + std::to_string(r.exit_code) +
-         (r.signaled ? " (signal)" : "") + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
-}
-
-void expect_clean_error(const RunResult& r, const std::string& mentions) {
-  EXPECT_FALSE(r.signaled) << show(r);
-  EXPECT_NE(r.exit_code, 0) << show(r);
-  const auto err = lines(r.err);
-  ASSERT_EQ(err.size(), 1u) << "expected exactly one line on stderr\n" << show(r);
-  EXPECT_EQ(err[0].rfind("penumbra: error:", 0), 0u) << show(r);
-  EXPECT_NE(err[0].find(mentions), std::string::npos)
-      << "the message should mention '" << mentions << "'\n"
-      << show(r);
+  return penumbra_tests::run_cli_to(args, temp_path(tag + ".stdout"), temp_path(tag + ".stderr"));
 }
 
 // A target image: `inside(u, v)` (u, v in [−1, 1], v up) is the shape, drawn dark.

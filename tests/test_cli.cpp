@@ -18,85 +18,22 @@
 
 #include "penumbra/image.hpp"
 #include "penumbra/io.hpp"
+#include "cli_run.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct RunResult {
-  bool signaled = false;  // killed by a signal (directly, or as reported by the shell)
-  int exit_code = -1;
-  std::string out, err;
-  std::string command;
-};
+// Running the tool (cli_run.hpp).
+using namespace penumbra_tests;
 
 std::string temp_path(const std::string& name) {
   return ::testing::TempDir() + "penumbra_cli_" + name;
 }
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-}
-
-std::vector<std::string> lines(const std::string& text) {
-  std::vector<std::string> result;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) result.push_back(line);
-  return result;
-}
-
 // Runs `penumbra <args>` with stdout and stderr captured in files.
 RunResult run_cli(const std::string& args, const std::string& tag) {
-  RunResult r;
-  const std::string out = temp_path(tag + ".stdout"), err = temp_path(tag + ".stderr");
-  r.command = quote(PENUMBRA_CLI) + " " + args;
-  const int status = std::system((r.command + " >" + quote(out) + " 2>" + quote(err)).c_str());
-  if (status == -1) {
-    r.signaled = true;
-  } else if (WIFSIGNALED(status)) {
-    r.signaled = true;
-  } else if (WIFEXITED(status)) {
-    r.exit_code = WEXITSTATUS(status);
-    // A shell reports a child killed by signal N as exit status 128 + N.
-    r.signaled = r.exit_code >= 128;
-  }
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
-}
-
-std::string show(const RunResult& r) {
-  return "command: " + r.command + "\nexit: " + std::to_string(r.exit_code) +
-         (r.signaled ? " (signal)" : "") + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
-}
-
-// The contract for every failure.
-void expect_clean_error(const RunResult& r, const std::string& mentions = "") {
-  EXPECT_FALSE(r.signaled) << show(r);
-  EXPECT_NE(r.exit_code, 0) << show(r);
-  const auto err = lines(r.err);
-  ASSERT_EQ(err.size(), 1u) << "expected exactly one line on stderr\n" << show(r);
-  EXPECT_EQ(err[0].rfind("penumbra: error:", 0), 0u) << show(r);
-  if (!mentions.empty()) {
-    EXPECT_NE(err[0].find(mentions), std::string::npos)
-        << "the message should mention '" << mentions << "'\n"
-        << show(r);
-  }
+  return penumbra_tests::run_cli_to(args, temp_path(tag + ".stdout"), temp_path(tag + ".stderr"));
 }
 
 std::string obj_file(const std::string& name, const std::string& text) {

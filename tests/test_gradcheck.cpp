@@ -29,55 +29,21 @@
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
+#include "scenes.hpp"
 
 namespace {
 
-using penumbra::Context;
-using penumbra::GradCheckOptions;
-using penumbra::GradCheckResult;
-using penumbra::Precision;
-using penumbra::Renderer;
-using penumbra::Scene;
-using penumbra::SceneGrads;
+using namespace penumbra;
 
-// One Context for the whole binary. A missing OpenCL device is a failure, not a skip.
-Context* gradcheck_context(std::string* error) {
-  static std::unique_ptr<Context> context;
-  static std::string message;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    try {
-      context = std::make_unique<Context>();
-    } catch (const std::exception& e) {
-      message = e.what();
-    }
-  }
-  *error = message;
-  return context.get();
-}
-
-#define REQUIRE_GRADCHECK_CONTEXT(ctx)            \
-  std::string ctx##_error;                        \
-  Context* ctx = gradcheck_context(&ctx##_error); \
-  ASSERT_NE(ctx, nullptr) << "cannot create an OpenCL context: " << ctx##_error
+// Shared device and gradient-check helpers (scenes.hpp). A missing OpenCL device is a
+// failure, not a skip.
+using namespace penumbra_tests;
 
 Scene small_turnaround(int size = 64) {
   Scene scene = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
   for (auto& cam : scene.cameras) cam.width = cam.height = size;
   scene.params.shadow_map_size = 64;  // the bundled scene has hard shadows; a small map is quick
   return scene;
-}
-
-std::string describe(const GradCheckResult& r) {
-  std::ostringstream s;
-  s << "checked=" << r.checked << " failed=" << r.failed << " max_rel_err=" << r.max_rel_err
-    << " atol=" << r.atol << " rtol=" << r.rtol << "\n";
-  for (const auto& e : r.entries) {
-    s << "  " << e.name << " analytic=" << e.analytic << " numeric=" << e.numeric
-      << " rel_err=" << e.rel_err << (e.ok ? "" : "  FAIL") << "\n";
-  }
-  return s.str();
 }
 
 void report(const std::string& what, const GradCheckResult& r) {
@@ -214,7 +180,7 @@ TEST(GradCheckScene, LossIsLinearInTheOutputs) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(GradCheck, Turnaround) {
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   const Scene scene = small_turnaround(64);
   GradCheckOptions options;
   options.samples = 40;
@@ -227,7 +193,7 @@ TEST(GradCheck, Turnaround) {
 }
 
 TEST(GradCheck, RandomScenes) {
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   int failed_scenes = 0;
   for (uint64_t seed = 1; seed <= 6; ++seed) {
     const Scene scene = penumbra::random_scene(seed);
@@ -245,7 +211,7 @@ TEST(GradCheck, RandomScenes) {
 }
 
 TEST(GradCheck, Float) {
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   std::vector<std::pair<std::string, Scene>> scenes = {{"turnaround 64x64", small_turnaround(64)}};
   for (uint64_t seed = 1; seed <= 3; ++seed)
     scenes.push_back({"random scene " + std::to_string(seed), penumbra::random_scene(seed)});
@@ -262,7 +228,7 @@ TEST(GradCheck, Float) {
 
 TEST(GradCheck, ColoursAtZero) {
   // Colours cannot go negative: entries at 0 are differenced one-sided, not rejected.
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Scene scene = penumbra::random_scene(4);
   scene.ambient = glm::dvec3(0.0);
   for (auto& light : scene.lights) light.color.g = 0.0;
@@ -279,7 +245,7 @@ TEST(GradCheck, ColoursAtZero) {
 }
 
 TEST(GradCheck, Deterministic) {
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   for (const Scene& scene : {penumbra::random_scene(3), small_turnaround(48)}) {
     for (Precision precision : {Precision::Double, Precision::Float}) {
       Renderer renderer(*ctx, precision);
@@ -297,7 +263,7 @@ TEST(GradCheck, Deterministic) {
 }
 
 TEST(GradCheck, WrongGradientIsCaught) {
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   const Scene scene = penumbra::random_scene(2);
   Renderer renderer(*ctx, Precision::Double);
   const auto weights = penumbra::random_loss_weights(scene, 5);
@@ -332,12 +298,6 @@ TEST(GradCheck, WrongGradientIsCaught) {
 
 // --- hard shadows -----------------------------------------------------------------------
 
-bool has_entry(const GradCheckResult& r, const std::string& prefix) {
-  for (const auto& e : r.entries)
-    if (e.name.rfind(prefix, 0) == 0) return true;
-  return false;
-}
-
 // Every mesh has a vertex entry and every light its position / direction entry.
 void expect_shadow_coverage(const Scene& scene, const GradCheckResult& r, const std::string& what) {
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
@@ -354,7 +314,7 @@ void expect_shadow_coverage(const Scene& scene, const GradCheckResult& r, const 
 }
 
 TEST(GradCheck, HardShadowsBundledScene) {
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Scene scene = small_turnaround(40);
   scene.params.shadows = penumbra::Shadows::Hard;
   scene.params.shadow_map_size = 32;
@@ -377,7 +337,7 @@ TEST(GradCheck, HardShadowsRandomScenesWithUnfittedFrusta) {
   // Random scenes with point and directional lights; the frusta are left unfitted, so the
   // check must fit them once itself (a frustum refitted to every perturbed copy would follow
   // the vertices and the differences would not match the gradient of the fixed-frustum render).
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   int directional = 0;
   for (uint64_t seed : {2, 3, 6, 8}) {
     Scene scene = penumbra::random_scene(seed);
@@ -402,7 +362,7 @@ TEST(GradCheck, HardShadowsRandomScenesWithUnfittedFrusta) {
 
 TEST(GradCheck, HardShadowsFewSamples) {
   // Fewer samples than meshes + lights: exactly `samples` entries, the required ones first.
-  REQUIRE_GRADCHECK_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Scene scene = small_turnaround(32);
   scene.params.shadows = penumbra::Shadows::Hard;
   scene.params.shadow_map_size = 32;

@@ -85,26 +85,12 @@
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
 #include "penumbra/tuning.hpp"
+#include "scenes.hpp"
 
 namespace {
 
 using glm::dvec3;
-using penumbra::AlbedoMode;
-using penumbra::Camera;
-using penumbra::Context;
-using penumbra::Image;
-using penumbra::Light;
-using penumbra::LightType;
-using penumbra::Mesh;
-using penumbra::OutputGrads;
-using penumbra::Precision;
-using penumbra::Projection;
-using penumbra::Renderer;
-using penumbra::RenderOutput;
-using penumbra::Sampling;
-using penumbra::Scene;
-using penumbra::SceneGrads;
-using penumbra::Shadows;
+using namespace penumbra;
 
 Context& context() {
   static Context ctx;
@@ -113,54 +99,12 @@ Context& context() {
 
 // ---- scenes -------------------------------------------------------------------------------
 
-// Icosahedron subdivided once (42 vertices, 80 faces), counter-clockwise seen from outside.
-Mesh icosphere(dvec3 center, double radius) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  for (dvec3& p : v) p = glm::normalize(p);
-  const std::vector<glm::ivec3> f = {
-      {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-      {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-      {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
-  std::map<std::pair<int, int>, int> midpoint;
-  auto mid = [&](int a, int b) {
-    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
-    auto it = midpoint.find(key);
-    if (it != midpoint.end()) return it->second;
-    v.push_back(glm::normalize(v[size_t(a)] + v[size_t(b)]));
-    return midpoint[key] = int(v.size()) - 1;
-  };
-  Mesh mesh;
-  mesh.name = "occluder";
-  for (const glm::ivec3& tri : f) {
-    const int a = mid(tri.x, tri.y), b = mid(tri.y, tri.z), c = mid(tri.z, tri.x);
-    mesh.faces.insert(mesh.faces.end(), {{tri.x, a, c}, {tri.y, b, a}, {tri.z, c, b}, {a, b, c}});
-  }
-  for (const dvec3& p : v) {
-    mesh.vertices.push_back(center + radius * p);
-    mesh.albedo.push_back(dvec3(0.6, 0.5, 0.45) + dvec3(0.25 * p.x, 0.2 * p.y, -0.2 * p.z));
-  }
-  mesh.albedo_mode = AlbedoMode::PerVertex;
-  return mesh;
-}
+// The shared builders (scenes.hpp): the icosphere occluder, the ground grid, the front camera.
+using namespace penumbra_tests;
 
-// Horizontal n×n grid in y = 0 over [−half, half]², facing +y.
-Mesh ground(double half, int n) {
-  Mesh mesh;
-  mesh.name = "ground";
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) {
-      mesh.vertices.push_back({-half + 2 * half * i / n, 0.0, -half + 2 * half * j / n});
-      mesh.albedo.push_back({0.7, 0.7 - 0.1 * i / n, 0.6 + 0.1 * j / n});
-    }
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      const int a = j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
-      mesh.faces.push_back({a, c, b});
-      mesh.faces.push_back({b, c, d});
-    }
+// The shared ground grid with one plain albedo per face.
+Mesh plain_ground(double half, int n) {
+  Mesh mesh = penumbra_tests::ground(half, n);
   mesh.albedo_mode = AlbedoMode::PerFace;
   mesh.albedo.assign(mesh.faces.size(), dvec3(0.7, 0.65, 0.6));
   return mesh;
@@ -182,23 +126,12 @@ Mesh fin(dvec3 origin, dvec3 along, dvec3 across, double scale) {
 
 Scene base_scene(double s) {
   Scene scene;
-  scene.meshes = {icosphere(dvec3(0, 1, 0) * s, 0.5 * s), ground(2 * s, 2)};
-  Camera cam;
-  cam.eye = dvec3(0.6, 3.2, 4.6) * s;
-  cam.target = dvec3(0, 0.3, 0) * s;
-  cam.fov_deg = 48;
-  cam.half_height = 2.4 * s;
-  cam.near = 0.5 * s;
-  cam.far = 12 * s;
+  scene.meshes = {icosphere(dvec3(0, 1, 0) * s, 0.5 * s), plain_ground(2 * s, 2)};
+  Camera cam = front_camera(false, s);
   cam.width = 40;
   cam.height = 32;
   scene.cameras = {cam};
-  Light light;
-  light.type = LightType::Point;
-  light.position = dvec3(1.5, 5, 2) * s;
-  light.color = {0.9, 0.85, 0.8};
-  light.size = 0.3 * s;
-  scene.lights = {light};
+  scene.lights = {point_light(dvec3(1.5, 5, 2) * s, {0.9, 0.85, 0.8}, 0.3 * s)};
   scene.ambient = {0.2, 0.2, 0.25};
   scene.params.sigma = 1e-4;
   scene.params.gamma = 1e-3;

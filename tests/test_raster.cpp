@@ -22,95 +22,22 @@
 #include "penumbra/reference.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
+#include "scenes.hpp"
 
 namespace {
 
 using glm::dvec3;
-using penumbra::AlbedoMode;
-using penumbra::Camera;
-using penumbra::Context;
-using penumbra::Image;
-using penumbra::Light;
-using penumbra::LightType;
-using penumbra::Mesh;
-using penumbra::Precision;
-using penumbra::Projection;
-using penumbra::RasterTuning;
-using penumbra::Renderer;
-using penumbra::RenderOutput;
-using penumbra::Scene;
+using namespace penumbra;
 
-// ---------------------------------------------------------------------------------------------
-// Device: one Context for the whole binary (programs are built once per process). A missing
-// OpenCL device is a failure, not a skip: these tests are the kernels' correctness check.
-
-Context* shared_context(std::string* error) {
-  static std::unique_ptr<Context> context;
-  static std::string message;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    try {
-      context = std::make_unique<Context>();
-    } catch (const std::exception& e) {
-      message = e.what();
-    }
-  }
-  *error = message;
-  return context.get();
-}
-
-#define REQUIRE_CONTEXT(ctx)                   \
-  std::string ctx##_error;                     \
-  Context* ctx = shared_context(&ctx##_error); \
-  ASSERT_NE(ctx, nullptr) << "cannot create an OpenCL context: " << ctx##_error
+// Shared device, builders and comparisons (scenes.hpp). A missing OpenCL device is a failure,
+// not a skip: these tests are the kernels' correctness check.
+using namespace penumbra_tests;
 
 // ---------------------------------------------------------------------------------------------
 // Geometry builders.
 
-// Unit icosahedron subdivided `levels` times, scaled and moved; counter-clockwise seen from
-// outside. Per-vertex albedo varies smoothly over the sphere.
-Mesh icosphere(int levels, dvec3 center, double radius) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  for (dvec3& p : v) p = glm::normalize(p);
-  std::vector<glm::ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                               {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                               {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                               {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (int level = 0; level < levels; ++level) {
-    std::map<std::pair<int, int>, int> midpoint;
-    auto mid = [&](int a, int b) {
-      const auto key = std::make_pair(std::min(a, b), std::max(a, b));
-      auto it = midpoint.find(key);
-      if (it != midpoint.end()) return it->second;
-      v.push_back(glm::normalize(v[size_t(a)] + v[size_t(b)]));
-      const int index = int(v.size()) - 1;
-      midpoint[key] = index;
-      return index;
-    };
-    std::vector<glm::ivec3> next;
-    for (const glm::ivec3& tri : f) {
-      const int a = mid(tri.x, tri.y), b = mid(tri.y, tri.z), c = mid(tri.z, tri.x);
-      next.push_back({tri.x, a, c});
-      next.push_back({tri.y, b, a});
-      next.push_back({tri.z, c, b});
-      next.push_back({a, b, c});
-    }
-    f = std::move(next);
-  }
-  Mesh mesh;
-  mesh.name = "sphere";
-  for (const dvec3& p : v) {
-    mesh.vertices.push_back(center + radius * p);
-    mesh.albedo.push_back(dvec3(0.55, 0.5, 0.45) + dvec3(0.35 * p.x, 0.3 * p.y, -0.3 * p.z));
-  }
-  mesh.faces = f;
-  mesh.albedo_mode = AlbedoMode::PerVertex;
-  return mesh;
-}
+// The sphere of the raster scenes: brighter and more varied than the shadow tests' occluder.
+const SphereAlbedo kSphereAlbedo{{0.55, 0.5, 0.45}, {0.35, 0.3, 0.3}};
 
 // Horizontal n×n grid at height y over [x0,x1]×[z0,z1], facing +y, checkered per-face albedo.
 Mesh ground(double y, double x0, double x1, double z0, double z1, int n) {
@@ -154,22 +81,6 @@ Camera orthographic_camera(dvec3 eye, dvec3 target, int w, int h, double half_he
   c.projection = Projection::Orthographic;
   c.half_height = half_height;
   return c;
-}
-
-Light point_light(dvec3 position, dvec3 color) {
-  Light l;
-  l.type = LightType::Point;
-  l.position = position;
-  l.color = color;
-  return l;
-}
-
-Light directional_light(dvec3 direction, dvec3 color) {
-  Light l;
-  l.type = LightType::Directional;
-  l.direction = direction;
-  l.color = color;
-  return l;
 }
 
 // View depth of a world point for a camera (SPEC §0), used to check that the scenes below
@@ -243,7 +154,7 @@ Scene triangles_scene() {
 // perspective with H > W and orthographic with W > H.
 Scene sphere_scene(int levels = 1) {
   Scene s;
-  s.meshes.push_back(icosphere(levels, {0.0, 0.0, 0.0}, 1.0));
+  s.meshes.push_back(icosphere({0.0, 0.0, 0.0}, 1.0, levels, "sphere", kSphereAlbedo));
   s.meshes.push_back(ground(-1.0, -4.0, 4.0, -14.0, 7.0, 6));
   s.cameras.push_back(
       perspective_camera({0.6, 1.2, 4.0}, {0.0, -0.2, 0.0}, 32, 48, 50.0, 0.3, 12.0));
@@ -261,45 +172,6 @@ Scene sphere_scene(int levels = 1) {
 // ---------------------------------------------------------------------------------------------
 // Comparison helpers.
 
-// Every value finite.
-void expect_finite(const Image& img, const std::string& what) {
-  size_t bad = 0;
-  for (double v : img.data) bad += !std::isfinite(v);
-  EXPECT_EQ(bad, 0u) << what << ": " << bad << " NaN/inf values";
-}
-
-// max |got − want| (or max |got − want| / max(|want|, 1e-300) when `relative`) ≤ tol, with the
-// worst pixel named in the message.
-void expect_close(const Image& got, const Image& want, double tol, bool relative,
-                  const std::string& what) {
-  ASSERT_EQ(got.width, want.width) << what;
-  ASSERT_EQ(got.height, want.height) << what;
-  ASSERT_EQ(got.channels, want.channels) << what;
-  ASSERT_EQ(got.data.size(), want.data.size()) << what;
-  expect_finite(got, what);
-  double worst = 0.0;
-  size_t worst_i = 0, over = 0;
-  for (size_t i = 0; i < got.data.size(); ++i) {
-    double err = std::abs(got.data[i] - want.data[i]);
-    if (relative) err /= std::max(std::abs(want.data[i]), 1e-300);
-    if (!(err <= tol)) ++over;
-    if (!(err <= worst)) {
-      worst = err;
-      worst_i = i;
-    }
-  }
-  const size_t pixel = worst_i / size_t(got.channels);
-  EXPECT_LE(worst, tol) << what << ": " << over
-                        << " values over tolerance; worst at (x=" << pixel % size_t(got.width)
-                        << ", y=" << pixel / size_t(got.width)
-                        << ", c=" << worst_i % size_t(got.channels) << "): got "
-                        << got.data[worst_i] << ", reference " << want.data[worst_i];
-}
-
-struct Tolerance {
-  double color, silhouette, depth_rel;
-};
-
 // Double kernels: the same formulas in the same precision; only evaluation order differs.
 constexpr Tolerance kDoubleTol{1e-9, 1e-9, 1e-9};
 // Float kernels: screen positions and depths carry ~1e-7 relative error; the aggregation
@@ -307,28 +179,6 @@ constexpr Tolerance kDoubleTol{1e-9, 1e-9, 1e-9};
 // d²/σ divides squared-distance errors by σ, so colour and silhouette errors of ~1e-5 are
 // expected (PoCL measured ≤ 8e-6 colour, ≤ 3e-6 silhouette, ≤ 6e-7 relative depth).
 constexpr Tolerance kFloatTol{1e-4, 1e-4, 1e-5};
-
-// Renders `scene` with the given renderer and compares every view with the reference.
-void expect_matches_reference(Renderer& renderer, const Scene& scene, Tolerance tol,
-                              const std::string& name) {
-  std::vector<RenderOutput> got;
-  ASSERT_NO_THROW(got = renderer.render(scene)) << name;
-  ASSERT_EQ(got.size(), scene.cameras.size()) << name;
-  for (size_t v = 0; v < scene.cameras.size(); ++v) {
-    const RenderOutput want = penumbra::reference::render(scene, v);
-    const std::string tag = name + " view " + std::to_string(v);
-    const Camera& cam = scene.cameras[v];
-    EXPECT_EQ(got[v].color.width, cam.width) << tag;
-    EXPECT_EQ(got[v].color.height, cam.height) << tag;
-    EXPECT_EQ(got[v].color.channels, 3) << tag;
-    EXPECT_EQ(got[v].silhouette.channels, 1) << tag;
-    EXPECT_EQ(got[v].depth.channels, 1) << tag;
-    expect_finite(want.color, tag + " reference colour");
-    expect_close(got[v].color, want.color, tol.color, false, tag + " colour");
-    expect_close(got[v].silhouette, want.silhouette, tol.silhouette, false, tag + " silhouette");
-    expect_close(got[v].depth, want.depth, tol.depth_rel, true, tag + " depth");
-  }
-}
 
 void expect_identical(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b,
                       const std::string& what) {

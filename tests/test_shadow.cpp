@@ -35,150 +35,19 @@
 #include "penumbra/reference.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
+#include "scenes.hpp"
 
 namespace {
 
 using glm::dvec3;
-using penumbra::AlbedoMode;
-using penumbra::Camera;
-using penumbra::Context;
-using penumbra::GradCheckOptions;
-using penumbra::GradCheckResult;
-using penumbra::Image;
-using penumbra::Light;
-using penumbra::LightType;
-using penumbra::Mesh;
-using penumbra::Precision;
-using penumbra::Projection;
-using penumbra::Renderer;
-using penumbra::RenderOutput;
-using penumbra::Sampling;
-using penumbra::Scene;
-using penumbra::SceneGrads;
-using penumbra::Shadows;
+using namespace penumbra;
 
-// ---------------------------------------------------------------------------------------------
-// Device: one Context for the whole binary.
-
-Context* shadow_context(std::string* error) {
-  static std::unique_ptr<Context> context;
-  static std::string message;
-  static bool tried = false;
-  if (!tried) {
-    tried = true;
-    try {
-      context = std::make_unique<Context>();
-    } catch (const std::exception& e) {
-      message = e.what();
-    }
-  }
-  *error = message;
-  return context.get();
-}
-
-#define REQUIRE_SHADOW_CONTEXT(ctx)            \
-  std::string ctx##_error;                     \
-  Context* ctx = shadow_context(&ctx##_error); \
-  ASSERT_NE(ctx, nullptr) << "cannot create an OpenCL context: " << ctx##_error
-
-// One renderer per precision for the whole binary (programs are built once).
-Renderer& shared_renderer(Context& ctx, Precision precision) {
-  static std::map<int, std::unique_ptr<Renderer>> renderers;
-  auto& r = renderers[int(precision)];
-  if (!r) r = std::make_unique<Renderer>(ctx, precision);
-  return *r;
-}
-
-const char* name_of(Sampling s) {
-  switch (s) {
-    case Sampling::Truncated:
-      return "truncated";
-    case Sampling::Exact:
-      return "exact";
-    case Sampling::Gemm:
-      return "gemm";
-  }
-  return "?";
-}
+// Shared device, builders and comparisons (scenes.hpp).
+using namespace penumbra_tests;
+using penumbra_tests::name_of;  // overloaded below for Lighting
 
 // ---------------------------------------------------------------------------------------------
 // Scenes.
-
-// Unit icosahedron subdivided once (42 vertices, 80 faces), scaled and moved; counter-clockwise
-// seen from outside; smoothly varying per-vertex albedo.
-Mesh icosphere(dvec3 center, double radius) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  for (dvec3& p : v) p = glm::normalize(p);
-  std::vector<glm::ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                               {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                               {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                               {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  std::map<std::pair<int, int>, int> midpoint;
-  auto mid = [&](int a, int b) {
-    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
-    auto it = midpoint.find(key);
-    if (it != midpoint.end()) return it->second;
-    v.push_back(glm::normalize(v[size_t(a)] + v[size_t(b)]));
-    return midpoint[key] = int(v.size()) - 1;
-  };
-  std::vector<glm::ivec3> next;
-  for (const glm::ivec3& tri : f) {
-    const int a = mid(tri.x, tri.y), b = mid(tri.y, tri.z), c = mid(tri.z, tri.x);
-    next.push_back({tri.x, a, c});
-    next.push_back({tri.y, b, a});
-    next.push_back({tri.z, c, b});
-    next.push_back({a, b, c});
-  }
-  Mesh mesh;
-  mesh.name = "occluder";
-  for (const dvec3& p : v) {
-    mesh.vertices.push_back(center + radius * p);
-    mesh.albedo.push_back(dvec3(0.6, 0.5, 0.45) + dvec3(0.25 * p.x, 0.2 * p.y, -0.2 * p.z));
-  }
-  mesh.faces = std::move(next);
-  mesh.albedo_mode = AlbedoMode::PerVertex;
-  return mesh;
-}
-
-// Horizontal n×n grid in y = 0 over [−half, half]², facing +y, smoothly varying per-vertex
-// albedo.
-Mesh ground(double half, int n) {
-  Mesh mesh;
-  mesh.name = "ground";
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) {
-      const double x = -half + 2 * half * i / n, z = -half + 2 * half * j / n;
-      mesh.vertices.push_back({x, 0.0, z});
-      mesh.albedo.push_back({0.7 + 0.05 * x / half, 0.7, 0.7 - 0.05 * z / half});
-    }
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      const int a = j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
-      mesh.faces.push_back({a, c, b});  // (c−a)×(b−a) points along +y
-      mesh.faces.push_back({b, c, d});
-    }
-  mesh.albedo_mode = AlbedoMode::PerVertex;
-  return mesh;
-}
-
-Light point_light(dvec3 position, dvec3 color) {
-  Light l;
-  l.type = LightType::Point;
-  l.position = position;
-  l.color = color;
-  return l;
-}
-
-Light directional_light(dvec3 direction, dvec3 color) {
-  Light l;
-  l.type = LightType::Directional;
-  l.direction = direction;
-  l.color = color;
-  return l;
-}
 
 enum class Lighting { Point, Directional, Two, Overhead };
 
@@ -204,18 +73,7 @@ const char* name_of(Lighting l) {
 Scene shadow_scene(Lighting lighting, Sampling sampling = Sampling::Truncated, bool ortho = false) {
   Scene s;
   s.meshes = {icosphere({0.0, 1.0, 0.0}, 0.5), ground(2.0, 4)};
-  Camera cam;
-  cam.eye = {0.6, 3.2, 4.6};
-  cam.target = {0.0, 0.3, 0.0};
-  cam.up = {0, 1, 0};
-  cam.projection = ortho ? Projection::Orthographic : Projection::Perspective;
-  cam.fov_deg = 48.0;
-  cam.half_height = 2.4;
-  cam.near = 0.5;
-  cam.far = 12.0;
-  cam.width = 48;
-  cam.height = 40;
-  s.cameras = {cam};
+  s.cameras = {front_camera(ortho)};
   switch (lighting) {
     case Lighting::Point:
       s.lights = {point_light({0.9, 5.0, 0.7}, {0.9, 0.85, 0.8})};
@@ -231,26 +89,10 @@ Scene shadow_scene(Lighting lighting, Sampling sampling = Sampling::Truncated, b
       s.lights = {point_light({0.0, 6.0, 0.0}, {1.0, 1.0, 1.0})};
       break;
   }
-  s.ambient = {0.2, 0.2, 0.2};
-  s.background = {0.3, 0.35, 0.4};
-  auto& p = s.params;
-  p.sigma = 3e-4;
-  p.gamma = 3e-3;
-  p.shadows = Shadows::Hard;
-  p.sampling = sampling;
-  p.shadow_map_size = 32;
-  p.sigma_s = 2.0;
-  p.lambda_eps = 1e-3;
-  p.gamma_s = 0.04;
-  p.beta = 0.2;
+  shadow_params(s, Shadows::Hard, sampling);
   penumbra::fit_light_frusta(s);
   return s;
 }
-
-struct NamedScene {
-  std::string name;
-  Scene scene;
-};
 
 // The scenes every comparison runs on.
 std::vector<NamedScene> comparison_scenes(Sampling sampling) {
@@ -261,53 +103,6 @@ std::vector<NamedScene> comparison_scenes(Sampling sampling) {
 
 // ---------------------------------------------------------------------------------------------
 // Comparisons.
-
-void expect_finite(const Image& img, const std::string& what) {
-  size_t bad = 0;
-  for (double v : img.data) bad += std::isfinite(v) ? 0 : 1;
-  EXPECT_EQ(bad, 0u) << what << ": " << bad << " non-finite values";
-}
-
-// max |got − want| (relative to |want| when `relative`); the worst value named on failure.
-double max_error(const Image& got, const Image& want, bool relative, std::string* where) {
-  double worst = 0.0;
-  size_t worst_i = 0;
-  for (size_t i = 0; i < got.data.size() && i < want.data.size(); ++i) {
-    double err = std::abs(got.data[i] - want.data[i]);
-    if (relative) err /= std::max(std::abs(want.data[i]), 1e-300);
-    if (!(err <= worst)) {
-      worst = err;
-      worst_i = i;
-    }
-  }
-  if (where && !got.data.empty()) {
-    const size_t pixel = worst_i / size_t(got.channels);
-    std::ostringstream s;
-    s << "(x=" << pixel % size_t(got.width) << ", y=" << pixel / size_t(got.width)
-      << ", c=" << worst_i % size_t(got.channels) << "): got " << got.data[worst_i] << ", want "
-      << (worst_i < want.data.size() ? want.data[worst_i] : NAN);
-    *where = s.str();
-  }
-  return worst;
-}
-
-// Expects max error ≤ tol; returns it.
-double expect_close(const Image& got, const Image& want, double tol, bool relative,
-                    const std::string& what) {
-  EXPECT_EQ(got.width, want.width) << what;
-  EXPECT_EQ(got.height, want.height) << what;
-  EXPECT_EQ(got.channels, want.channels) << what;
-  EXPECT_EQ(got.data.size(), want.data.size()) << what;
-  expect_finite(got, what);
-  std::string where;
-  const double err = max_error(got, want, relative, &where);
-  EXPECT_LE(err, tol) << what << ": worst at " << where;
-  return err;
-}
-
-struct Tolerance {
-  double color, silhouette, depth_rel;
-};
 
 // Double kernels: the same formulas in the same precision; only the order of the sums differs
 // (and the kernels leave out fragments whose weight is below 1e-10 of the pixel's largest).
@@ -326,38 +121,6 @@ double max_colour_difference(const std::vector<RenderOutput>& a, const std::vect
   for (size_t v = 0; v < a.size() && v < b.size(); ++v)
     m = std::max(m, max_error(a[v].color, b[v].color, false, nullptr));
   return m;
-}
-
-// Renders `scene` and compares every view with the reference; returns the largest colour error.
-double expect_matches_reference(Renderer& renderer, const Scene& scene, Tolerance tol,
-                                const std::string& name) {
-  std::vector<RenderOutput> got;
-  EXPECT_NO_THROW(got = renderer.render(scene)) << name;
-  EXPECT_EQ(got.size(), scene.cameras.size()) << name;
-  double worst = 0;
-  for (size_t v = 0; v < got.size(); ++v) {
-    const RenderOutput want = penumbra::reference::render(scene, v);
-    const std::string tag = name + " view " + std::to_string(v);
-    expect_finite(want.color, tag + " reference colour");
-    worst = std::max(worst, expect_close(got[v].color, want.color, tol.color, false, tag + " colour"));
-    expect_close(got[v].silhouette, want.silhouette, tol.silhouette, false, tag + " silhouette");
-    expect_close(got[v].depth, want.depth, tol.depth_rel, true, tag + " depth");
-  }
-  return worst;
-}
-
-// The pixel a world point projects to in camera `cam` (SPEC §0), rounded to the nearest centre.
-std::pair<int, int> pixel_of(const Camera& cam, dvec3 X) {
-  const dvec3 f = glm::normalize(cam.target - cam.eye);
-  const dvec3 r = glm::normalize(glm::cross(f, cam.up));
-  const dvec3 u = glm::cross(r, f);
-  const dvec3 c = X - cam.eye;
-  const double k = cam.projection == Projection::Perspective
-                       ? 1.0 / (glm::dot(c, f) * std::tan(glm::radians(cam.fov_deg) / 2))
-                       : 1.0 / cam.half_height;
-  const double x = glm::dot(c, r) * k, y = glm::dot(c, u) * k;
-  const double px = (x * cam.height + cam.width - 1) / 2, py = (cam.height - 1 - y * cam.height) / 2;
-  return {int(std::lround(px)), int(std::lround(py))};
 }
 
 double luminance(const Image& color, std::pair<int, int> p) {
@@ -448,7 +211,7 @@ TEST(ShadowReference, NoneAndHardAgreeAwayFromShadowsSoftGemmThrows) {
 // (a) Shadow maps.
 
 TEST(ShadowMaps, MatchReference) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
     // Float: map depths ≈ 3–9 carry ~1e-7 relative rounding; the soft aggregation divides depth
@@ -484,7 +247,7 @@ TEST(ShadowMaps, MatchReference) {
 
 // Light-pass σ_L and γ_L are honoured when given (0 selects light_pass_sigma/gamma defaults).
 TEST(ShadowMaps, LightSigmaAndGamma) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   Scene s = shadow_scene(Lighting::Point);
   s.params.light_sigma = 1e-3;
@@ -505,7 +268,7 @@ TEST(ShadowMaps, LightSigmaAndGamma) {
 class ShadowKernels : public ::testing::TestWithParam<Sampling> {};
 
 TEST_P(ShadowKernels, DoubleMatchesReference) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   double worst = 0;
   for (const auto& [name, scene] : comparison_scenes(GetParam()))
@@ -516,7 +279,7 @@ TEST_P(ShadowKernels, DoubleMatchesReference) {
 }
 
 TEST_P(ShadowKernels, FloatMatchesReference) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Float);
   double worst = 0;
   for (const auto& [name, scene] : comparison_scenes(GetParam()))
@@ -532,7 +295,7 @@ INSTANTIATE_TEST_SUITE_P(Shadow, ShadowKernels,
 
 // The shadows show in these comparisons: hard shadows change the image against none.
 TEST(ShadowDouble, ShadowsChangeTheImage) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   for (const auto& [name, scene] : comparison_scenes(Sampling::Truncated)) {
     Scene none = scene;
     none.params.shadows = Shadows::None;
@@ -553,7 +316,7 @@ TEST(ShadowDouble, ShadowsChangeTheImage) {
 // after 1/γ_s, so ≤ s(1 − s)·1e-5 ≤ 3e-6 of a light's colour, besides the raster's own float
 // rounding being the same in both: 1e-5.
 TEST(ShadowSampling, ExactEqualsGemm) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
     const double tol = precision == Precision::Double ? 1e-11 : 1e-5;
@@ -577,7 +340,7 @@ TEST(ShadowSampling, ExactEqualsGemm) {
 
 // Their gradients are the same too: in double to rounding, relative to the largest entry.
 TEST(ShadowSampling, ExactEqualsGemmGradients) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
     Scene gemm = scene;
@@ -608,7 +371,7 @@ TEST(ShadowSampling, ExactEqualsGemmGradients) {
 // Truncation error shrinks with ε_λ: g' = g − ε_λ inside R = sqrt(2σ_s·ln(1/ε_λ)) differs from g
 // by ε_λ per texel plus the tail beyond R, both → 0 with ε_λ.
 TEST(ShadowSampling, TruncatedApproachesExact) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
     std::vector<RenderOutput> exact;
@@ -635,38 +398,16 @@ TEST(ShadowSampling, TruncatedApproachesExact) {
 // ---------------------------------------------------------------------------------------------
 // (e) Gradients.
 
-struct GradCase {
-  std::string name;
-  Scene scene;
-  uint64_t seed;
-};
-
 std::vector<GradCase> gradient_cases(Sampling sampling) {
   return {{"point", shadow_scene(Lighting::Point, sampling), 3},
           {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true), 5},
           {"two lights", shadow_scene(Lighting::Two, sampling), 7}};
 }
 
-std::string describe(const GradCheckResult& r) {
-  std::ostringstream s;
-  s << "checked=" << r.checked << " failed=" << r.failed << " max_rel_err=" << r.max_rel_err
-    << " atol=" << r.atol << " rtol=" << r.rtol << "\n";
-  for (const auto& e : r.entries)
-    s << "  " << e.name << " analytic=" << e.analytic << " numeric=" << e.numeric
-      << " rel_err=" << e.rel_err << (e.ok ? "" : "  FAIL") << "\n";
-  return s.str();
-}
-
-bool has_entry(const GradCheckResult& r, const std::string& prefix) {
-  for (const auto& e : r.entries)
-    if (e.name.compare(0, prefix.size(), prefix) == 0) return true;
-  return false;
-}
-
 class ShadowGradCheck : public ::testing::TestWithParam<Sampling> {};
 
 TEST_P(ShadowGradCheck, Double) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   int light_positions = 0;
   for (auto& [name, scene, seed] : gradient_cases(GetParam())) {
@@ -702,7 +443,7 @@ TEST_P(ShadowGradCheck, Double) {
 // through the shadow map S, so the light pass's backward (and μ, d of the receivers) is what
 // is checked here.
 TEST_P(ShadowGradCheck, ThroughTheMapOnly) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   for (auto& [name, scene, seed] : gradient_cases(GetParam())) {
     const std::string tag = std::string(name_of(GetParam())) + " " + name;
@@ -769,7 +510,7 @@ INSTANTIATE_TEST_SUITE_P(Shadow, ShadowGradCheck,
 // the ground point below the ball's centre lies in its umbra (shadow radius ≈ 0.6), a ground
 // point 1.7 units away is lit.
 TEST(ShadowVisible, GroundUnderOccluderIsDark) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   for (Sampling sampling : {Sampling::Truncated, Sampling::Exact, Sampling::Gemm}) {
     const Scene hard = shadow_scene(Lighting::Overhead, sampling);
@@ -805,24 +546,8 @@ TEST(ShadowVisible, GroundUnderOccluderIsDark) {
 // ---------------------------------------------------------------------------------------------
 // (g) Determinism.
 
-bool same_bits(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b) {
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(glm::dvec3)) == 0);
-}
-
-void expect_identical(const SceneGrads& a, const SceneGrads& b, const std::string& what) {
-  ASSERT_EQ(a.vertices.size(), b.vertices.size()) << what;
-  for (size_t m = 0; m < a.vertices.size(); ++m) {
-    EXPECT_TRUE(same_bits(a.vertices[m], b.vertices[m])) << what << " mesh " << m << " vertices";
-    EXPECT_TRUE(same_bits(a.albedo[m], b.albedo[m])) << what << " mesh " << m << " albedo";
-  }
-  EXPECT_TRUE(same_bits(a.light_position, b.light_position)) << what << " light positions";
-  EXPECT_TRUE(same_bits(a.light_color, b.light_color)) << what << " light colours";
-  EXPECT_TRUE(same_bits({a.ambient}, {b.ambient})) << what << " ambient";
-}
-
 TEST(ShadowDeterminism, BackwardIsBitIdentical) {
-  REQUIRE_SHADOW_CONTEXT(ctx);
+  REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
     for (Sampling sampling : {Sampling::Truncated, Sampling::Gemm, Sampling::Exact}) {

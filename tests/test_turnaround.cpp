@@ -31,6 +31,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/io.hpp"
+#include "cli_run.hpp"
 
 namespace fs = std::filesystem;
 
@@ -122,15 +123,10 @@ std::vector<uint8_t> lzw_decode(const std::string& data, int min_code_size, size
   return out;
 }
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using penumbra_tests::read_text;
 
 DecodedGif decode_gif(const std::string& path) {
-  const std::string bytes = read_file(path);
+  const std::string bytes = read_text(path);
   Reader r{bytes};
   DecodedGif g;
   if (bytes.substr(0, 6) != "GIF89a") throw std::runtime_error("not a GIF89a file");
@@ -337,7 +333,7 @@ TEST(Gif, GreyAndAlphaFrames) {
   writer.add_frame(rgba);
   EXPECT_EQ(writer.frames(), 2);
   writer.close();
-  EXPECT_EQ(read_file(streamed), read_file(path));
+  EXPECT_EQ(read_text(streamed), read_text(path));
 }
 
 TEST(Gif, Errors) {
@@ -365,45 +361,14 @@ TEST(Gif, Errors) {
 // ---------------------------------------------------------------------------------------------
 // The command.
 
-struct RunResult {
-  int exit_code = -1;
-  bool signaled = false;
-  std::string out, err, command;
-};
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+// Running the tool (cli_run.hpp).
+using penumbra_tests::lines;
+using penumbra_tests::quote;
+using penumbra_tests::RunResult;
+using penumbra_tests::show;
 
 RunResult run_cli(const std::string& args, const std::string& tag) {
-  RunResult r;
-  const std::string out = temp_path(tag + ".stdout"), err = temp_path(tag + ".stderr");
-  r.command = quote(PENUMBRA_CLI) + " " + args;
-  const int status = std::system((r.command + " >" + quote(out) + " 2>" + quote(err)).c_str());
-  if (status == -1 || WIFSIGNALED(status)) {
-    r.signaled = true;
-  } else if (WIFEXITED(status)) {
-    r.exit_code = WEXITSTATUS(status);
-    r.signaled = r.exit_code >= 128;
-  }
-  r.out = read_file(out);
-  r.err = read_file(err);
-  return r;
-}
-
-std::vector<std::string> lines(const std::string& text) {
-  std::vector<std::string> result;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) result.push_back(line);
-  return result;
-}
-
-std::string show(const RunResult& r) {
-  return "command: " + r.command + "\nexit: " + std::to_string(r.exit_code) + "\nstdout:\n" +
-         r.out + "\nstderr:\n" + r.err;
+  return penumbra_tests::run_cli_to(args, temp_path(tag + ".stdout"), temp_path(tag + ".stderr"));
 }
 
 TEST(Turnaround, Cli) {
@@ -432,7 +397,7 @@ TEST(Turnaround, Cli) {
 
   const std::string gif = dir + "/turnaround.gif";
   ASSERT_TRUE(fs::exists(gif)) << show(r);
-  EXPECT_EQ(read_file(gif).substr(0, 6), "GIF89a");
+  EXPECT_EQ(read_text(gif).substr(0, 6), "GIF89a");
   const DecodedGif g = decode_gif(gif);
   EXPECT_EQ(g.width, 32);
   EXPECT_EQ(g.height, 32);

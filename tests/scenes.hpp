@@ -1,0 +1,113 @@
+#pragma once
+// Pieces the device tests share: the OpenCL context and renderers, small scene builders
+// (icosphere, ground grid, lights, the front camera, the shadow parameters) and image and
+// gradient comparisons. Every builder's defaults give the scene the tests were tuned on; a test
+// that needs another variant passes it explicitly, since tolerances depend on the exact scene.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/gradcheck.hpp"
+#include "penumbra/image.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+
+namespace penumbra_tests {
+
+// ---------------------------------------------------------------------------------------------
+// Device.
+
+// One Context for the whole binary, created on first use; null (with the reason in `error`)
+// when no OpenCL device is usable. A missing device fails the tests; it never skips them.
+penumbra::Context* shared_context(std::string* error);
+
+#define REQUIRE_CONTEXT(ctx)                                             \
+  std::string ctx##_error;                                               \
+  penumbra::Context* ctx = penumbra_tests::shared_context(&ctx##_error); \
+  ASSERT_NE(ctx, nullptr) << "cannot create an OpenCL context: " << ctx##_error
+
+// One renderer per precision for the whole binary (programs are built once).
+penumbra::Renderer& shared_renderer(penumbra::Context& ctx, penumbra::Precision precision);
+
+const char* name_of(penumbra::Sampling s);
+const char* name_of(penumbra::Precision p);
+
+// ---------------------------------------------------------------------------------------------
+// Scene builders.
+
+// Per-vertex albedo of an icosphere: base + gain·(x, y, −z) of the point on the unit sphere.
+struct SphereAlbedo {
+  glm::dvec3 base{0.6, 0.5, 0.45}, gain{0.25, 0.2, 0.2};
+};
+
+// Unit icosahedron subdivided `levels` times (once: 42 vertices, 80 faces), scaled and moved;
+// counter-clockwise seen from outside; smoothly varying per-vertex albedo.
+penumbra::Mesh icosphere(glm::dvec3 center, double radius, int levels = 1,
+                         const std::string& name = "occluder", const SphereAlbedo& albedo = {});
+
+// Horizontal n×n grid in y = 0 over [−half, half]², facing +y; per-vertex albedo varying by
+// `variation` across it (0: uniform grey 0.7).
+penumbra::Mesh ground(double half, int n, double variation = 0.05);
+
+penumbra::Light point_light(glm::dvec3 position, glm::dvec3 color, double size = 0.0);
+penumbra::Light directional_light(glm::dvec3 direction, glm::dvec3 color, double size = 0.0);
+
+// A 48×40 camera seeing the ground around the origin from the front and above (all lengths
+// times `scale`).
+penumbra::Camera front_camera(bool ortho, double scale = 1.0);
+
+// The shadow parameters of the shadow and penumbra scenes: σ = 3e-4, γ = 3e-3, 32² maps
+// (fitted frusta ≈ 0.13–0.2 world units per texel on the ground), β = 0.2 and γ_s = 0.04 in
+// depth units (lit ground keeps s ≈ sigmoid(5)); ambient and background colours.
+void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, penumbra::Sampling sampling);
+
+// The pixel a world point projects to in camera `cam` (SPEC §0), rounded to the nearest centre.
+std::pair<int, int> pixel_of(const penumbra::Camera& cam, glm::dvec3 X);
+
+struct NamedScene {
+  std::string name;
+  penumbra::Scene scene;
+};
+
+struct GradCase {
+  std::string name;
+  penumbra::Scene scene;
+  uint64_t seed;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Comparisons.
+
+size_t count_non_finite(const penumbra::Image& img);
+void expect_finite(const penumbra::Image& img, const std::string& what);
+
+// max |got − want| (relative to |want| when `relative`); the worst value named in `where`.
+double max_error(const penumbra::Image& got, const penumbra::Image& want, bool relative = false,
+                 std::string* where = nullptr);
+
+// Expects the same layout, finite values and max error ≤ tol; returns the max error.
+double expect_close(const penumbra::Image& got, const penumbra::Image& want, double tol,
+                    bool relative, const std::string& what);
+
+struct Tolerance {
+  double color, silhouette, depth_rel;
+};
+
+// Renders `scene` and compares every view with the reference; returns the largest colour error.
+double expect_matches_reference(penumbra::Renderer& renderer, const penumbra::Scene& scene,
+                                Tolerance tol, const std::string& name);
+
+// A gradient check's entries, one a line, for failure messages.
+std::string describe(const penumbra::GradCheckResult& r);
+// Whether an entry's name starts with `prefix`.
+bool has_entry(const penumbra::GradCheckResult& r, const std::string& prefix);
+
+// Bit-for-bit equality of two gradients (light sizes too when `with_light_size`).
+void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads& b,
+                      const std::string& what, bool with_light_size = false);
+
+}  // namespace penumbra_tests
