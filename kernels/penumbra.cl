@@ -17,11 +17,11 @@
 // fnormal F × real4 (.w = screen area, 0 for a dropped face), S W·H × real;
 // P W·H × real (output), pen_sums W·H × real2 (the shift v₀ and the shifted denominator
 // e^{−γ_P(1−v₀)} + Σ (1 − v)·e^{−γ_P(v−v₀)}), gP W·H × real (backward input).
-// Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd PPW
-// consecutive texels of a row per work-item (2-D; a run never straddles two tiles);
-// penumbra_bwd_texel one per texel (2-D).
+// Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd and
+// penumbra_bwd_texel PPW consecutive texels of a row per work-item (2-D; a run never
+// straddles two tiles).
 #ifndef PPW
-#define PPW 1  // texels per work-item in penumbra_fwd; divides the tile
+#define PPW 1  // texels per work-item in penumbra_fwd and penumbra_bwd_texel; divides the tile
 #endif
 #include "common/lanes.clh"
 
@@ -129,53 +129,73 @@ __kernel void penumbra_boxes(__global const real4* vscreen, __global const int4*
   int tile, int tiles_x, __global const int *tile_offsets,                       \
       __global const int *tile_counts, __global const int *tile_faces
 
+// occluder_fwd on every lane of a run of texels: which lanes face F counts at (in_cone), with
+// the terms the forward and the texel backward need. Returns 0 when it counts at none.
+typedef struct {
+  realP z, tau, b, sig, m, v;
+  maskP in_cone;
+} LanesOccluder;
+
+inline int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const LightFace* F,
+                          __global const real* P, LanesOccluder* o) {
+  const real DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S], beta = P[P_BETA];
+  realP w[3], d2, bc[3];
+  maskP inside;
+  lanes_shape(qx, qy, F->p, F->area, P, w, &d2, &inside);
+  o->z = lanes_depth(w, F->z, P, bc);
+  maskP front = valid && o->z < Sq;
+  if (!ANY(front)) return 0;
+  realP d = inside ? (realP)0 : sqrt(d2);
+  o->b = DL * (Sq - o->z) / Sq;
+  realP r = d * (P[P_FRAME + FR_ORTHO] > 0 ? (realP)P[P_FRAME + FR_SCALE]
+                                           : o->z * P[P_FRAME + FR_SCALE]);
+  o->tau = r / o->b;
+  o->in_cone = front && o->tau < 1;
+  if (!ANY(o->in_cone)) return 0;
+  const real s0 = sigmoid(-beta / gs);
+  realP x = (Sq - beta - o->z) / gs, e = exp(-fabs(x));
+  o->sig = x >= 0 ? 1 / (1 + e) : e / (1 + e);
+  o->m = fmax(o->sig - s0, R(0)) / (1 - s0);
+  o->v = 1 - o->m * (1 - o->tau);
+  return 1;
+}
+
+// The lanes' pixel centres and values of a map at texels i0 .. i0 + PPW − 1 of row j (the
+// last texel repeated past the row's end).
+inline realP lanes_load(__global const real* a, int i0, int j, int W) {
+  real t[PPW];
+  for (int l = 0; l < PPW; ++l) t[l] = a[j * W + min(i0 + l, W - 1)];
+  return VLOADP(0, t);
+}
+
 __kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* faces,
                            __global const real4* fnormal, __global const int4* boxes,
                            __global const real* P, int W, int H, __global const real* S,
                            TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
   int i0 = get_global_id(0) * PPW, j = get_global_id(1);
   if (i0 >= W || j >= H) return;
-  // occluder_fwd on every lane.
   const realP qx = lanes_x(i0, W, H);
   const real qy = (real)(H - 2 * j - 1) / H;
   const maskP valid = lanes_valid(i0, W);
-  real Sj[PPW];
-  for (int l = 0; l < PPW; ++l) Sj[l] = S[j * W + min(i0 + l, W - 1)];
-  const realP Sq = VLOADP(0, Sj);
-  const real gp = P[P_GAMMA_P], DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S], beta = P[P_BETA];
-  const real s0 = sigmoid(-beta / gs);
-  const int ortho = P[P_FRAME + FR_ORTHO] > 0;
+  const realP Sq = lanes_load(S, i0, j, W);
+  const real gp = P[P_GAMMA_P];
   realP num = 0, den = 0, shift = 1;
   int t = (i0 / tile) + (j / tile) * tiles_x;
-  for (int k = 0; DL > 0 && k < tile_counts[t]; ++k) {
+  for (int k = 0; P[P_LIGHT_SIZE] > 0 && k < tile_counts[t]; ++k) {
     int f = tile_faces[tile_offsets[t] + k];
     int4 bb = boxes[f];
     if (j < bb.y || j > bb.w || i0 + PPW - 1 < bb.x || i0 > bb.z) continue;
     LightFace F = load_light_face(f, vscreen, faces, fnormal);
-    realP w[3], d2, b3[3];
-    maskP inside;
-    lanes_shape(qx, qy, F.p, F.area, P, w, &d2, &inside);
-    realP z = lanes_depth(w, F.z, P, b3);
-    maskP front = valid && z < Sq;
-    if (!ANY(front)) continue;
-    realP d = inside ? (realP)0 : sqrt(d2);
-    realP b = DL * (Sq - z) / Sq;
-    realP r = d * (ortho ? (realP)P[P_FRAME + FR_SCALE] : z * P[P_FRAME + FR_SCALE]);
-    realP tau = r / b;
-    maskP in_cone = front && tau < 1;
-    if (!ANY(in_cone)) continue;
-    realP x = (Sq - beta - z) / gs, e = exp(-fabs(x));
-    realP sig = x >= 0 ? 1 / (1 + e) : e / (1 + e);
-    realP m = fmax(sig - s0, R(0)) / (1 - s0);
-    realP v = 1 - m * (1 - tau);
-    maskP lower = in_cone && v < shift;  // a new smallest v: rescale what was summed to it
-    realP scale = exp(-gp * (shift - v));
+    LanesOccluder o;
+    if (!lanes_occluder(qx, qy, Sq, valid, &F, P, &o)) continue;
+    maskP lower = o.in_cone && o.v < shift;  // a new smallest v: rescale what was summed to it
+    realP scale = exp(-gp * (shift - o.v));
     num = lower ? num * scale : num;
     den = lower ? den * scale : den;
-    shift = lower ? v : shift;
-    realP a = (1 - v) * exp(-gp * (v - shift));
-    num += in_cone ? a * v : (realP)0;
-    den += in_cone ? a : (realP)0;
+    shift = lower ? o.v : shift;
+    realP a = (1 - o.v) * exp(-gp * (o.v - shift));
+    num += o.in_cone ? a * o.v : (realP)0;
+    den += o.in_cone ? a : (realP)0;
   }
   realP lit = exp(-gp * (1 - shift));
   real Pj[PPW], shiftj[PPW], denj[PPW];
@@ -195,25 +215,48 @@ __kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const i
                                  TEXEL_FACES, __global const real* Pmap,
                                  __global const real2* pen_sums, __global const real* gP,
                                  __global real* gS, __global real* gDL) {
-  int i = get_global_id(0), j = get_global_id(1);
-  if (i >= W || j >= H) return;
-  int tex = j * W + i;
-  real2 q = pixel_centre(i, j, W, H);
-  real Sq = S[tex], gPq = gP[tex], gs = 0, gd = 0;
-  real2 sums = pen_sums[tex];
-  int t = (i / tile) + (j / tile) * tiles_x;
-  for (int k = 0; gPq != 0 && k < tile_counts[t]; ++k) {
-    int f = tile_faces[tile_offsets[t] + k];
-    int4 bb = boxes[f];
-    if (i < bb.x || i > bb.z || j < bb.y || j > bb.w) continue;
-    LightFace F = load_light_face(f, vscreen, faces, fnormal);
-    Occluder o;
-    if (!occluder_fwd(q, Sq, &F, P, &o)) continue;
-    real gz = 0, gd2 = 0;
-    occluder_bwd(Sq, &o, P, gPq * penumbra_dv(&o, Pmap[tex], sums, P), &gs, &gd, &gz, &gd2);
+  int i0 = get_global_id(0) * PPW, j = get_global_id(1);
+  if (i0 >= W || j >= H) return;
+  const realP gPq = lanes_load(gP, i0, j, W);
+  const maskP valid = lanes_valid(i0, W) && gPq != 0;
+  realP gs = 0, gd = 0;
+  if (ANY(valid)) {
+    const realP qx = lanes_x(i0, W, H), Sq = lanes_load(S, i0, j, W);
+    const realP Pq = lanes_load(Pmap, i0, j, W);
+    const real qy = (real)(H - 2 * j - 1) / H;
+    real shifts[PPW], dens[PPW];
+    for (int l = 0; l < PPW; ++l) {
+      real2 sums = pen_sums[j * W + min(i0 + l, W - 1)];
+      shifts[l] = sums.x, dens[l] = sums.y;
+    }
+    const realP shift = VLOADP(0, shifts), den = VLOADP(0, dens);
+    const real gp = P[P_GAMMA_P], DL = P[P_LIGHT_SIZE], gsig_scale = 1 / (P[P_GAMMA_S] * (1 - sigmoid(-P[P_BETA] / P[P_GAMMA_S])));
+    int t = (i0 / tile) + (j / tile) * tiles_x;
+    for (int k = 0; DL > 0 && k < tile_counts[t]; ++k) {
+      int f = tile_faces[tile_offsets[t] + k];
+      int4 bb = boxes[f];
+      if (j < bb.y || j > bb.w || i0 + PPW - 1 < bb.x || i0 > bb.z) continue;
+      LightFace F = load_light_face(f, vscreen, faces, fnormal);
+      LanesOccluder o;
+      if (!lanes_occluder(qx, qy, Sq, valid, &F, P, &o)) continue;
+      // penumbra_dv and occluder_bwd (dL/dS_q and dL/dD_L only) on every lane.
+      realP e = exp(-gp * (o.v - shift));
+      realP a = (1 - o.v) * e, da = -e * (1 + gp * (1 - o.v));
+      realP gv = gPq * (a + (o.v - Pq) * da) / den;
+      realP gm = -gv * (1 - o.tau), gtau = gv * o.m;
+      realP gsig = o.m > 0 ? gm * o.sig * (1 - o.sig) * gsig_scale : (realP)0;
+      realP gb = -gtau * o.tau / o.b;
+      gs += o.in_cone ? gsig + gb * DL * o.z / (Sq * Sq) : (realP)0;
+      gd += o.in_cone ? gb * (Sq - o.z) / Sq : (realP)0;
+    }
   }
-  gS[tex] = gs;
-  gDL[tex] = gd;
+  real gsj[PPW], gdj[PPW];
+  VSTOREP(gs, 0, gsj);
+  VSTOREP(gd, 0, gdj);
+  for (int l = 0; l < PPW && i0 + l < W; ++l) {
+    gS[j * W + i0 + l] = gsj[l];
+    gDL[j * W + i0 + l] = gdj[l];
+  }
 }
 
 // Backward, per face: dL/d(light-screen position, depth) of its corners, added to

@@ -418,24 +418,15 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   Window w = soft_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
-  realR sumR = 0;
-  for (int j = w.y0; j <= w.y1; ++j) {
-    real gy = row_weight(&c, j, x.y, ss);
-    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) sumR += window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
-  }
-  real sum = hsumR(sumR);
-  if (sum <= 0) {
-    rec_lgrad[r * nl + light] = 0;
-    rec_lgrad2[r * nl + light] = 0;
-    return;
-  }
   // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s where g' > 0) and
-  // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ).
-  realR gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
+  // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ). The sums are scaled
+  // by dL/ds / Σg' at the end.
+  realR sumR = 0, gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss), offy = j - x.y;
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
       realR lam = window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
+      sumR += lam;
       realR g = select((realR)0, lam + w.eps, lam > 0);
       realR offx = (real)i0 + LANER - x.x;
       int n = min(ROW, Wm - i0);
@@ -448,6 +439,12 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
       ggx += lam * dd * offx;
       ggy += lam * dd * offy;
     }
+  }
+  real sum = hsumR(sumR);
+  if (sum <= 0) {
+    rec_lgrad[r * nl + light] = 0;
+    rec_lgrad2[r * nl + light] = 0;
+    return;
   }
   real k = gs / sum;
   rec_lgrad[r * nl + light] = (real4)(k, k * hsumR(gmux), k * hsumR(gmuy), k * hsumR(gd));

@@ -33,7 +33,9 @@ cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewSta
   const Bins& b = lv.pen_bins;
   set_args(pb, lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, lv.W, lv.H, lv.depth, kTile,
            b.tiles_x, b.offsets, b.counts, b.items, lv.pen_map, lv.pen_sums, gP, gS, gDL);
-  launch(ctx, pb, cl::NDRange(lv.W, lv.H), cl::NDRange(8, 8));
+  const int lanes = penumbra_lanes(ctx.info(), k.tuning());
+  launch(ctx, pb, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
+         cl::NDRange(std::max(1, 8 / lanes), 8));
   for (double v : download_reals(ctx, k.precision(), gDL, ntex)) *gsize += v;  // texel order
   return gS;
 }
