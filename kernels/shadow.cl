@@ -29,7 +29,7 @@ inline Window sample_window(real2 mu, __global const real* P, int Wm, int Hm) {
   Window w = {1, 1, 0, 0, 0};
   if (!inside_map(mu, Wm, Hm)) return w;
   w.eps = P[P_LAMBDA_EPS];
-  real radius = sqrt(2 * P[P_SIGMA_S] * log(1 / w.eps));
+  real radius = P[P_WINDOW_R];
   w.x0 = max((int)ceil(mu.x - radius), 0);
   w.x1 = min((int)floor(mu.x + radius), Wm - 1);
   w.y0 = max((int)ceil(mu.y - radius), 0);
@@ -199,7 +199,7 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
 // Bucket reach: a fragment whose window covers texel (i, j) has its nearest texel within this
 // many texels of it.
 inline int bucket_reach(__global const real* P) {
-  return (int)ceil(sqrt(2 * P[P_SIGMA_S] * log(1 / P[P_LAMBDA_EPS]))) + 1;
+  return (int)ceil(P[P_WINDOW_R]) + 1;
 }
 
 // Whether a fragment's window (radius² r2) can reach texels i0 .. i0 + ROW − 1 of row j: if
@@ -220,7 +220,7 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
                             __global const int* bucket_recs, __global real* gS) {
   int i0 = get_global_id(0) * ROW, j = get_global_id(1);
   if (i0 >= Wm || j >= Hm) return;
-  const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = 2 * ss * log(1 / eps);
+  const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
   realR acc = 0;
   int reach = bucket_reach(P);
   for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
@@ -471,7 +471,7 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
   for (int r = 0; r < nrec; ++r) {
     if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
 #else
-  const real eps = P[P_LAMBDA_EPS], r2 = 2 * ss * log(1 / eps);
+  const real eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
   const int reach = bucket_reach(P);
   for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
     for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)

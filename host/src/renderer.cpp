@@ -159,6 +159,8 @@ std::vector<double> base_params(const RenderParams& r, double sigma, double gamm
   P[P_SHADOWS] = double(int(r.shadows));
   P[P_SIGMA_S] = r.sigma_s;
   P[P_LAMBDA_EPS] = r.lambda_eps;
+  P[P_WINDOW_R2] = 2 * r.sigma_s * std::log(1 / r.lambda_eps);  // once here, not per fragment
+  P[P_WINDOW_R] = std::sqrt(P[P_WINDOW_R2]);
   P[P_GAMMA_S] = r.gamma_s;
   P[P_BETA] = r.beta;
   P[P_GAMMA_P] = r.gamma_p;

@@ -32,6 +32,8 @@
 #define P_LIGHT_SIZE 15  /* a light's own view: its diameter D_L (penumbra map) */
 #define P_AMBIENT 16     /* RGB */
 #define P_BACKGROUND 19  /* RGB */
+#define P_WINDOW_R2 22   /* 2σ_s·ln(1/ε_λ): squared radius of the truncated shadow-map window */
+#define P_WINDOW_R 23    /* its square root */
 #define P_FRAME 24       /* the view's camera frame (FR_SIZE reals) */
 #define P_LIGHTS 40      /* P_LIGHT_STRIDE reals per light: */
 #define L_POS 0          /*   position (point) or travel direction (directional), xyz */
