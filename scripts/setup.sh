@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages penumbra builds and runs with (PoCL gives an OpenCL CPU device).
 # Skips apt entirely when every package is already installed, so re-runs are fast.
+#   scripts/setup.sh          install what is missing
+#   scripts/setup.sh --list   print the package names, one line (for .ci/run's apt-get)
 set -euo pipefail
 
 # clang-15 (with libclang-common-15-dev: libFuzzer and the ASan/UBSan runtimes) builds the
@@ -9,8 +11,13 @@ set -euo pipefail
 PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
   libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev
-  libcli11-dev nlohmann-json3-dev cmake ninja-build g++ pkg-config clinfo clang-15
+  libcli11-dev nlohmann-json3-dev cmake ninja-build g++ pkg-config clinfo clang-15 python3
 )
+
+if [[ "${1:-}" == "--list" ]]; then
+  echo "${PACKAGES[*]}"
+  exit 0
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
