@@ -25,25 +25,6 @@
 #endif
 #include "common/lanes.clh"
 
-typedef struct {
-  real2 p[3];
-  real z[3];
-  real area;
-} LightFace;
-
-inline LightFace load_light_face(int f, __global const real4* vscreen, __global const int4* faces,
-                                 __global const real4* fnormal) {
-  LightFace F;
-  int4 idx = faces[f];
-  int id[3] = {idx.x, idx.y, idx.z};
-  for (int k = 0; k < 3; ++k) {
-    F.p[k] = vscreen[id[k]].xy;
-    F.z[k] = vscreen[id[k]].z;
-  }
-  F.area = fnormal[f].w;
-  return F;
-}
-
 // World units per screen unit at depth z in the light's view.
 inline real world_per_screen(real z, __global const real* P) {
   return P[P_FRAME + FR_ORTHO] > 0 ? P[P_FRAME + FR_SCALE] : z * P[P_FRAME + FR_SCALE];
@@ -56,7 +37,7 @@ typedef struct {
   real d, b, r, tau, sig, m, v;
 } Occluder;
 
-inline int occluder_fwd(real2 q, real S, const LightFace* F, __global const real* P,
+inline int occluder_fwd(real2 q, real S, const ScreenFace* F, __global const real* P,
                         Occluder* o) {
   fragment_shape(q, F->p, F->area, &o->fr);
   fragment_depth(F->z, P, &o->fr);
@@ -108,7 +89,7 @@ __kernel void penumbra_boxes(__global const real4* vscreen, __global const int4*
   if (f >= nf) return;
   boxes[f] = (int4)(1, 1, 0, 0);
   if (fnormal[f].w == 0 || !(P[P_LIGHT_SIZE] > 0)) return;
-  LightFace F = load_light_face(f, vscreen, faces, fnormal);
+  ScreenFace F = load_screen_face(f, vscreen, faces, fnormal);
   real zmin = fmin(F.z[0], fmin(F.z[1], F.z[2]));
   real radius = P[P_LIGHT_SIZE] / world_per_screen(zmin, P);
   real xlo = fmin(F.p[0].x, fmin(F.p[1].x, F.p[2].x)) - radius;
@@ -136,7 +117,7 @@ typedef struct {
   maskP in_cone;
 } LanesOccluder;
 
-inline int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const LightFace* F,
+inline int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const ScreenFace* F,
                           __global const real* P, LanesOccluder* o) {
   const real DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S], beta = P[P_BETA];
   realP w[3], d2, bc[3];
@@ -158,6 +139,20 @@ inline int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const LightF
   o->m = fmax(o->sig - s0, R(0)) / (1 - s0);
   o->v = 1 - o->m * (1 - o->tau);
   return 1;
+}
+
+// The occluder term of one entry of the run's tile list (a `continue` when the face counts at
+// none of the run's lanes), as `o`: the loop body's start in penumbra_fwd and
+// penumbra_bwd_texel (i0, j, qx, qy, Sq, valid and the buffers in scope).
+#define LANES_OCCLUDER(entry, o)                                                          \
+  int f = entry;                                                                          \
+  if (!face_box_holds_run(boxes[f], i0, j)) continue;                                     \
+  ScreenFace F = load_screen_face(f, vscreen, faces, fnormal);                            \
+  LanesOccluder o;                                                                        \
+  if (!lanes_occluder(qx, qy, Sq, valid, &F, P, &o)) continue;
+
+inline int face_box_holds_run(int4 bb, int i0, int j) {
+  return j >= bb.y && j <= bb.w && i0 + PPW - 1 >= bb.x && i0 <= bb.z;
 }
 
 // The lanes' pixel centres and values of a map at texels i0 .. i0 + PPW − 1 of row j (the
@@ -182,12 +177,7 @@ __kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* f
   realP num = 0, den = 0, shift = 1;
   int t = (i0 / tile) + (j / tile) * tiles_x;
   for (int k = 0; P[P_LIGHT_SIZE] > 0 && k < tile_counts[t]; ++k) {
-    int f = tile_faces[tile_offsets[t] + k];
-    int4 bb = boxes[f];
-    if (j < bb.y || j > bb.w || i0 + PPW - 1 < bb.x || i0 > bb.z) continue;
-    LightFace F = load_light_face(f, vscreen, faces, fnormal);
-    LanesOccluder o;
-    if (!lanes_occluder(qx, qy, Sq, valid, &F, P, &o)) continue;
+    LANES_OCCLUDER(tile_faces[tile_offsets[t] + k], o)
     maskP lower = o.in_cone && o.v < shift;  // a new smallest v: rescale what was summed to it
     realP scale = exp(-gp * (shift - o.v));
     num = lower ? num * scale : num;
@@ -230,15 +220,11 @@ __kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const i
       shifts[l] = sums.x, dens[l] = sums.y;
     }
     const realP shift = VLOADP(0, shifts), den = VLOADP(0, dens);
-    const real gp = P[P_GAMMA_P], DL = P[P_LIGHT_SIZE], gsig_scale = 1 / (P[P_GAMMA_S] * (1 - sigmoid(-P[P_BETA] / P[P_GAMMA_S])));
+    const real gp = P[P_GAMMA_P], DL = P[P_LIGHT_SIZE], gsp = P[P_GAMMA_S];
+    const real gsig_scale = 1 / (gsp * (1 - sigmoid(-P[P_BETA] / gsp)));  // occluder_bwd's dm/dσ
     int t = (i0 / tile) + (j / tile) * tiles_x;
-    for (int k = 0; DL > 0 && k < tile_counts[t]; ++k) {
-      int f = tile_faces[tile_offsets[t] + k];
-      int4 bb = boxes[f];
-      if (j < bb.y || j > bb.w || i0 + PPW - 1 < bb.x || i0 > bb.z) continue;
-      LightFace F = load_light_face(f, vscreen, faces, fnormal);
-      LanesOccluder o;
-      if (!lanes_occluder(qx, qy, Sq, valid, &F, P, &o)) continue;
+  for (int k = 0; P[P_LIGHT_SIZE] > 0 && k < tile_counts[t]; ++k) {
+    LANES_OCCLUDER(tile_faces[tile_offsets[t] + k], o)
       // penumbra_dv and occluder_bwd (dL/dS_q and dL/dD_L only) on every lane.
       realP e = exp(-gp * (o.v - shift));
       realP a = (1 - o.v) * e, da = -e * (1 + gp * (1 - o.v));
@@ -271,7 +257,7 @@ __kernel void penumbra_bwd_face(__global const real4* vscreen, __global const in
   if (f >= nf) return;
   int4 bb = boxes[f];
   if (bb.x > bb.z) return;
-  LightFace F = load_light_face(f, vscreen, faces, fnormal);
+  ScreenFace F = load_screen_face(f, vscreen, faces, fnormal);
   real2 gp[3] = {0, 0, 0};
   real gzk[3] = {0, 0, 0};
   real zero[3] = {0, 0, 0};

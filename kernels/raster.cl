@@ -72,11 +72,9 @@ inline int depth_in_range(real z, __global const real* P) {
   return z >= P[P_NEAR] && z <= P[P_FAR];
 }
 
-
 #include "common/lanes.clh"
 
-// The faces a work-item visits: its tile's list, or every face; and the face's screen corners,
-// depths and area.
+// The faces a work-item visits: its tile's list, or every face.
 #if BRUTE_FORCE
 #define FACE_LIST_BEGIN(px0, py) int list_begin = 0, list_count = nf;
 #define FACE_AT(i) (i)
@@ -90,32 +88,21 @@ inline int depth_in_range(real z, __global const real* P) {
   int tiles_x, __global const int *tile_offsets, __global const int *tile_counts,     \
       __global const int *tile_faces
 
-inline void load_screen(int f, __global const real4* vscreen, __global const int4* faces,
-                        __global const real4* fnormal, real2* p, real* z, real* area) {
-  int4 idx = faces[f];
-  real4 s0 = vscreen[idx.x], s1 = vscreen[idx.y], s2 = vscreen[idx.z];
-  p[0] = s0.xy, p[1] = s1.xy, p[2] = s2.xy;
-  z[0] = s0.z, z[1] = s1.z, z[2] = s2.z;
-  *area = fnormal[f].w;
-}
-
 // The lanes of one face (a `continue` when it covers none): `covered`, `in_range` (covered,
 // view depth within [near, far]), the coverage logit u, log D, depth zq and normalised z̃ (zt),
 // the perspective-correct barycentrics b.
 #define LANES_OF_FACE(f)                                                                  \
   int4 bb = fbbox[f];                                                                     \
   if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;             \
-  real2 p[3];                                                                             \
-  real z[3], area;                                                                        \
-  load_screen(f, vscreen, faces, fnormal, p, z, &area);                                   \
+  ScreenFace sf = load_screen_face(f, vscreen, faces, fnormal);                           \
   realP w[3], d2, b[3];                                                                   \
   maskP inside;                                                                           \
-  maskP covered = lanes_shape(qx, qy, p, area, P, w, &d2, &inside) && valid;              \
+  maskP covered = lanes_shape(qx, qy, sf.p, sf.area, P, w, &d2, &inside) && valid;        \
   if (!ANY(covered)) continue;                                                            \
   realP u = (inside ? d2 : -d2) / P[P_SIGMA];                                             \
   realP log1p_e = lanes_log1p_exp_neg_abs(u);                                             \
   realP log_D = -(fmax(-u, R(0)) + log1p_e);                                              \
-  realP zq = lanes_depth(w, z, P, b);                                                     \
+  realP zq = lanes_depth(w, sf.z, P, b);                                                  \
   maskP in_range = covered && zq >= P[P_NEAR] && zq <= P[P_FAR];                          \
   realP zt = (P[P_FAR] - zq) / (P[P_FAR] - P[P_NEAR]);
 

@@ -37,12 +37,9 @@ inline Window sample_window(real2 mu, __global const real* P, int Wm, int Hm) {
   return w;
 }
 
-// The Gaussian weight g_ij = gx_i·gy_j, always formed as this product so that every kernel
-// computes the same number.
-inline real axis_weight(real d, real sigma_s) { return exp(-d * d / (2 * sigma_s)); }
-inline real gauss(int i, int j, real2 mu, real sigma_s) {
-  return axis_weight(i - mu.x, sigma_s) * axis_weight(j - mu.y, sigma_s);
-}
+// One axis of the Gaussian weight g_ij = gx_i·gy_j, for a scalar or a vector of offsets d:
+// every kernel forms it with this one expression.
+#define axis_weight(d, sigma_s) exp(-(d) * (d) / (2 * (sigma_s)))
 
 // Rows of a window are processed ROW texels at a time as vectors, which is what PoCL turns
 // into SIMD (16 fills an AVX-512 register with floats; the host's shadow_row_width).
@@ -58,7 +55,7 @@ __constant real lane_values[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
 
 // The axis weights of a window, gx_i of its columns and gy_j of its rows, computed once per
 // fragment eight at a time (scalar exp calls cost more than the whole row loop). A window
-// wider than the cache computes its columns as it goes, in window_row8, and its rows one by one.
+// wider than the cache computes its columns as it goes, in window_row, and its rows one by one.
 #define WINDOW_CACHE 64
 typedef struct {
   real gx[WINDOW_CACHE + 16];  // + 16: written eight and read ROW at a time
@@ -70,7 +67,7 @@ inline int axis_cache(real* g, int first, int last, real c, real sigma_s) {
   int n = last - first + 1 <= WINDOW_CACHE ? last - first + 1 : 0;
   for (int k = 0; k < n; k += 8) {
     real8 d = (real)(first + k) + LANE8 - c;
-    vstore8(exp(-d * d / (2 * sigma_s)), 0, g + k);
+    vstore8(axis_weight(d, sigma_s), 0, g + k);
   }
   return n;
 }
@@ -103,11 +100,11 @@ inline realR loadR(__global const real* a, int start, int n) {
   return vloadR(0, t);
 }
 
-// Weights g' of window texels i0 .. i0 + 7 of row j (0 past the window's last column x1).
+// Weights g' of window texels i0 .. i0 + ROW − 1 of row j (0 past the window's last column x1).
 inline realR window_row(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
   realR lane = LANER;
   realR gx = c->n ? vloadR(0, c->gx + (i0 - c->x0))
-                  : exp(-((real)i0 + lane - mu.x) * ((real)i0 + lane - mu.x) / (2 * ss));
+                  : axis_weight((real)i0 + lane - mu.x, ss);
   realR g = gx * gy - eps;
   return select((realR)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
 }
@@ -130,7 +127,6 @@ inline real filter_depth(real2 mu, Window w, __global const real* P, __global co
   *norm = hsumR(sum);
   return *norm > 0 ? hsumR(acc) / *norm : 0;
 }
-
 
 inline real compare(real v, real d, __global const real* P) {
   return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
@@ -232,7 +228,7 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
         if (!window_reaches(x.xy, i0, j, r2)) continue;
         real gy = axis_weight(j - x.y, ss);
         realR d = (real)i0 + LANER - x.x;
-        realR g = fmax(exp(-d * d / (2 * ss)) * gy - eps, (realR)0);
+        realR g = fmax(axis_weight(d, ss) * gy - eps, (realR)0);
         acc += rec_lgrad[r * nl + light].x * g;
       }
     }
@@ -252,7 +248,7 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
   real8 sum = 0;
   for (int i0 = 0; i0 < n; i0 += 8) {
     real8 d = (real)i0 + LANE8 - c;
-    real8 g = on ? exp(-d * d / (2 * ss)) : (real8)0;
+    real8 g = on ? axis_weight(d, ss) : (real8)0;
     real8 dg = g * d / ss;
     if (i0 + 8 <= n) {
       vstore8(g, 0, out + i0);
@@ -483,7 +479,7 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
     real gy = axis_weight(j - x.y, ss);
     if (gy <= eps) continue;
     realR offx = (real)i0 + LANER - x.x;
-    realR g = fmax(exp(-offx * offx / (2 * ss)) * gy - eps, (realR)0);
+    realR g = fmax(axis_weight(offx, ss) * gy - eps, (realR)0);
     real2 grad = rec_light2[r * nl + light].xy;
     soft_term(Sv, Pv, x.z + grad.x * offx + grad.y * (j - x.y), P, &dd, &dP);
     realR a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
