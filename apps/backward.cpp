@@ -107,9 +107,10 @@ int run_backward(const BackwardArgs& a) {
   for (size_t l = 0; l < scene.lights.size(); ++l) {
     const glm::dvec3 p = l < g.light_position.size() ? g.light_position[l] : glm::dvec3(0.0);
     const glm::dvec3 c = l < g.light_color.size() ? g.light_color[l] : glm::dvec3(0.0);
-    lights.insert(lights.end(), {p.x, p.y, p.z, c.x, c.y, c.z});
+    const double size = l < g.light_size.size() ? g.light_size[l] : 0.0;
+    lights.insert(lights.end(), {p.x, p.y, p.z, c.x, c.y, c.z, size});
   }
-  save_npy(lights, scene.lights.size(), 6, (fs::path(a.output) / "lights.npy").string(), true);
+  save_npy(lights, scene.lights.size(), 7, (fs::path(a.output) / "lights.npy").string(), true);
   save_npy(std::vector<double>{g.ambient.x, g.ambient.y, g.ambient.z}, 1, 3,
            (fs::path(a.output) / "ambient.npy").string(), true);
 
@@ -135,8 +136,8 @@ Command add_backward_command(CLI::App& root) {
       ->required();
   c.app
       ->add_option("-o,--output", args->output,
-                   "folder for vertices_<mesh>.npy (N,3), albedo_<mesh>.npy, lights.npy (L,6: "
-                   "position or direction, then colour), ambient.npy (1,3), float64")
+                   "folder for vertices_<mesh>.npy (N,3), albedo_<mesh>.npy, lights.npy (L,7: "
+                   "position or direction, colour, size D_L), ambient.npy (1,3), float64")
       ->required();
   add_precision_option(*c.app, args->precision, "float");
   add_render_options(*c.app, args->render);

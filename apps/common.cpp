@@ -46,21 +46,43 @@ CLI::Validator one_of(const std::vector<std::string>& words) {
       names);
 }
 
+template <class E>
+E parse_word(const std::string& option, const std::string& w) {
+  E value{};
+  if (!from_word(w, &value))
+    throw Error(option + " must be " + word_choices<E>() + " (got '" + w + "')");
+  return value;
+}
+
+// The same for the words of an enum (scene.hpp's enum_words).
+template <class E>
+CLI::Validator one_of() {
+  std::vector<std::string> words;
+  for (const auto& [value, w] : enum_words<E>()) words.push_back(w);
+  return one_of(words);
+}
+
 }  // namespace
 
 void add_render_options(CLI::App& cmd, RenderOptions& o) {
   const std::string group = "Render parameters (override the values of the scene)";
   const std::string shadow_group = "Shadows (override the values of the scene)";
   o.o_shadows = cmd.add_option("--shadows", o.shadows,
-                               "shadow mode: none, hard (shadow map: filter, then compare) or "
-                               "soft (penumbra map: compare, then filter)")
-                    ->check(one_of({"none", "hard", "soft"}))
+                               "shadow mode: none, hard (a point light's sharp shadow) or soft "
+                               "(a sphere light of diameter D_L: penumbrae)")
+                    ->check(one_of<Shadows>())
                     ->group(shadow_group);
   o.o_sampling = cmd.add_option("--sampling", o.sampling,
                                 "shadow-filter sampling: truncated (Gaussian cut at ε_λ), exact "
                                 "(every texel) or gemm (exact, as two matrix products)")
-                     ->check(one_of({"truncated", "exact", "gemm"}))
+                     ->check(one_of<Sampling>())
                      ->group(shadow_group);
+  o.o_shadow_model =
+      cmd.add_option("--shadow-model", o.shadow_model,
+                     "shadow model: accurate (percentage-closer filtering; soft shadows by a "
+                     "blocker search, PCSS) or paper (filter then compare; the penumbra map)")
+          ->check(one_of<ShadowModel>())
+          ->group(shadow_group);
   o.o_map_size = cmd.add_option("--map-size", o.map_size,
                                 "shadow-map size W_s = H_s in texels (1 to 8192)")
                      ->group(shadow_group);
@@ -163,7 +185,9 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     p.gamma_p = o.gamma_p;
   }
   if (given(o.o_shadows)) p.shadows = parse_shadows(o.shadows);
-  if (given(o.o_sampling)) p.sampling = parse_sampling(o.sampling);
+  if (given(o.o_sampling)) p.sampling = parse_word<Sampling>("--sampling", o.sampling);
+  if (given(o.o_shadow_model))
+    p.shadow_model = parse_word<ShadowModel>("--shadow-model", o.shadow_model);
   if (given(o.o_map_size)) {
     require(o.map_size >= 1 && o.map_size <= 8192, "--map-size",
             "a positive number of texels (at most 8192)", o.map_size);
@@ -201,45 +225,10 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     for (Camera& cam : scene.cameras) cam.height = o.height;
   }
   validate(scene);
+  refit_light_frusta(scene);  // the fit depends on the shadow settings
 }
 
-Shadows parse_shadows(const std::string& word) {
-  if (word == "none") return Shadows::None;
-  if (word == "hard") return Shadows::Hard;
-  if (word == "soft") return Shadows::Soft;
-  throw Error("--shadows must be none, hard or soft (got '" + word + "')");
-}
-
-Sampling parse_sampling(const std::string& word) {
-  if (word == "truncated") return Sampling::Truncated;
-  if (word == "exact") return Sampling::Exact;
-  if (word == "gemm") return Sampling::Gemm;
-  throw Error("--sampling must be truncated, exact or gemm (got '" + word + "')");
-}
-
-const char* shadows_word(Shadows shadows) {
-  switch (shadows) {
-    case Shadows::Hard:
-      return "hard";
-    case Shadows::Soft:
-      return "soft";
-    case Shadows::None:
-      break;
-  }
-  return "none";
-}
-
-const char* sampling_word(Sampling sampling) {
-  switch (sampling) {
-    case Sampling::Exact:
-      return "exact";
-    case Sampling::Gemm:
-      return "gemm";
-    case Sampling::Truncated:
-      break;
-  }
-  return "truncated";
-}
+Shadows parse_shadows(const std::string& w) { return parse_word<Shadows>("--shadows", w); }
 
 void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value) {
   precision = default_value;

@@ -50,6 +50,7 @@ struct RenderOptions {
   double sigma = 0, gamma = 0, eps = 0, dist_eps = 0, sigma_s = 0, lambda_eps = 0, gamma_s = 0,
          beta = 0, gamma_p = 0;
   std::string shadows, sampling;  // none|hard|soft, truncated|exact|gemm
+  std::string shadow_model;      // accurate|paper
   int map_size = 0;               // shadow_map_size
   double light_size = 0, light_sigma = 0, light_gamma = 0, weight_eps = 0;
   int width = 0, height = 0;
@@ -58,7 +59,7 @@ struct RenderOptions {
   CLI::Option *o_sigma = nullptr, *o_gamma = nullptr, *o_eps = nullptr, *o_dist_eps = nullptr,
               *o_sigma_s = nullptr, *o_lambda_eps = nullptr, *o_gamma_s = nullptr,
               *o_beta = nullptr, *o_gamma_p = nullptr, *o_width = nullptr, *o_height = nullptr,
-              *o_shadows = nullptr, *o_sampling = nullptr, *o_map_size = nullptr,
+              *o_shadows = nullptr, *o_sampling = nullptr, *o_shadow_model = nullptr, *o_map_size = nullptr,
               *o_light_size = nullptr, *o_light_sigma = nullptr, *o_light_gamma = nullptr,
               *o_weight_eps = nullptr;
 };
@@ -67,11 +68,8 @@ void add_render_options(CLI::App& cmd, RenderOptions& options);
 // values that make no sense (zero image size, non-positive σ, ...), then validates the scene.
 void apply_render_options(const RenderOptions& options, Scene& scene);
 
-// The option words of the shadow mode and the sampling of the shadow filter.
+// The shadow mode of a --shadows word (the words of every enum: penumbra::word, scene.hpp).
 Shadows parse_shadows(const std::string& word);
-Sampling parse_sampling(const std::string& word);
-const char* shadows_word(Shadows shadows);
-const char* sampling_word(Sampling sampling);
 
 // --precision float|double.
 void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value);

@@ -45,7 +45,9 @@ int run_figures(const FiguresArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   Scene base = load_scene_source(a.source);
   base.cameras.resize(1);
-  fit_light_frusta(base);
+  const Scene accurate_base = base;  // for the comparison of the two models at the end
+  base.params.shadow_model = ShadowModel::Paper;  // the paper's figures
+  refit_light_frusta(base);
   make_dirs(a.output);
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
@@ -100,6 +102,17 @@ int run_figures(const FiguresArgs& a) {
     std::snprintf(name, sizeof name, "soft_size_%.1f.png", size);
     save(renderer.render(scene).front().color, name);
   }
+  // The two shadow models side by side (docs/shadows.md, "The accurate model").
+  for (Shadows mode : {Shadows::Hard, Shadows::Soft})
+    for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate}) {
+      Scene scene = accurate_base;
+      scene.params.shadows = mode;
+      scene.params.shadow_model = model;
+      for (Light& l : scene.lights) l.size = mode == Shadows::Soft ? 0.5 : 0.0;
+      refit_light_frusta(scene);
+      save(renderer.render(scene).front().color,
+           "model_" + word(model) + "_" + word(mode) + ".png");
+    }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("figures: files=%d seconds=%.2f dir=%s\n", files, seconds, a.output.c_str());

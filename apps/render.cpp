@@ -56,9 +56,9 @@ int run_render(const RenderArgs& a) {
   size_t faces = 0;
   for (const Mesh& m : scene.meshes) faces += m.faces.size();
   const Camera& cam = scene.cameras.front();
-  std::string shadows = shadows_word(scene.params.shadows);
+  std::string shadows = word(scene.params.shadows);
   if (scene.params.shadows != Shadows::None)
-    shadows += " (" + std::string(sampling_word(scene.params.sampling)) + ", " +
+    shadows += " (" + word(scene.params.shadow_model) + ", " + word(scene.params.sampling) + ", " +
                std::to_string(scene.params.shadow_map_size) + "x" +
                std::to_string(scene.params.shadow_map_size) + " map)";
   std::printf("rendered %zu view%s, %dx%d, %zu faces, shadows %s, %.1f ms (%s) -> %s%s\n",

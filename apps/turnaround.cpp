@@ -111,7 +111,7 @@ int run_turnaround(const TurnaroundArgs& a) {
               (fs::path(a.output) / frame_name(0, a.frames)).string().c_str(),
               frame_name(a.frames - 1, a.frames).c_str(), gif_path.c_str());
   std::printf("turnaround: frames=%d shadows=%s sampling=%s seconds=%.2f ms_per_frame=%.1f\n",
-              a.frames, shadows_word(scene.params.shadows), sampling_word(scene.params.sampling),
+              a.frames, word(scene.params.shadows).c_str(), word(scene.params.sampling).c_str(),
               seconds, 1000.0 * seconds / a.frames);
   std::fflush(stdout);
   return 0;

@@ -218,7 +218,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
         real3 mu = light_project(l, X, P);
         rec_light[r * nl + l] = (real4)(mu, 1);
         rec_light2[r * nl + l] =
-            (real4)(P[P_SHADOWS] > 1 ? receiver_gradient(l, F.V, mu.z, P) : 0, 0, 0);
+            (real4)(P[P_RECEIVER_PLANE] > 0 ? receiver_gradient(l, F.V, mu.z, P) : 0, 0, 0);
       }
     }
   }
@@ -369,7 +369,7 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
         for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
           // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
           real3 g = rec_lgrad[r * nl + l].yzw;
-          if (P[P_SHADOWS] > 1)
+          if (P[P_RECEIVER_PLANE] > 0)
             g.z += receiver_gradient_bwd(l, F.V, rec_light[r * nl + l].z,
                                          rec_lgrad2[r * nl + l].xy, P, gV, &gframe[l]);
           gX += light_project_bwd(l, X, g, P, &gframe[l]);

@@ -12,102 +12,8 @@
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
 // Launch: one work-item per fragment (shadow_sample, shadow_sample_bwd, shadow_boxes, soft_*,
 // exact_*), one per texel (shadow_gather, soft_gather).
-#include "common/real.clh"
 
-typedef struct {
-  int x0, y0, x1, y1;  // texel window, inclusive
-  real eps;            // ε_λ, subtracted from every weight
-} Window;
-
-// Where μ lies outside the map rectangle the fragment is lit (s = 1).
-inline int inside_map(real2 mu, int Wm, int Hm) {
-  return mu.x >= -R(0.5) && mu.x < Wm - R(0.5) && mu.y >= -R(0.5) && mu.y < Hm - R(0.5);
-}
-
-// The truncated window around μ (empty outside the map).
-inline Window sample_window(real2 mu, __global const real* P, int Wm, int Hm) {
-  Window w = {1, 1, 0, 0, 0};
-  if (!inside_map(mu, Wm, Hm)) return w;
-  w.eps = P[P_LAMBDA_EPS];
-  real radius = P[P_WINDOW_R];
-  w.x0 = max((int)ceil(mu.x - radius), 0);
-  w.x1 = min((int)floor(mu.x + radius), Wm - 1);
-  w.y0 = max((int)ceil(mu.y - radius), 0);
-  w.y1 = min((int)floor(mu.y + radius), Hm - 1);
-  return w;
-}
-
-// One axis of the Gaussian weight g_ij = gx_i·gy_j, for a scalar or a vector of offsets d:
-// every kernel forms it with this one expression.
-#define axis_weight(d, sigma_s) exp(-(d) * (d) / (2 * (sigma_s)))
-
-// Rows of a window are processed ROW texels at a time as vectors, which is what PoCL turns
-// into SIMD (16 fills an AVX-512 register with floats; the host's shadow_row_width).
-#ifndef ROW
-#define ROW 8
-#endif
-#define realR CAT(real, ROW)
-#define vloadR CAT(vload, ROW)
-#define vstoreR CAT(vstore, ROW)
-__constant real lane_values[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-#define LANE8 vload8(0, lane_values)
-#define LANER vloadR(0, lane_values)
-
-// The axis weights of a window, gx_i of its columns and gy_j of its rows, computed once per
-// fragment eight at a time (scalar exp calls cost more than the whole row loop). A window
-// wider than the cache computes its columns as it goes, in window_row, and its rows one by one.
-#define WINDOW_CACHE 64
-typedef struct {
-  real gx[WINDOW_CACHE + 16];  // + 16: written eight and read ROW at a time
-  real gy[WINDOW_CACHE + 16];
-  int x0, n, y0, ny;
-} Columns;
-
-inline int axis_cache(real* g, int first, int last, real c, real sigma_s) {
-  int n = last - first + 1 <= WINDOW_CACHE ? last - first + 1 : 0;
-  for (int k = 0; k < n; k += 8) {
-    real8 d = (real)(first + k) + LANE8 - c;
-    vstore8(axis_weight(d, sigma_s), 0, g + k);
-  }
-  return n;
-}
-
-inline void columns_init(Columns* c, Window w, real2 mu, real sigma_s) {
-  c->x0 = w.x0;
-  c->y0 = w.y0;
-  c->n = axis_cache(c->gx, w.x0, w.x1, mu.x, sigma_s);
-  c->ny = axis_cache(c->gy, w.y0, w.y1, mu.y, sigma_s);
-}
-
-inline real row_weight(const Columns* c, int j, real mu_y, real sigma_s) {
-  return c->ny ? c->gy[j - c->y0] : axis_weight(j - mu_y, sigma_s);
-}
-
-inline real hsum8(real8 v) {
-  real4 a = v.lo + v.hi;
-  return a.s0 + a.s1 + a.s2 + a.s3;
-}
-#if ROW == 16
-inline real hsumR(real16 v) { return hsum8(v.lo + v.hi); }
-#else
-#define hsumR hsum8
-#endif
-// a[start + 0 .. start + n − 1], zeros past n.
-inline realR loadR(__global const real* a, int start, int n) {
-  if (n >= ROW) return vloadR(0, a + start);
-  real t[ROW];
-  for (int l = 0; l < ROW; ++l) t[l] = l < n ? a[start + l] : 0;
-  return vloadR(0, t);
-}
-
-// Weights g' of window texels i0 .. i0 + ROW − 1 of row j (0 past the window's last column x1).
-inline realR window_row(const Columns* c, int i0, int x1, real gy, real2 mu, real ss, real eps) {
-  realR lane = LANER;
-  realR gx = c->n ? vloadR(0, c->gx + (i0 - c->x0))
-                  : axis_weight((real)i0 + lane - mu.x, ss);
-  realR g = gx * gy - eps;
-  return select((realR)0, g, (lane <= (real)(x1 - i0)) & (g > 0));
-}
+#include "common/window.clh"
 
 // Filtered depth v = Σ g'·S / Σ g'; returns 0 in `*norm` if no texel has weight.
 inline real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
@@ -190,21 +96,6 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
     box = (int4)(bx, by, bx, by);
   }
   boxes[r] = box;
-}
-
-// Bucket reach: a fragment whose window covers texel (i, j) has its nearest texel within this
-// many texels of it.
-inline int bucket_reach(__global const real* P) {
-  return (int)ceil(P[P_WINDOW_R]) + 1;
-}
-
-// Whether a fragment's window (radius² r2) can reach texels i0 .. i0 + ROW − 1 of row j: if
-// not, its weight g' = max(0, gx·gy − ε_λ) is 0 at all of them (gx, gy ≤ 1 and one of them
-// ≤ ε_λ), and the gathers skip it before computing any exponential.
-inline int window_reaches(real2 mu, int i0, int j, real r2) {
-  real dx = mu.x < i0 ? i0 - mu.x : (mu.x > i0 + ROW - 1 ? mu.x - (i0 + ROW - 1) : 0);
-  real dy = j - mu.y;
-  return dx * dx < r2 && dy * dy < r2;
 }
 
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed

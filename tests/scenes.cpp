@@ -145,7 +145,8 @@ Camera front_camera(bool ortho, double scale) {
   return cam;
 }
 
-void shadow_params(Scene& s, penumbra::Shadows shadows, Sampling sampling) {
+void shadow_params(Scene& s, penumbra::Shadows shadows, Sampling sampling,
+                   penumbra::ShadowModel model) {
   s.ambient = {0.2, 0.2, 0.2};
   s.background = {0.3, 0.35, 0.4};
   auto& p = s.params;
@@ -153,6 +154,7 @@ void shadow_params(Scene& s, penumbra::Shadows shadows, Sampling sampling) {
   p.gamma = 3e-3;
   p.shadows = shadows;
   p.sampling = sampling;
+  p.shadow_model = model;
   p.shadow_map_size = 32;
   p.sigma_s = 2.0;
   p.lambda_eps = 1e-3;

@@ -63,7 +63,8 @@ penumbra::Camera front_camera(bool ortho, double scale = 1.0);
 // The shadow parameters of the shadow and penumbra scenes: σ = 3e-4, γ = 3e-3, 32² maps
 // (fitted frusta ≈ 0.13–0.2 world units per texel on the ground), β = 0.2 and γ_s = 0.04 in
 // depth units (lit ground keeps s ≈ sigmoid(5)); ambient and background colours.
-void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, penumbra::Sampling sampling);
+void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, penumbra::Sampling sampling,
+                   penumbra::ShadowModel model = penumbra::ShadowModel::Paper);
 
 // The pixel a world point projects to in camera `cam` (SPEC §0), rounded to the nearest centre.
 std::pair<int, int> pixel_of(const penumbra::Camera& cam, glm::dvec3 X);

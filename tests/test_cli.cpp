@@ -240,13 +240,14 @@ TEST(Cli, BackwardWritesGradients) {
                            "albedo_ground.npy", "lights.npy", "ambient.npy"}) {
     EXPECT_TRUE(fs::exists(out + "/" + file)) << file << "\n" << show(r);
   }
-  // (N, 3), (L, 6), (1, 3); a 2-D array loads as height = rows, width = columns.
+  // (N, 3), (L, 7), (1, 3); a 2-D array loads as height = rows, width = columns.
   const penumbra::Image v = penumbra::load_npy(out + "/vertices_sphere.npy");
   EXPECT_EQ(v.width, 3);
   EXPECT_EQ(v.height, 642);
   const penumbra::Image lights = penumbra::load_npy(out + "/lights.npy");
-  EXPECT_EQ(lights.width, 6);
+  EXPECT_EQ(lights.width, 7);
   EXPECT_EQ(lights.height, 1);
+  EXPECT_EQ(lights.data[6], 0.0);  // hard shadows do not depend on the light's size
   const penumbra::Image ambient = penumbra::load_npy(out + "/ambient.npy");
   EXPECT_EQ(ambient.width, 3);
   EXPECT_EQ(ambient.height, 1);
@@ -254,6 +255,13 @@ TEST(Cli, BackwardWritesGradients) {
   EXPECT_GT(ambient.data[0], 0.0);
   // float64 on disk: header says <f8.
   EXPECT_NE(read_text(out + "/ambient.npy").find("<f8"), std::string::npos);
+  // Soft shadows: the seventh column is dL/dD_L.
+  const RunResult soft = run_cli("backward " + quote(kBundled) + " --width 32 --height 24 " +
+                                     "--shadows soft --light-size 0.5 --grad-in " + quote(in) +
+                                     " -o " + quote(out),
+                                 "backward_soft");
+  ASSERT_EQ(soft.exit_code, 0) << show(soft);
+  EXPECT_NE(penumbra::load_npy(out + "/lights.npy").data[6], 0.0);
 }
 
 TEST(Cli, RenderHardShadowsWritesShadowMap) {
@@ -290,7 +298,7 @@ TEST(Cli, RenderHardShadowsWritesShadowMap) {
   fs::remove_all(soft);
   const RunResult rs = run_cli("render " + quote(kBundled) + " -o " +
                                    quote(temp_path("render_soft.png")) +
-                                   " --width 32 --height 24 --shadows soft --map-size 20 --raw " +
+                                   " --width 32 --height 24 --shadows soft --shadow-model paper --map-size 20 --raw " +
                                    quote(soft),
                                "render_soft");
   ASSERT_EQ(rs.exit_code, 0) << show(rs);
@@ -326,7 +334,7 @@ TEST(Cli, ShadowOptionsChangeTheImage) {
   for (const std::string& extra :
        {std::string("--shadows none"), std::string("--shadows hard --sampling truncated"),
         std::string("--shadows hard --sampling exact --light-size 0.3"),
-        std::string("--shadows hard --sampling gemm --light-sigma 2e-5 --light-gamma 2e-4 "
+        std::string("--shadows hard --sampling gemm --shadow-model paper --light-sigma 2e-5 --light-gamma 2e-4 "
                     "--weight-eps 1e-8")}) {
     const std::string png = dir + "/" + std::to_string(i) + ".png";
     const RunResult r = run_cli(common + " " + extra + " -o " + quote(png),
@@ -385,13 +393,15 @@ TEST(Cli, FiguresWritesEveryPicture) {
   ASSERT_EQ(r.exit_code, 0) << show(r);
   for (const char* name : {"fig1_a.png", "fig1_b.png", "fig1_c.png", "fig1_d.png",
                            "fig2_depth_map.png", "fig4_soft_000.png", "fig4_soft_270.png",
-                           "fig5_penumbra_map.png", "soft_size_1.5.png"}) {
+                           "fig5_penumbra_map.png", "soft_size_1.5.png", "model_paper_hard.png",
+                           "model_accurate_hard.png", "model_paper_soft.png",
+                           "model_accurate_soft.png"}) {
     const penumbra::Image img = penumbra::load_image(dir + "/" + name);
     EXPECT_GT(img.width, 0) << name;
   }
   const auto out = lines(r.out);
   ASSERT_FALSE(out.empty());
-  EXPECT_EQ(out.back().rfind("figures: files=13 seconds=", 0), 0u) << show(r);
+  EXPECT_EQ(out.back().rfind("figures: files=17 seconds=", 0), 0u) << show(r);
 }
 
 TEST(Cli, SceneTooLargeForTheDeviceFailsUpFront) {

@@ -28,6 +28,8 @@ Scene small_scene(Shadows shadows, Sampling sampling) {
   s.params.shadows = shadows;
   s.params.sampling = sampling;
   s.params.shadow_map_size = 32;
+  s.params.shadow_model = ShadowModel::Paper;  // the exact products and the penumbra map are its
+  refit_light_frusta(s);
   return s;
 }
 

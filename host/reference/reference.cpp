@@ -46,8 +46,9 @@ using glm::dvec2;
 using glm::dvec3;
 
 constexpr double kPi = 3.14159265358979323846;
-// Faces whose projected doubled area is at most this are skipped (degenerate on screen).
-constexpr double kMinScreenArea = 1e-20;
+// Faces whose projected doubled area is at most this times the sum of their squared edges
+// (from corner 0) are skipped: degenerate on screen, edge-on to the view (the kernels' rule).
+constexpr double kMinScreenArea = std::numeric_limits<double>::epsilon();
 
 // Logistic function, evaluated without overflow for any |u|.
 double sigmoid(double u) {
@@ -157,8 +158,9 @@ std::vector<Face> setup_faces(const Scene& scene, const View& view) {
       }
       if (behind) continue;  // any vertex in front of the near plane: dropped (no clipping)
       for (int k = 0; k < 3; ++k) face.p[k] = view.screen(face.V[k]);
-      face.area2 = cross2(face.p[1] - face.p[0], face.p[2] - face.p[0]);
-      if (std::abs(face.area2) <= kMinScreenArea) continue;
+      const dvec2 e1 = face.p[1] - face.p[0], e2 = face.p[2] - face.p[0];
+      face.area2 = cross2(e1, e2);
+      if (std::abs(face.area2) <= kMinScreenArea * (glm::dot(e1, e1) + glm::dot(e2, e2))) continue;
       face.normal = glm::normalize(glm::cross(face.V[1] - face.V[0], face.V[2] - face.V[0]));
       if (scene.params.cull_backfaces) {
         const dvec3 to_camera = view.perspective ? view.eye - face.V[0] : -view.f;
@@ -451,6 +453,67 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
   return acc / sum;
 }
 
+// The accurate model (kernels/pcf.cl): c = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
+double lit_step(double delta, const RenderParams& p) {
+  const double t = std::clamp((delta - (p.beta - 2 * p.gamma_s)) / (4 * p.gamma_s), 0.0, 1.0);
+  return 1 - t * t * (3 - 2 * t);
+}
+
+// Σw, Σw·c, Σw·S, Σw·c·S over the Gaussian window of variance `sigma` around μ.
+std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec2 mu, double d,
+                               dvec2 grad, double sigma) {
+  const int Ws = map.S.width, Hs = map.S.height;
+  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
+  double eps = 0.0;
+  if (p.sampling == Sampling::Truncated) {
+    eps = p.lambda_eps;
+    const double R = std::sqrt(2.0 * sigma * std::log(1.0 / eps));
+    i0 = std::max(int(std::ceil(mu.x - R)), 0);
+    i1 = std::min(int(std::floor(mu.x + R)), Ws - 1);
+    j0 = std::max(int(std::ceil(mu.y - R)), 0);
+    j1 = std::min(int(std::floor(mu.y + R)), Hs - 1);
+  }
+  std::array<double, 4> sums{};
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      const double dx = i - mu.x, dy = j - mu.y;
+      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * sigma)) - eps;
+      if (!(g > 0.0)) continue;
+      const double S = map.S.at(i, j), c = lit_step(d + grad.x * dx + grad.y * dy - S, p);
+      sums[0] += g, sums[1] += g * c, sums[2] += g * S, sums[3] += g * c * S;
+    }
+  return sums;
+}
+
+// Shadow term s of world point X on `face` for `light` in the accurate model: percentage-closer
+// filtering with σ_s (hard), or with σ widened by the penumbra width from a blocker search (soft).
+double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light& light,
+                       const Face& face, const dvec3& X) {
+  const int Ws = map.S.width, Hs = map.S.height;
+  const dvec2 s = map.view.screen(X);
+  const double d = map.view.depth(X);
+  const dvec2 mu((s.x * Hs + Ws - 1) / 2.0, (Hs - 1 - s.y * Hs) / 2.0);
+  if (!(mu.x >= -0.5 && mu.x < Ws - 0.5 && mu.y >= -0.5 && mu.y < Hs - 0.5)) return 1.0;
+  dvec2 grad = receiver_gradient(map, face, d);
+  const bool ortho = light.type == LightType::Directional;
+  const double k = Hs / (2 * (ortho ? light.frustum.half_size
+                                    : std::tan(light.frustum.fov_deg * M_PI / 360)));
+  // Slope limit: a face within 1° of edge-on extrapolates as if at 1° (texel size over tan 1°).
+  const double limit = (ortho ? 1.0 : std::abs(d)) / (k * 0.017455), len = glm::length(grad);
+  if (len > limit) grad *= limit / len;
+  double sigma = p.sigma_s;
+  if (p.shadows == Shadows::Soft) {
+    const double sigma_b = blocker_search_sigma(p, light);
+    const auto b = pcf_sums(map, p, mu, d, grad, sigma_b);
+    const double kappa = 1e-3 * b[0], V = b[0] - b[1] + kappa;
+    const double zb = V > 0 ? (b[2] - b[3] + kappa * d) / V : d;
+    const double w = light.size * k * std::max(0.0, ortho ? d - zb : 1 / zb - 1 / d);
+    sigma = std::min(p.sigma_s + w * w / 16, sigma_b);
+  }
+  const auto f = pcf_sums(map, p, mu, d, grad, sigma);
+  return f[0] > 0.0 ? f[1] / f[0] : 1.0;
+}
+
 // Colour of face `face` at perspective-correct barycentrics b (SPEC §2), with shadow terms
 // from `maps` (one per light; empty when shadows are off, s = 1).
 dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& maps,
@@ -466,9 +529,12 @@ dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& 
     const dvec3 l = light.type == LightType::Point ? glm::normalize(light.position - X)
                                                    : -glm::normalize(light.direction);
     double s = 1.0;
-    if (!maps.empty())
-      s = scene.params.shadows == Shadows::Soft ? soft_shadow_term(maps[li], scene.params, face, X)
-                                                : shadow_term(maps[li], scene.params, X);
+    const RenderParams& p = scene.params;
+    if (!maps.empty() && p.shadow_model == ShadowModel::Accurate)
+      s = pcf_shadow_term(maps[li], p, light, face, X);
+    else if (!maps.empty())
+      s = p.shadows == Shadows::Soft ? soft_shadow_term(maps[li], p, face, X)
+                                     : shadow_term(maps[li], p, X);
     color += s * a * light.color * std::max(0.0, glm::dot(n, l));
   }
   return color;
@@ -483,17 +549,17 @@ void require_light(const Scene& scene, size_t light) {
 }  // namespace
 
 RenderOutput render(const Scene& given, size_t camera_index) {
-  if (given.params.shadows == Shadows::Soft && given.params.sampling == Sampling::Gemm)
-    throw Error("reference: soft shadows sample with 'truncated' or 'exact'; their sum does not "
-                "factor into matrix products ('gemm')");
+  validate(given);
   const Camera& cam = given.cameras.at(camera_index);
   const Scene scene = given.params.shadows == Shadows::None ? given : fitted(given);
   const View view = View::of_camera(cam);
 
   std::vector<ShadowMap> maps;
-  if (scene.params.shadows == Shadows::Hard)
+  const bool penumbra_maps = scene.params.shadows == Shadows::Soft &&
+                             scene.params.shadow_model == ShadowModel::Paper;
+  if (scene.params.shadows != Shadows::None && !penumbra_maps)
     for (size_t l = 0; l < scene.lights.size(); ++l) maps.push_back(light_pass(scene, l));
-  if (scene.params.shadows == Shadows::Soft)
+  if (penumbra_maps)
     for (size_t l = 0; l < scene.lights.size(); ++l)
       maps.push_back(light_pass_with_penumbra(scene, l));
 

@@ -21,7 +21,8 @@ constexpr const char* kChannel[3] = {"r", "g", "b"};
 
 // One scalar parameter of the scene.
 struct Param {
-  enum Kind { Vertex, Albedo, LightPosition, LightDirection, LightColor, Ambient } kind = Ambient;
+  enum Kind { Vertex, Albedo, LightPosition, LightDirection, LightColor, LightSize, Ambient } kind =
+      Ambient;
   int mesh = 0;   // Vertex, Albedo
   int index = 0;  // vertex / albedo entry / light
   int axis = 0;   // coordinate or colour channel
@@ -55,6 +56,8 @@ double& parameter(Scene& scene, const Param& p) {
       return scene.lights[p.index].direction[p.axis];
     case Param::LightColor:
       return scene.lights[p.index].color[p.axis];
+    case Param::LightSize:
+      return scene.lights[p.index].size;
     case Param::Ambient:
       break;
   }
@@ -84,6 +87,8 @@ double gradient(const SceneGrads& g, const Param& p) {
       return checked_at(g.light_position, p.index, "light position")[p.axis];
     case Param::LightColor:
       return checked_at(g.light_color, p.index, "light colour")[p.axis];
+    case Param::LightSize:
+      return checked_at(g.light_size, p.index, "light size");
     case Param::Ambient:
       break;
   }
@@ -193,6 +198,14 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
       required.push_back(p);
     }
     for (int l = 0; l < lights; ++l) required.push_back(light_param(scene, l, int(uniform(3))));
+    for (int l = 0; l < lights && scene.params.shadows == Shadows::Soft; ++l)
+      if (scene.lights[l].size > 0) {  // D_L shapes every penumbra
+        Param p;
+        p.kind = Param::LightSize;
+        p.index = l;
+        p.name = "light" + std::to_string(l) + ".size";
+        required.push_back(p);
+      }
     for (const Param& p : required) {
       if (int(chosen.size()) >= samples) break;
       if (names.insert(p.name).second) chosen.push_back(p);
@@ -251,7 +264,9 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
           name << p.name;
           break;
         }
+        case Param::LightSize:  // only among the required entries
         case Param::LightColor:
+          p.kind = Param::LightColor;
           p.index = int(uniform(scene.lights.size()));
           p.axis = int(uniform(3));
           name << "light" << p.index << ".color." << kChannel[p.axis];
@@ -376,7 +391,7 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
     if (p.kind == Param::LightDirection) {
       const double len = glm::length(work.lights[p.index].direction);
       h = step * (len > 0 && std::isfinite(len) ? len : 1.0);
-    } else if (p.positional()) {
+    } else if (p.positional() || p.kind == Param::LightSize) {
       h = step * scale;
     }
     double& x = parameter(perturbed, p);

@@ -20,7 +20,7 @@ std::string Kernels::options(const std::string& file) const {
   if (file == "raster.cl")
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
-  if (file == "shadow.cl") o += " -DROW=" + std::to_string(detail::shadow_row_width(ctx_.info()));
+  if (file == "shadow.cl" || file == "pcf.cl") o += " -DROW=" + std::to_string(detail::shadow_row_width(ctx_.info()));
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(ctx_.info(), tuning_));
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning_.exact.vector_width) +
@@ -172,6 +172,10 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
   std::vector<double> P =
       base_params(s.params, s.params.sigma, s.params.gamma, c.near, c.far, camera_frame(c));
   P[P_NLIGHTS] = double(s.lights.size());
+  const bool accurate = s.params.shadow_model == ShadowModel::Accurate;
+  P[P_SHADOW_MODEL] = accurate ? 1 : 0;
+  P[P_RECEIVER_PLANE] = s.params.shadows == Shadows::Soft ||
+                        (accurate && s.params.shadows == Shadows::Hard);
   put3(P, P_AMBIENT, s.ambient);
   put3(P, P_BACKGROUND, s.background);
   for (size_t i = 0; i < s.lights.size(); ++i) {
@@ -183,6 +187,7 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
     P[at + L_SIZE] = L.size;
     put_frame(P, at + L_FRAME, light_frame(L));
     P[at + L_MAP_W] = P[at + L_MAP_H] = s.params.shadow_map_size;
+    P[at + L_SEARCH_SIGMA] = blocker_search_sigma(s.params, L);
   }
   return P;
 }
@@ -300,9 +305,6 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   if (scene.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(scene.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
-  if (scene.params.shadows == Shadows::Soft && scene.params.sampling == Sampling::Gemm)
-    throw Error("soft shadows sample with 'truncated' or 'exact'; their sum does not factor "
-                "into matrix products ('gemm')");
   Impl& m = *impl_;
   Context& ctx = m.ctx;
   m.scene = scene;
@@ -310,6 +312,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   if (m.automatic) m.kernels.set_tuning(m.database.lookup(ctx.info(), workload_stats(scene)));
   const Scene& s = m.scene;
   const bool shadows = s.params.shadows != Shadows::None;
+  const bool accurate = s.params.shadow_model == ShadowModel::Accurate;
   const int nl = int(s.lights.size());
   m.packed = pack(s);
   const Packed& p = m.packed;
@@ -335,7 +338,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     const int size = s.params.shadow_map_size;
     m.render_view(lv, size, size, 0, light_view_params(s, l));
     detail::raster_resolve(m.kernels, lv);
-    if (s.params.shadows == Shadows::Soft) detail::penumbra_forward(m.kernels, g, lv);
+    if (s.params.shadows == Shadows::Soft && !accurate) detail::penumbra_forward(m.kernels, g, lv);
   }
   m.views.assign(s.cameras.size(), ViewState{});
   m.view_P.clear();
@@ -345,9 +348,13 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     ViewState& v = m.views[c];
     m.view_P.push_back(view_params(s, cam));
     m.render_view(v, cam.width, cam.height, nl, m.view_P.back());
-    for (size_t l = 0; l < m.light_views.size(); ++l)
-      detail::shadow_forward(m.kernels, s.params.shadows, s.params.sampling, v, int(l),
-                             m.light_views[l]);
+    for (size_t l = 0; l < m.light_views.size(); ++l) {
+      if (accurate)
+        detail::pcf_forward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
+      else
+        detail::shadow_forward(m.kernels, s.params.shadows, s.params.sampling, v, int(l),
+                               m.light_views[l]);
+    }
     detail::raster_resolve(m.kernels, v);
     const size_t npix = size_t(v.W) * v.H;
     auto image = detail::download_reals(ctx, m.precision, v.image, npix * 4);
@@ -406,6 +413,8 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   const Packed& p = m.packed;
   const int nl = int(s.lights.size());
   const bool shadows = !m.light_views.empty();
+  const bool accurate = s.params.shadow_model == ShadowModel::Accurate;
+  std::vector<double> gsize(nl, 0.0);  // dL/dD_L
   std::vector<double> gvert(size_t(p.nv) * 4, 0.0), galb(size_t(p.nf) * 12, 0.0),
       glight(size_t(6 * nl + 1) * 4, 0.0);
   // dL/d(shadow map S) and dL/d(penumbra map P) of each light, summed over the cameras.
@@ -444,8 +453,11 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
         ctx, m.precision, g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data);
     detail::raster_resolve_backward(m.kernels, v, gimage_buf, gdepth_buf);
     for (size_t l = 0; l < m.light_views.size(); ++l) {
-      auto gm = detail::shadow_backward(m.kernels, s.params.shadows, s.params.sampling, v, int(l),
-                                        m.light_views[l]);
+      auto gm = accurate ? detail::pcf_backward(m.kernels, s.params,
+                                                blocker_search_sigma(s.params, s.lights[l]),
+                                                v, int(l), m.light_views[l], &gsize[l])
+                         : detail::shadow_backward(m.kernels, s.params.shadows, s.params.sampling,
+                                                   v, int(l), m.light_views[l]);
       accumulate(gmaps[l], gm.S);
       if (gm.P()) accumulate(gpens[l], gm.P);
     }
@@ -456,12 +468,11 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   // Penumbra maps back to their shadow maps, the light sizes and the occluders; then the
   // shadow maps back through each light's own raster pass.
   std::vector<std::vector<double>> gframe(nl, std::vector<double>(16, 0.0));
-  std::vector<double> gsize(nl, 0.0);
   for (size_t l = 0; l < m.light_views.size(); ++l) {
     ViewState& lv = m.light_views[l];
     const size_t ntex = size_t(lv.W) * lv.H;
     cl::Buffer gpen;
-    if (s.params.shadows == Shadows::Soft) {
+    if (s.params.shadows == Shadows::Soft && !accurate) {
       gpen = detail::upload_reals(ctx, m.precision, gpens[l]);
       accumulate(gmaps[l], detail::penumbra_backward_texels(m.kernels, m.geometry, lv, gpen, &gsize[l]));
     }

@@ -35,6 +35,8 @@
 #define P_WINDOW_R2 22   /* 2σ_s·ln(1/ε_λ): squared radius of the truncated shadow-map window */
 #define P_WINDOW_R 23    /* its square root */
 #define P_FRAME 24       /* the view's camera frame (FR_SIZE reals) */
+#define P_SHADOW_MODEL 38 /* 0 paper (filter then compare, penumbra map), 1 accurate (pcf.cl) */
+#define P_RECEIVER_PLANE 39 /* 1: fragments keep their receiver-plane depth gradient ∇_μ d */
 #define P_LIGHTS 40      /* P_LIGHT_STRIDE reals per light: */
 #define L_POS 0          /*   position (point) or travel direction (directional), xyz */
 #define L_POINT 3        /*   1 point light, 0 directional */
@@ -43,6 +45,7 @@
 #define L_FRAME 8        /*   the light's camera frame (FR_SIZE reals) */
 #define L_MAP_W 22       /*   shadow-map size in texels */
 #define L_MAP_H 23
+#define L_SEARCH_SIGMA 24 /*   accurate soft shadows: variance σ_b (texel²) of the blocker search */
 #define P_LIGHT_STRIDE 32
 #define P_MAX_LIGHTS 4
 #define P_SIZE (P_LIGHTS + P_LIGHT_STRIDE * P_MAX_LIGHTS)

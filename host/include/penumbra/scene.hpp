@@ -3,6 +3,7 @@
 // Host-side values are double so that gradient checks can run entirely in double precision.
 #include <glm/glm.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace penumbra {
@@ -38,12 +39,17 @@ enum class LightType { Point, Directional };
 // direction at `target` from `distance` away.
 struct LightFrustum {
   bool fitted = false;
+  bool automatic = false;  // fitted by fit_light_frusta, not given
+
   glm::dvec3 target{0, 0, 0};
   glm::dvec3 up{0, 1, 0};
   double fov_deg = 60.0;
   double half_size = 1.0;
   double distance = 10.0;
   double near = 0.1, far = 100.0;
+  // Accurate soft shadows: the blocker search's variance σ_b (texel²), fixed with the fit like
+  // the rest of the frustum; 0 (a given frustum): blocker_search_sigma computes it.
+  double search_sigma = 0.0;
 };
 
 struct Light {
@@ -57,6 +63,37 @@ struct Light {
 
 enum class Shadows { None, Hard, Soft };
 enum class Sampling { Truncated, Exact, Gemm };
+// How shadows are computed (docs/shadows.md): `Accurate` (percentage-closer filtering of a
+// smooth-step depth compare with a receiver-plane bias; soft shadows widen the filter by the
+// penumbra width found by a blocker search; light frusta fitted tightly to the occluders) or
+// `Paper` (the paper's model: filter then compare for hard shadows, the penumbra map for soft).
+enum class ShadowModel { Accurate, Paper };
+
+// The words scene files, the command line and messages use for each value of an enum above,
+// in one place: word(e), the value of a word (nullptr-like failure as false), and the list
+// of choices for a message ("none, hard or soft").
+template <class E>
+const std::vector<std::pair<E, std::string>>& enum_words();
+template <class E>
+std::string word(E value) {
+  for (const auto& [v, w] : enum_words<E>())
+    if (v == value) return w;
+  return "?";
+}
+template <class E>
+bool from_word(const std::string& w, E* value) {
+  for (const auto& [v, name] : enum_words<E>())
+    if (name == w) return *value = v, true;
+  return false;
+}
+template <class E>
+std::string word_choices() {
+  const auto& words = enum_words<E>();
+  std::string out;
+  for (size_t i = 0; i < words.size(); ++i)
+    out += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i].second;
+  return out;
+}
 
 // SPEC §7, names as in its table.
 struct RenderParams {
@@ -72,6 +109,7 @@ struct RenderParams {
   bool cull_backfaces = false;
   Shadows shadows = Shadows::None;
   Sampling sampling = Sampling::Truncated;
+  ShadowModel shadow_model = ShadowModel::Accurate;
   int shadow_map_size = 256;  // W_s = H_s, texels
   double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/10 (light_pass_sigma)
   double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ (light_pass_gamma)
@@ -111,9 +149,23 @@ Bounds bounds(const Scene& scene);
 double light_pass_sigma(const RenderParams& p);
 double light_pass_gamma(const RenderParams& p);
 
-// Fits the frustum of every light whose frustum is not fitted yet to the scene's bounding
-// sphere, so that every receiver lies inside its shadow map (SPEC §3).
+// Fits the frustum of every light whose frustum is not fitted yet (docs/scene-format.md): the
+// light looks at the centre of the bounds of what it must hold and its cone (orthographic box)
+// holds it, its depth range every vertex. The paper model holds every vertex, so that every
+// receiver lies inside the map; the accurate model holds the faces that can cast a shadow,
+// widened by their penumbra and the filter window (receivers outside the map are lit).
 void fit_light_frusta(Scene& scene);
+
+// Variance σ_b (texel²) of the accurate model's blocker search for `light` (soft shadows; σ_s
+// otherwise): wide enough for the widest penumbra its fitted frustum can hold, the nearest
+// depth over the farthest, capped at a window of half the map.
+double blocker_search_sigma(const RenderParams& p, const Light& light);
+
+// Fits again the frusta fit_light_frusta fitted (after render parameters changed).
+void refit_light_frusta(Scene& scene);
+
+// Every vertex of every mesh, in order.
+std::vector<glm::dvec3> scene_vertices(const Scene& scene);
 
 // A scene around one mesh, with a camera and a light that frame it (for `render --mesh`).
 Scene framed_scene(Mesh mesh, int width = 256, int height = 256);

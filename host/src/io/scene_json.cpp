@@ -200,16 +200,12 @@ Camera parse_camera(const json& j, const std::string& where) {
 
 // A string naming one of `names`, as the matching entry of `values`.
 template <class E>
-E get_enum(const json& j, const std::string& where, const std::vector<std::string>& names,
-           const std::vector<E>& values) {
+E get_enum(const json& j, const std::string& where) {
   const std::string v = get_string(j, where);
-  std::string expected;
-  for (size_t i = 0; i < names.size(); ++i) {
-    if (v == names[i]) return values[i];
-    expected += (i ? ", \"" : "\"") + names[i] + "\"";
-  }
-  fail("'" + where + "' is \"" + v + "\" (expected one of " + expected + ")");
-  return values[0];
+  E value{};
+  if (!from_word(v, &value))
+    fail("'" + where + "' is \"" + v + "\" (expected " + word_choices<E>() + ")");
+  return value;
 }
 
 LightFrustum parse_frustum(const json& j, const std::string& where) {
@@ -253,7 +249,7 @@ Light parse_light(const json& j, const std::string& where) {
 
 RenderParams parse_render(const json& j, const std::string& where) {
   check_object(j, where, {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps",
-                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling",
+                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling", "shadow_model",
                           "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
   RenderParams p;
   opt(j, where, "sigma", p.sigma, get_number);
@@ -267,12 +263,11 @@ RenderParams parse_render(const json& j, const std::string& where) {
   opt(j, where, "gamma_p", p.gamma_p, get_number);
   opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
   if (j.contains("shadows"))
-    p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"), {"none", "hard", "soft"},
-                                  {Shadows::None, Shadows::Hard, Shadows::Soft});
+    p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
   if (j.contains("sampling"))
-    p.sampling = get_enum<Sampling>(j["sampling"], child(where, "sampling"),
-                                    {"truncated", "exact", "gemm"},
-                                    {Sampling::Truncated, Sampling::Exact, Sampling::Gemm});
+    p.sampling = get_enum<Sampling>(j["sampling"], child(where, "sampling"));
+  if (j.contains("shadow_model"))
+    p.shadow_model = get_enum<ShadowModel>(j["shadow_model"], child(where, "shadow_model"));
   opt(j, where, "shadow_map_size", p.shadow_map_size, get_int);
   opt(j, where, "light_sigma", p.light_sigma, get_number);
   opt(j, where, "light_gamma", p.light_gamma, get_number);

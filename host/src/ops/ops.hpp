@@ -57,6 +57,11 @@ inline int penumbra_lanes(const DeviceInfo& d, const Tuning& t) {
   return std::min(d.is_gpu ? 1 : 8, t.penumbra.tile);
 }
 
+// The build variant of the shadow lookups that sums over the whole map (-DEXACT=1).
+inline const char* exact_define(Sampling s) {
+  return s == Sampling::Exact ? "-DEXACT=1" : "-DEXACT=0";
+}
+
 // Texels per vector in shadow.cl's window rows (ROW): 16 floats fill an AVX-512 register on
 // CPUs; GPUs keep 8.
 inline int shadow_row_width(const DeviceInfo& d) { return d.is_gpu ? 8 : 16; }
@@ -127,6 +132,19 @@ struct MapGrads {
 };
 MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
                          const ViewState& lv);
+
+// The fragments of `v` bucketed by the texel nearest their μ in `light`'s map (bin.cl with
+// one-texel tiles), for the gathers that find the fragments whose window holds a texel.
+Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm);
+
+// The accurate model (pcf.cl): shadow terms of every fragment of `v` for `light` by
+// percentage-closer filtering of the light's shadow map `lv.depth` (a blocker search first
+// for soft shadows).
+void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv);
+// Completes rec_lgrad (and rec_lgrad2) of `v` for `light`, returns dL/dS and adds dL/dD_L to
+// *gsize (soft shadows).
+MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, ViewState& v,
+                      int light, const ViewState& lv, double* gsize);
 
 // The penumbra map of a light's view `lv` (after raster_resolve gave its shadow map).
 void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv);

@@ -16,7 +16,9 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
   return std::max<size_t>(1, (size_t(96) << 20) / per);
 }
 
-const char* exact_define(Sampling s) { return s == Sampling::Exact ? "-DEXACT=1" : "-DEXACT=0"; }
+
+
+}  // namespace
 
 // The fragments bucketed by the texel nearest their μ (bin.cl with one-texel tiles).
 Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
@@ -27,8 +29,6 @@ Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
   launch_1d(k.ctx(), bx, n);
   return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
-
-}  // namespace
 
 void shadow_forward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
                     const ViewState& lv) {

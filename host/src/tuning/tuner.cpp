@@ -165,11 +165,12 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
     Scene scene = base;
     scene.params.shadows = stage.shadows;
     scene.params.sampling = stage.sampling;
+    scene.params.shadow_model = ShadowModel::Paper;  // the products and the penumbra map are its
     if (options.quick) {
       for (Camera& c : scene.cameras) c.width = std::min(c.width, 128), c.height = std::min(c.height, 128);
       scene.params.shadow_map_size = std::min(scene.params.shadow_map_size, 128);
     }
-    fit_light_frusta(scene);
+    refit_light_frusta(scene);
     // The reference output: the configuration the stage starts from.
     Tuning reference = best;
     const Trial ref = time_candidate(context, scene, reference, 1);

@@ -1,0 +1,58 @@
+// Host side of kernels/pcf.cl: the accurate model's shadow lookup (percentage-closer filtering,
+// with a blocker search for soft shadows) for every kept fragment, truncated or exact.
+#include <algorithm>
+#include <cmath>
+
+#include "ops/ops.hpp"
+
+namespace penumbra::detail {
+
+namespace {
+
+// Texels within which the gather finds every fragment whose window (of variance at most
+// `sigma`) can hold a texel: the window radius plus one for the bucket's rounding.
+int gather_reach(const RenderParams& p, double sigma) {
+  return int(std::ceil(std::sqrt(2 * sigma * std::log(1 / p.lambda_eps)))) + 1;
+}
+
+}  // namespace
+
+void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv) {
+  const int n = int(v.nrec);
+  if (n == 0) return;
+  auto& s = k.get("pcf.cl", "pcf_sample", exact_define(sampling));
+  set_args(s, v.P, n, light, v.nlights, lv.W, lv.H, lv.depth, v.rec_light, v.rec_light2);
+  launch_1d(k.ctx(), s, n);
+}
+
+MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, ViewState& v,
+                      int light, const ViewState& lv, double* gsize) {
+  Context& ctx = k.ctx();
+  const int Wm = lv.W, Hm = lv.H, n = int(v.nrec), nl = v.nlights;
+  MapGrads g;
+  g.S = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
+  if (n == 0) return g;
+  const char* variant = exact_define(p.sampling);
+  auto& sb = k.get("pcf.cl", "pcf_sample_bwd", variant);
+  set_args(sb, v.P, n, light, nl, Wm, Hm, lv.depth, v.rec_light, v.rec_light2, v.rec_lgrad,
+           v.rec_lgrad2);
+  launch_1d(ctx, sb, n);
+  Bins bins;  // the exact gather visits every fragment and needs no buckets
+  if (p.sampling == Sampling::Truncated)
+    bins = texel_buckets(k, v, light, Wm, Hm);
+  else
+    bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
+  const int reach = gather_reach(p, std::max(search_sigma, p.sigma_s));
+  auto& ga = k.get("pcf.cl", "pcf_gather", variant);
+  set_args(ga, v.P, n, light, nl, Wm, Hm, reach, lv.depth, v.rec_light, v.rec_light2,
+           v.rec_lgrad, v.rec_lgrad2, bins.offsets, bins.counts, bins.items, g.S);
+  const int row = shadow_row_width(ctx.info());  // texels per item
+  launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
+  if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
+    auto g2 = download_reals(ctx, k.precision(), v.rec_lgrad2, size_t(n) * nl * 4);
+    for (int r = 0; r < n; ++r) *gsize += g2[(size_t(r) * nl + light) * 4 + 3];
+  }
+  return g;
+}
+
+}  // namespace penumbra::detail

@@ -1,0 +1,308 @@
+// Stage 4 (accurate model) — pcf: the shadow term s of every kept fragment for one light by
+// percentage-closer filtering (compare, then filter) of the light's shadow map S, forward and
+// backward (docs/shadows.md, "The accurate model"):
+//   d_ij = d + ∇_μ d·((i, j) − μ)            receiver-plane depth at texel (i, j) (slope
+//                                            limited for faces nearly edge-on: slope_limit)
+//   c_ij = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij)   1 lit … 0 behind an occluder
+//   s    = Σ g'_ij(σ)·c_ij / Σ g'_ij(σ)      Gaussian weights of variance σ around μ
+// Hard shadows filter with σ = σ_s. Soft shadows (PCSS) first search for blockers with weights
+// h' of variance σ_b (the light's L_SEARCH_SIGMA): o = 1 − c, κ = PCF_KAPPA,
+//   z_b = (Σ h'·o·S + κ·d·Σh') / (Σ h'·o + κ·Σh')   mean blocker depth (→ d with no blocker)
+//   w   = D_L·k·(1/z_b − 1/d)  (point light; k = H_s / (2·tan(θ_L/2)): texels per unit of
+//         lateral distance over depth), w = D_L·k·(d − z_b) (directional: D_L an angle)
+//   σ   = min(σ_s + w²/16, σ_b)             a disc of diameter w has variance w²/16 per axis
+// so the penumbra straddles the hard edge with the width a sphere light of diameter D_L casts.
+// Truncated sampling cuts each Gaussian at ε_λ (g' = max(0, g − ε_λ)); exact (EXACT=1) sums
+// g over the whole map.
+// Buffers (K fragments, nl lights, this light l):
+//   rec_light   K·nl × real4 (μx, μy, d, s): s is written here
+//   rec_light2  K·nl × real4 (∇_μ d, σ, z_b): σ and z_b are written here
+//   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd)
+//   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
+//   S, gS       W_s·H_s × real: the light's shadow map and its gradient
+// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of a
+// row (pcf_gather).
+#include "common/window.clh"
+
+#ifndef EXACT
+#define EXACT 0
+#endif
+#define PCF_KAPPA R(1e-3)
+
+typedef struct {
+  real2 mu;    // texel coordinates of the fragment in the map
+  real d;      // its light-view depth
+  real2 grad;  // ∇_μ d of its face
+} Receiver;
+
+// A face within PCF_GRAZING of edge-on to the light extrapolates its depth as if it were at
+// that angle: |∇_μ d| is at most the texel's lateral size over tan(PCF_GRAZING) (texel size:
+// depth / k for a point light, 1 / k for a directional one). An edge-on face has no usable plane
+// (∇_μ d → ∞, and its rounding with it); it gets no direct light there either.
+#define PCF_GRAZING_TAN R(0.017455)  // tan(1°)
+
+inline real slope_limit(__global const real* P, int light, real d, real* dd) {
+  int at = P_LIGHTS + light * P_LIGHT_STRIDE + L_FRAME;
+  int ortho = P[at + FR_ORTHO] > 0;
+  real per = 2 * P[at + FR_SCALE] / (P[P_LIGHTS + light * P_LIGHT_STRIDE + L_MAP_H] * PCF_GRAZING_TAN);
+  *dd = ortho ? 0 : copysign(per, d);
+  return ortho ? per : fabs(d) * per;
+}
+
+// The receiver of fragment record i for `light`, its plane's slope limited (slope_limit).
+inline Receiver receiver_at(__global const real4* rec_light, __global const real4* rec_light2,
+                            int i, __global const real* P, int light) {
+  real4 x = rec_light[i], x2 = rec_light2[i];
+  real dd, limit = slope_limit(P, light, x.z, &dd), len = length(x2.xy);
+  Receiver r = {x.xy, x.z, len > limit ? x2.xy * (limit / len) : x2.xy};
+  return r;
+}
+
+// dL/d∇_μ d (and the share of dL/dd through the limit) from dL/d(the limited slope) `g`.
+inline real2 slope_limit_bwd(__global const real* P, int light, real d, real2 grad, real2 g,
+                             real* gd) {
+  real dd, limit = slope_limit(P, light, d, &dd), len = length(grad);
+  if (!(len > limit)) return g;
+  real2 u = grad / len;
+  *gd += dot(g, u) * dd;
+  return (g - u * dot(u, g)) * (limit / len);
+}
+
+// c and dc/dΔ at Δ = d_ij − S_ij for ROW texels: a C¹ step, exactly 1 (lit) for Δ ≤ β − 2γ_s.
+inline realR lit_term(realR S, realR dij, __global const real* P, realR* dc) {
+  real gs = P[P_GAMMA_S];
+  realR t = clamp((dij - S - (P[P_BETA] - 2 * gs)) / (4 * gs), (real)0, (real)1);
+  *dc = -6 * t * (1 - t) / (4 * gs);
+  return 1 - t * t * (3 - 2 * t);
+}
+
+// The window of the Gaussian of variance `sigma` around μ (empty outside the map).
+inline Window pcf_window(real2 mu, real sigma, __global const real* P, int Wm, int Hm) {
+  Window w = {1, 1, 0, 0, 0};
+  if (!inside_map(mu, Wm, Hm)) return w;
+#if EXACT
+  w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
+#else
+  w.eps = P[P_LAMBDA_EPS];
+  real radius = sqrt(2 * sigma * log(1 / w.eps));
+  w.x0 = max((int)ceil(mu.x - radius), 0);
+  w.x1 = min((int)floor(mu.x + radius), Wm - 1);
+  w.y0 = max((int)ceil(mu.y - radius), 0);
+  w.y1 = min((int)floor(mu.y + radius), Hm - 1);
+#endif
+  return w;
+}
+
+// Σ w, Σ w·c, Σ w·S, Σ w·c·S over the window of variance `sigma` (w = g').
+inline real4 window_sums(Receiver x, real sigma, __global const real* P,
+                         __global const real* S, int Wm, int Hm) {
+  Window w = pcf_window(x.mu, sigma, P, Wm, Hm);
+  realR sw = 0, swc = 0, sws = 0, swcs = 0, dc;
+  Columns c;
+  columns_init(&c, w, x.mu, sigma);
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = row_weight(&c, j, x.mu.y, sigma);
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
+      realR g = window_row(&c, i0, w.x1, gy, x.mu, sigma, w.eps);
+      realR Sv = loadR(S, j * Wm + i0, min(ROW, Wm - i0));
+      realR dij = x.d + x.grad.x * ((real)i0 + LANER - x.mu.x) + x.grad.y * (j - x.mu.y);
+      realR lit = lit_term(Sv, dij, P, &dc);
+      sw += g;
+      swc += g * lit;
+      sws += g * Sv;
+      swcs += g * lit * Sv;
+    }
+  }
+  return (real4)(hsumR(sw), hsumR(swc), hsumR(sws), hsumR(swcs));
+}
+
+// The light's soft-shadow constants: D_L, k (texels per lateral unit over depth), σ_b, ortho.
+typedef struct {
+  real size, k, sigma_b;
+  int ortho;
+} LightDisc;
+
+inline LightDisc light_disc(__global const real* P, int light) {
+  int at = P_LIGHTS + light * P_LIGHT_STRIDE;
+  LightDisc L = {P[at + L_SIZE], P[at + L_MAP_H] / (2 * P[at + L_FRAME + FR_SCALE]),
+                 P[at + L_SEARCH_SIGMA], P[at + L_FRAME + FR_ORTHO] > 0};
+  return L;
+}
+
+// Penumbra width w (texels) for blocker depth zb and receiver depth d, with ∂w/∂zb, ∂w/∂d and
+// ∂w/∂D_L; 0 where the blocker is not in front.
+inline real penumbra_width(LightDisc L, real zb, real d, real* dzb, real* dd, real* dsize) {
+  real u = L.ortho ? d - zb : 1 / zb - 1 / d;
+  *dzb = L.ortho ? -1 : -1 / (zb * zb);
+  *dd = L.ortho ? 1 : 1 / (d * d);
+  if (!(u > 0)) u = 0, *dzb = 0, *dd = 0;
+  *dsize = L.k * u;
+  *dzb *= L.size * L.k;
+  *dd *= L.size * L.k;
+  return L.size * L.k * u;
+}
+
+// Filter variance σ = min(σ_s + w²/16, σ_b) and dσ/dw (0 where capped).
+inline real filter_sigma(real w, real sigma_s, real sigma_b, real* dw) {
+  real s = sigma_s + w * w / 16;
+  *dw = s < sigma_b ? w / 8 : 0;
+  return min(s, sigma_b);
+}
+
+inline int soft_mode(__global const real* P) { return P[P_SHADOWS] > 1; }
+
+// Mean blocker depth z_b = U / V from the search sums (Σh', Σh'c, Σh'S, Σh'cS).
+inline real blocker_depth(real4 sums, real d, real* V) {
+  real B = sums.x - sums.y, Z = sums.z - sums.w, k = PCF_KAPPA * sums.x;
+  *V = B + k;
+  return *V > 0 ? (Z + k * d) / *V : d;
+}
+
+__kernel void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                         __global const real* S, __global real4* rec_light,
+                         __global real4* rec_light2) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  int at = r * nl + light;
+  Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
+  real sigma = P[P_SIGMA_S], zb = x.d, V, dzb, dd, dsize, dw;
+  if (soft_mode(P)) {
+    LightDisc L = light_disc(P, light);
+    zb = blocker_depth(window_sums(x, L.sigma_b, P, S, Wm, Hm), x.d, &V);
+    real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
+    sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
+  }
+  real4 f = window_sums(x, sigma, P, S, Wm, Hm);
+  rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
+  rec_light2[at].zw = (real2)(sigma, zb);
+}
+
+// Weighted moments of a window for the backward, with per-texel value v and slope q chosen by
+// `search`: the filter (v = c − s, q = dc/dΔ) or the blocker search (v = o·(S − z_b) +
+// κ·(d − z_b), q = −(S − z_b)·dc/dΔ), `ref` being s or z_b:
+//   .mu = Σ g·((i, j) − μ)/σ·v,  .q = Σ w·q,  .qoff = Σ w·q·((i, j) − μ),  .r2 = Σ g·r²·v
+typedef struct {
+  real2 mu, qoff;
+  real q, r2;
+} Moments;
+
+inline Moments window_moments(Receiver x, real sigma, int search, real ref,
+                              __global const real* P, __global const real* S, int Wm, int Hm) {
+  Window w = pcf_window(x.mu, sigma, P, Wm, Hm);
+  realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, dc;
+  Columns c;
+  columns_init(&c, w, x.mu, sigma);
+  for (int j = w.y0; j <= w.y1; ++j) {
+    real gy = row_weight(&c, j, x.mu.y, sigma), offy = j - x.mu.y;
+    for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
+      realR lam = window_row(&c, i0, w.x1, gy, x.mu, sigma, w.eps);
+      realR g = select((realR)0, lam + w.eps, lam > 0);
+      realR offx = (real)i0 + LANER - x.mu.x;
+      realR Sv = loadR(S, j * Wm + i0, min(ROW, Wm - i0));
+      realR lit = lit_term(Sv, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc);
+      realR v = search ? (1 - lit) * (Sv - ref) + PCF_KAPPA * (x.d - ref) : lit - ref;
+      realR qv = search ? -(Sv - ref) * dc : dc;
+      mux += g * offx * v;
+      muy += g * offy * v;
+      r2 += g * (offx * offx + offy * offy) * v;
+      q += lam * qv;
+      qx += lam * qv * offx;
+      qy += lam * qv * offy;
+    }
+  }
+  Moments m = {(real2)(hsumR(mux), hsumR(muy)) / sigma, (real2)(hsumR(qx), hsumR(qy)),
+               hsumR(q), hsumR(r2)};
+  return m;
+}
+
+// Backward per fragment: dL/dμ, dL/dd, dL/d∇_μ d, dL/dD_L, and the scales the gather needs.
+__kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                             __global const real* S, __global const real4* rec_light,
+                             __global const real4* rec_light2, __global real4* rec_lgrad,
+                             __global real4* rec_lgrad2) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  int at = r * nl + light;
+  Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
+  real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
+  real N = window_sums(x, sigma, P, S, Wm, Hm).x;
+  if (!(N > 0)) {
+    rec_lgrad[at] = 0;
+    rec_lgrad2[at] = 0;
+    return;
+  }
+  // Through the filter, σ held: s = Σ w·c / Σ w.
+  Moments f = window_moments(x, sigma, 0, s, P, S, Wm, Hm);
+  real k = G / N;
+  real2 gmu = k * (f.mu - x.grad * f.q), ggrad = k * f.qoff;
+  real gd = k * f.q, gzb_v = 0, gsize = 0;
+  if (soft_mode(P)) {  // through σ(w(z_b, d, D_L)) and z_b(μ, d, ∇_μ d, S)
+    LightDisc L = light_disc(P, light);
+    real dzb, dd, dsize, dw, V;
+    real4 sums = window_sums(x, L.sigma_b, P, S, Wm, Hm);
+    blocker_depth(sums, x.d, &V);
+    real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
+    filter_sigma(w, P[P_SIGMA_S], L.sigma_b, &dw);
+    real gw = k * f.r2 / (2 * sigma * sigma) * dw;  // dL/dw
+    gsize = gw * dsize;
+    gd += gw * dd;
+    real gzb = gw * dzb;
+    if (gzb != 0 && V > 0) {
+      Moments b = window_moments(x, L.sigma_b, 1, zb, P, S, Wm, Hm);
+      gzb_v = gzb / V;
+      gmu += gzb_v * (b.mu - x.grad * b.q);
+      gd += gzb_v * (b.q + PCF_KAPPA * sums.x);
+      ggrad += gzb_v * b.qoff;
+    }
+  }
+  ggrad = slope_limit_bwd(P, light, x.d, rec_light2[at].xy, ggrad, &gd);
+  rec_lgrad[at] = (real4)(k, gmu, gd);
+  rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
+}
+
+// dL/dS per texel, gathered in a fixed order (no atomics) from the fragments whose filter or
+// search window holds it (from the nearby texel buckets when truncated; every fragment when
+// exact): Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ).
+__kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                         int reach, __global const real* S, __global const real4* rec_light,
+                         __global const real4* rec_light2, __global const real4* rec_lgrad,
+                         __global const real4* rec_lgrad2, __global const int* bucket_offsets,
+                         __global const int* bucket_counts, __global const int* bucket_recs,
+                         __global real* gS) {
+  int i0 = get_global_id(0) * ROW, j = get_global_id(1);
+  if (i0 >= Wm || j >= Hm) return;
+  const int n = min(ROW, Wm - i0), soft = soft_mode(P);
+  const real sigma_b = light_disc(P, light).sigma_b;
+  const realR Sv = loadR(S, j * Wm + i0, n);
+  realR acc = 0, dc;
+#if EXACT
+  const real eps = 0;
+  for (int r = 0; r < nrec; ++r) {
+    if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
+#else
+  const real eps = P[P_LAMBDA_EPS], leps = log(1 / eps);
+  for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
+    for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
+      for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
+        int r = bucket_recs[bucket_offsets[b] + k];
+        real reach_sigma = soft ? sigma_b : rec_light2[r * nl + light].z;
+        if (!window_reaches(rec_light[r * nl + light].xy, i0, j, 2 * reach_sigma * leps))
+          continue;
+#endif
+    int at = r * nl + light;
+    Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
+    real sigma = rec_light2[at].z, zb = rec_light2[at].w, a = rec_lgrad[at].x;
+    real b = rec_lgrad2[at].z, offy = j - x.mu.y;
+    realR offx = (real)i0 + LANER - x.mu.x;
+    realR lit = lit_term(Sv, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc);
+    realR g = fmax(axis_weight(offx, sigma) * axis_weight(offy, sigma) - eps, (realR)0);
+    acc -= a * g * dc;
+    if (soft && b != 0) {
+      realR h = fmax(axis_weight(offx, sigma_b) * axis_weight(offy, sigma_b) - eps, (realR)0);
+      acc += b * h * ((1 - lit) + (Sv - zb) * dc);
+    }
+  }
+  real out[ROW];
+  vstoreR(acc, 0, out);
+  for (int l = 0; l < n; ++l) gS[j * Wm + i0 + l] = out[l];
+}

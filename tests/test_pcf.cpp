@@ -1,0 +1,265 @@
+// The accurate shadow model (kernels/pcf.cl, docs/shadows.md): percentage-closer filtering of
+// a smooth-step depth compare with the receiver-plane bias, a blocker search for soft shadows
+// (PCSS), and light frusta fitted tightly to what can cast a shadow; on small scenes built here
+// (an icosphere above a ground grid, lit by point and directional lights).
+//
+//   PcfKernels.*      colours against the reference (double ~1e-9, float with a stated bound),
+//                     hard and soft, truncated and exact sampling
+//   PcfGradCheck.*    backward vs finite differences in double (light sizes included for soft
+//                     shadows), and in float within the documented tolerance
+//   PcfLit.*          a lit receiver gets s = 1 exactly: lit ground matches the unshadowed render
+//   PcfPenumbra.*     the soft penumbra straddles the hard edge (the shadow's darkness summed over
+//                     the ground stays that of the hard shadow) and widens with D_L
+//   PcfFrustum.*      the fitted frustum is tight around the occluder; a ground under everything
+//                     casts no shadow
+//   PcfGemm.*         gemm sampling is refused for the accurate model
+//   PcfDeterminism.*  two backward calls give bit-identical gradients
+// A missing OpenCL device fails these tests; it never skips them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/gradcheck.hpp"
+#include "penumbra/reference.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+#include "scenes.hpp"
+
+namespace {
+
+using glm::dvec3;
+using namespace penumbra;
+using namespace penumbra_tests;
+
+enum class Layout { Point, Directional, Two };
+
+// An icosphere of radius 0.5 centred 1.0 above a 4×4 ground grid over [−2, 2]², with lights of
+// size comparable to the occluder's diameter; accurate model, 32² maps (shadow_params).
+Scene pcf_scene(Layout layout, Shadows shadows, Sampling sampling) {
+  Scene s;
+  s.meshes = {icosphere({0.0, 1.0, 0.0}, 0.5), ground(2.0, 4)};
+  s.cameras = {front_camera(layout == Layout::Directional)};
+  switch (layout) {
+    case Layout::Point:
+      s.lights = {point_light({0.9, 5.0, 0.7}, {0.9, 0.85, 0.8}, 1.0)};
+      break;
+    case Layout::Directional:
+      s.lights = {directional_light({-0.35, -1.0, -0.25}, {0.85, 0.9, 0.8}, 0.15)};
+      break;
+    case Layout::Two:
+      s.lights = {point_light({-1.2, 4.5, 0.8}, {0.6, 0.55, 0.5}, 1.0),
+                  directional_light({0.3, -1.0, -0.4}, {0.35, 0.4, 0.45}, 0.1)};
+      break;
+  }
+  shadow_params(s, shadows, sampling, ShadowModel::Accurate);
+  fit_light_frusta(s);
+  return s;
+}
+
+const char* name_of(Shadows s) { return s == Shadows::Hard ? "hard" : "soft"; }
+const char* name_of(Layout l) {
+  return l == Layout::Point ? "point" : l == Layout::Directional ? "directional" : "two lights";
+}
+
+using Case = std::tuple<Shadows, Sampling>;
+class PcfCase : public ::testing::TestWithParam<Case> {};
+
+std::string case_name(const Case& c) {
+  return std::string(name_of(std::get<0>(c))) + " " + penumbra_tests::name_of(std::get<1>(c));
+}
+
+// Double: the same formulas in the same precision, summed in another order: 1e-9 (colour,
+// silhouette; depth relative 1e-6). Float: the raster's bounds of test_raster (silhouette 1e-4,
+// depth 1e-5 relative); the compare divides depth rounding (~5e-7 at depths 3–9) by 4γ_s = 0.16
+// and the blocker depth moves σ, so a colour moves by at most ~1e-4.
+constexpr Tolerance kDoubleTol{1e-9, 1e-9, 1e-6};
+constexpr Tolerance kFloatTol{1e-4, 1e-4, 1e-5};
+
+TEST_P(PcfCase, KernelsMatchReference) {
+  REQUIRE_CONTEXT(ctx);
+  const auto [shadows, sampling] = GetParam();
+  for (Precision precision : {Precision::Double, Precision::Float}) {
+    Renderer& r = shared_renderer(*ctx, precision);
+    for (Layout layout : {Layout::Point, Layout::Directional, Layout::Two}) {
+      const Scene scene = pcf_scene(layout, shadows, sampling);
+      const Tolerance tol = precision == Precision::Double ? kDoubleTol : kFloatTol;
+      const std::string tag = case_name(GetParam()) + " " + name_of(layout) + " " +
+                              penumbra_tests::name_of(precision);
+      const double worst = expect_matches_reference(r, scene, tol, tag);
+      std::cout << "[pcf reference] " << tag << ": max colour error " << worst << std::endl;
+    }
+  }
+}
+
+TEST_P(PcfCase, GradCheckDouble) {
+  REQUIRE_CONTEXT(ctx);
+  const auto [shadows, sampling] = GetParam();
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  for (Layout layout : {Layout::Point, Layout::Directional, Layout::Two}) {
+    const Scene scene = pcf_scene(layout, shadows, sampling);
+    GradCheckOptions options;
+    options.samples = sampling == Sampling::Exact ? 20 : 30;
+    options.seed = 11 + int(layout);
+    GradCheckResult result;
+    ASSERT_NO_THROW(result = gradcheck(r, scene, options));
+    const std::string tag = case_name(GetParam()) + " " + name_of(layout);
+    std::cout << "[pcf gradcheck] " << tag << ": checked=" << result.checked
+              << " failed=" << result.failed << " failure_fraction=" << result.failure_fraction()
+              << " max_rel_err=" << result.max_rel_err << std::endl;
+    EXPECT_TRUE(result.passed()) << tag << "\n" << describe(result);
+    for (size_t l = 0; l < scene.lights.size(); ++l) {
+      const std::string light = "light" + std::to_string(l);
+      EXPECT_TRUE(has_entry(result, light + (scene.lights[l].type == LightType::Point
+                                                 ? ".position"
+                                                 : ".direction")))
+          << tag;
+      if (shadows == Shadows::Soft) EXPECT_TRUE(has_entry(result, light + ".size")) << tag;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Pcf, PcfCase,
+                         ::testing::Combine(::testing::Values(Shadows::Hard, Shadows::Soft),
+                                            ::testing::Values(Sampling::Truncated,
+                                                              Sampling::Exact)));
+
+// Float gradients against double differences, within the documented float tolerance.
+TEST(PcfGradCheck, FloatWithinTolerance) {
+  REQUIRE_CONTEXT(ctx);
+  for (Shadows shadows : {Shadows::Hard, Shadows::Soft}) {
+    const Scene scene = pcf_scene(Layout::Point, shadows, Sampling::Truncated);
+    GradCheckOptions options;
+    options.samples = 30;
+    options.seed = 5;
+    options.precision = Precision::Float;
+    GradCheckResult result;
+    ASSERT_NO_THROW(result = gradcheck(*ctx, scene, options));
+    std::cout << "[pcf gradcheck float] " << name_of(shadows) << ": failed=" << result.failed
+              << "/" << result.checked << " max_rel_err=" << result.max_rel_err << std::endl;
+    EXPECT_TRUE(result.passed()) << name_of(shadows) << "\n" << describe(result);
+  }
+}
+
+// Ground pixels whose colour has no shadow in it: the unshadowed render equals the hard and
+// the soft render to float rounding wherever the soft shadow leaves the ground fully lit (s = 1
+// exactly), and every shadowed pixel is darker, never lighter.
+TEST(PcfLit, LitReceiversAreFullyLit) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  Scene none = pcf_scene(Layout::Point, Shadows::Soft, Sampling::Truncated);
+  none.params.shadows = Shadows::None;
+  const RenderOutput plain = r.render(none)[0];
+  for (Shadows shadows : {Shadows::Hard, Shadows::Soft}) {
+    const RenderOutput got = r.render(pcf_scene(Layout::Point, shadows, Sampling::Truncated))[0];
+    int lit = 0, darker = 0;
+    for (int y = 0; y < plain.color.height; ++y)
+      for (int x = 0; x < plain.color.width; ++x) {
+        const double a = plain.color.at(x, y, 1), b = got.color.at(x, y, 1);
+        EXPECT_LE(b, a + 1e-12) << name_of(shadows) << " pixel " << x << "," << y;
+        if (std::abs(a - b) <= 1e-12) ++lit;
+        else ++darker;
+      }
+    const int pixels = plain.color.width * plain.color.height;
+    EXPECT_GT(lit, pixels / 2) << name_of(shadows) << ": most of the ground is lit exactly";
+    EXPECT_GT(darker, 20) << name_of(shadows) << ": the occluder casts a shadow";
+  }
+}
+
+// Σ over the image of (unshadowed − shadowed) green: the darkness a shadow takes away.
+double darkness(Renderer& r, Scene scene) {
+  Scene none = scene;
+  none.params.shadows = Shadows::None;
+  const Image a = r.render(none)[0].color, b = r.render(scene)[0].color;
+  double sum = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) sum += a.at(x, y, 1) - b.at(x, y, 1);
+  return sum;
+}
+
+// A physical penumbra straddles the hard edge: as much light enters the umbra's rim as leaves
+// the outer penumbra, so the total darkness stays within 15 % of the hard shadow's while the
+// shadow's edge widens with D_L (more pixels partly shadowed). The paper model's outer-only
+// penumbra adds darkness instead.
+TEST(PcfPenumbra, StraddlesTheHardEdgeAndWidensWithLightSize) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  Scene hard = pcf_scene(Layout::Point, Shadows::Hard, Sampling::Truncated);
+  hard.params.shadow_map_size = 96;
+  hard.cameras[0].width = hard.cameras[0].height = 96;
+  hard.lights[0].frustum.fitted = false;
+  fit_light_frusta(hard);
+  const double dark_hard = darkness(r, hard);
+  int previous_partial = 0;
+  for (double size : {0.4, 1.2}) {
+    Scene soft = hard;
+    soft.params.shadows = Shadows::Soft;
+    soft.lights[0].size = size;
+    soft.lights[0].frustum.fitted = false;
+    fit_light_frusta(soft);
+    const double dark = darkness(r, soft);
+    EXPECT_NEAR(dark / dark_hard, 1.0, 0.15) << "D_L = " << size;
+    Scene none = soft;
+    none.params.shadows = Shadows::None;
+    const Image a = r.render(none)[0].color, b = r.render(soft)[0].color;
+    int partial = 0;
+    for (int y = 0; y < a.height; ++y)
+      for (int x = 0; x < a.width; ++x) {
+        const double t = b.at(x, y, 1) / a.at(x, y, 1);
+        partial += t > 0.55 && t < 0.95;
+      }
+    EXPECT_GT(partial, previous_partial) << "D_L = " << size;
+    previous_partial = partial;
+  }
+}
+
+// The accurate model's frustum holds the occluder, not the whole ground: its cone is much
+// narrower than the paper model's, which holds every vertex.
+TEST(PcfFrustum, TightAroundWhatCastsShadows) {
+  Scene accurate = pcf_scene(Layout::Point, Shadows::Hard, Sampling::Truncated);
+  Scene paper = accurate;
+  paper.params.shadow_model = ShadowModel::Paper;
+  refit_light_frusta(paper);
+  EXPECT_LT(accurate.lights[0].frustum.fov_deg, 0.6 * paper.lights[0].frustum.fov_deg)
+      << "accurate " << accurate.lights[0].frustum.fov_deg << "°, paper "
+      << paper.lights[0].frustum.fov_deg << "°";
+  // Without the occluder nothing casts a shadow: the frustum falls back to every vertex.
+  Scene flat = accurate;
+  flat.meshes.erase(flat.meshes.begin());
+  refit_light_frusta(flat);
+  Scene flat_paper = paper;
+  flat_paper.meshes.erase(flat_paper.meshes.begin());
+  refit_light_frusta(flat_paper);
+  EXPECT_NEAR(flat.lights[0].frustum.fov_deg, flat_paper.lights[0].frustum.fov_deg, 1e-9);
+}
+
+TEST(PcfGemm, Refused) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  Scene scene = pcf_scene(Layout::Point, Shadows::Hard, Sampling::Gemm);
+  try {
+    r.render(scene);
+    FAIL() << "gemm sampling of the accurate model was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("does not factor"), std::string::npos) << e.what();
+  }
+}
+
+TEST(PcfDeterminism, BackwardIsBitIdentical) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Float);
+  const Scene scene = pcf_scene(Layout::Two, Shadows::Soft, Sampling::Truncated);
+  const auto weights = random_loss_weights(scene, 3);
+  r.render(scene);
+  const SceneGrads a = r.backward(scene, weights);
+  r.render(scene);
+  const SceneGrads b = r.backward(scene, weights);
+  expect_identical(a, b, "soft truncated");
+}
+
+}  // namespace
