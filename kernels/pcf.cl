@@ -28,6 +28,9 @@
 #define EXACT 0
 #endif
 #define PCF_KAPPA R(1e-3)
+// The blocker search cuts its Gaussian at this fraction of its peak (radius 2.45 standard
+// deviations): it only estimates a mean depth, at less than half the texels of a cut at ε_λ.
+#define PCF_SEARCH_EPS R(0.05)
 
 typedef struct {
   real2 mu;    // texel coordinates of the fragment in the map
@@ -76,14 +79,19 @@ inline realR lit_term(realR S, realR dij, __global const real* P, realR* dc) {
   return 1 - t * t * (3 - 2 * t);
 }
 
-// The window of the Gaussian of variance `sigma` around μ (empty outside the map).
-inline Window pcf_window(real2 mu, real sigma, __global const real* P, int Wm, int Hm) {
+// The cut of the filter's (ε_λ) or the search's Gaussian weights; none when exact.
+inline real window_eps(__global const real* P, int search) {
+  return EXACT ? 0 : search ? PCF_SEARCH_EPS : P[P_LAMBDA_EPS];
+}
+
+// The window of the Gaussian of variance `sigma` cut at `eps` around μ (empty outside the map).
+inline Window pcf_window(real2 mu, real sigma, real eps, int Wm, int Hm) {
   Window w = {1, 1, 0, 0, 0};
   if (!inside_map(mu, Wm, Hm)) return w;
 #if EXACT
   w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
 #else
-  w.eps = P[P_LAMBDA_EPS];
+  w.eps = eps;
   real radius = sqrt(2 * sigma * log(1 / w.eps));
   w.x0 = max((int)ceil(mu.x - radius), 0);
   w.x1 = min((int)floor(mu.x + radius), Wm - 1);
@@ -93,10 +101,11 @@ inline Window pcf_window(real2 mu, real sigma, __global const real* P, int Wm, i
   return w;
 }
 
-// Σ w, Σ w·c, Σ w·S, Σ w·c·S over the window of variance `sigma` (w = g').
-inline real4 window_sums(Receiver x, real sigma, __global const real* P,
+// Σ w, Σ w·c, Σ w·S, Σ w·c·S over the window of variance `sigma` (w = g'), of the filter or
+// of the blocker `search`.
+inline real4 window_sums(Receiver x, real sigma, int search, __global const real* P,
                          __global const real* S, int Wm, int Hm) {
-  Window w = pcf_window(x.mu, sigma, P, Wm, Hm);
+  Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
   realR sw = 0, swc = 0, sws = 0, swcs = 0, dc;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
@@ -168,11 +177,11 @@ __kernel void pcf_sample(__global const real* P, int nrec, int light, int nl, in
   real sigma = P[P_SIGMA_S], zb = x.d, V, dzb, dd, dsize, dw;
   if (soft_mode(P)) {
     LightDisc L = light_disc(P, light);
-    zb = blocker_depth(window_sums(x, L.sigma_b, P, S, Wm, Hm), x.d, &V);
+    zb = blocker_depth(window_sums(x, L.sigma_b, 1, P, S, Wm, Hm), x.d, &V);
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
   }
-  real4 f = window_sums(x, sigma, P, S, Wm, Hm);
+  real4 f = window_sums(x, sigma, 0, P, S, Wm, Hm);
   rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
   rec_light2[at].zw = (real2)(sigma, zb);
 }
@@ -188,7 +197,7 @@ typedef struct {
 
 inline Moments window_moments(Receiver x, real sigma, int search, real ref,
                               __global const real* P, __global const real* S, int Wm, int Hm) {
-  Window w = pcf_window(x.mu, sigma, P, Wm, Hm);
+  Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
   realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, dc;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
@@ -225,7 +234,7 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
   int at = r * nl + light;
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
-  real N = window_sums(x, sigma, P, S, Wm, Hm).x;
+  real N = window_sums(x, sigma, 0, P, S, Wm, Hm).x;
   if (!(N > 0)) {
     rec_lgrad[at] = 0;
     rec_lgrad2[at] = 0;
@@ -239,7 +248,7 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
   if (soft_mode(P)) {  // through σ(w(z_b, d, D_L)) and z_b(μ, d, ∇_μ d, S)
     LightDisc L = light_disc(P, light);
     real dzb, dd, dsize, dw, V;
-    real4 sums = window_sums(x, L.sigma_b, P, S, Wm, Hm);
+    real4 sums = window_sums(x, L.sigma_b, 1, P, S, Wm, Hm);
     blocker_depth(sums, x.d, &V);
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     filter_sigma(w, P[P_SIGMA_S], L.sigma_b, &dw);
@@ -275,19 +284,19 @@ __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, in
   const real sigma_b = light_disc(P, light).sigma_b;
   const realR Sv = loadR(S, j * Wm + i0, n);
   realR acc = 0, dc;
+  const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
 #if EXACT
-  const real eps = 0;
   for (int r = 0; r < nrec; ++r) {
     if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
 #else
-  const real eps = P[P_LAMBDA_EPS], leps = log(1 / eps);
+  const real leps = log(1 / eps), leps_b = log(1 / eps_b);
   for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
     for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
       for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
-        real reach_sigma = soft ? sigma_b : rec_light2[r * nl + light].z;
-        if (!window_reaches(rec_light[r * nl + light].xy, i0, j, 2 * reach_sigma * leps))
-          continue;
+        real r2 = 2 * rec_light2[r * nl + light].z * leps;  // the filter's window, and the search's
+        if (soft) r2 = max(r2, 2 * sigma_b * leps_b);
+        if (!window_reaches(rec_light[r * nl + light].xy, i0, j, r2)) continue;
 #endif
     int at = r * nl + light;
     Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
@@ -298,7 +307,7 @@ __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, in
     realR g = fmax(axis_weight(offx, sigma) * axis_weight(offy, sigma) - eps, (realR)0);
     acc -= a * g * dc;
     if (soft && b != 0) {
-      realR h = fmax(axis_weight(offx, sigma_b) * axis_weight(offy, sigma_b) - eps, (realR)0);
+      realR h = fmax(axis_weight(offx, sigma_b) * axis_weight(offy, sigma_b) - eps_b, (realR)0);
       acc += b * h * ((1 - lit) + (Sv - zb) * dc);
     }
   }

@@ -461,12 +461,12 @@ double lit_step(double delta, const RenderParams& p) {
 
 // Σw, Σw·c, Σw·S, Σw·c·S over the Gaussian window of variance `sigma` around μ.
 std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec2 mu, double d,
-                               dvec2 grad, double sigma) {
+                               dvec2 grad, double sigma, double cut) {
   const int Ws = map.S.width, Hs = map.S.height;
   int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
   double eps = 0.0;
   if (p.sampling == Sampling::Truncated) {
-    eps = p.lambda_eps;
+    eps = cut;
     const double R = std::sqrt(2.0 * sigma * std::log(1.0 / eps));
     i0 = std::max(int(std::ceil(mu.x - R)), 0);
     i1 = std::min(int(std::floor(mu.x + R)), Ws - 1);
@@ -504,13 +504,13 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   double sigma = p.sigma_s;
   if (p.shadows == Shadows::Soft) {
     const double sigma_b = blocker_search_sigma(p, light);
-    const auto b = pcf_sums(map, p, mu, d, grad, sigma_b);
+    const auto b = pcf_sums(map, p, mu, d, grad, sigma_b, 0.05);  // the search's cut
     const double kappa = 1e-3 * b[0], V = b[0] - b[1] + kappa;
     const double zb = V > 0 ? (b[2] - b[3] + kappa * d) / V : d;
     const double w = light.size * k * std::max(0.0, ortho ? d - zb : 1 / zb - 1 / d);
     sigma = std::min(p.sigma_s + w * w / 16, sigma_b);
   }
-  const auto f = pcf_sums(map, p, mu, d, grad, sigma);
+  const auto f = pcf_sums(map, p, mu, d, grad, sigma, p.lambda_eps);
   return f[0] > 0.0 ? f[1] / f[0] : 1.0;
 }
 

@@ -328,12 +328,41 @@ void fit_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& ai
   f.automatic = true;
 }
 
+// σ_b for the nearest blocker at depth `zmin` (along the light's view) over the farthest
+// receiver at the frustum's far plane: σ_s + (widest penumbra in texels)²/16, the penumbra
+// capped at half the map.
+double search_sigma_from(const RenderParams& p, const Light& light, double zmin) {
+  const LightFrustum& f = light.frustum;
+  const bool ortho = light.type == LightType::Directional;
+  const double tan_half = std::tan(f.fov_deg * 3.14159265358979323846 / 360);
+  const double k = p.shadow_map_size / (2 * (ortho ? f.half_size : tan_half));
+  double w = light.size * k * (ortho ? f.far - zmin : 1 / zmin - 1 / f.far);
+  w = std::min(std::max(w, 0.0), 0.5 * p.shadow_map_size);
+  return p.sigma_s + w * w / 16;
+}
+
+void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ);
+
 // The accurate model's frustum: tight around what can cast a shadow, widened by the penumbra
 // a light of diameter D_L casts around it and by the filter window (SPEC-level details in
 // docs/shadows.md); every vertex when nothing can cast a shadow.
 void fit_tight_frustum(const Scene& scene, Light& l, const Bounds& b) {
   std::vector<glm::dvec3> occ = occluder_vertices(scene, l, b);
   if (occ.empty()) return fit_frustum(scene, l, scene_vertices(scene), 0.0);
+  fit_occluder_frustum(scene, l, occ);
+  if (scene.params.shadows != Shadows::Soft || !(l.size > 0)) return;
+  // The blocker search reaches as far as the penumbra of the nearest occluder can.
+  const LightFrustum& f = l.frustum;
+  const glm::dvec3 eye = l.type == LightType::Point ? l.position
+                                                    : f.target - f.distance * glm::normalize(l.direction);
+  const glm::dvec3 fwd = glm::normalize(f.target - eye);
+  double zocc = std::numeric_limits<double>::infinity();
+  for (const glm::dvec3& v : occ) zocc = std::min(zocc, glm::dot(v - eye, fwd));
+  l.frustum.search_sigma = search_sigma_from(scene.params, l, std::max(zocc, f.near));
+}
+
+// The tight frustum around the occluders' vertices `occ`.
+void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ) {
   const RenderParams& p = scene.params;
   const double soft = p.shadows == Shadows::Soft ? l.size : 0.0;
   const double window = std::sqrt(2 * p.sigma_s * std::log(1 / p.lambda_eps)) + 1;  // texels
@@ -370,26 +399,19 @@ void fit_light_frusta(Scene& scene) {
   const Bounds b = bounds(scene);
   for (Light& l : scene.lights) {
     if (l.frustum.fitted) continue;
+    l.frustum.search_sigma = 0.0;  // set by the accurate model's fit (soft shadows)
     if (scene.params.shadow_model == ShadowModel::Accurate)
       fit_tight_frustum(scene, l, b);
     else
       fit_frustum(scene, l, scene_vertices(scene), 0.0);
-    l.frustum.search_sigma = 0.0;
-    if (scene.params.shadows == Shadows::Soft && l.size > 0)
-      l.frustum.search_sigma = blocker_search_sigma(scene.params, l);
+
   }
 }
 
 double blocker_search_sigma(const RenderParams& p, const Light& light) {
   if (p.shadows != Shadows::Soft || !(light.size > 0)) return p.sigma_s;
   if (light.frustum.search_sigma > 0) return light.frustum.search_sigma;
-  const LightFrustum& f = light.frustum;
-  const bool ortho = light.type == LightType::Directional;
-  const double tan_half = std::tan(f.fov_deg * 3.14159265358979323846 / 360);
-  const double k = p.shadow_map_size / (2 * (ortho ? f.half_size : tan_half));
-  double w = light.size * k * (ortho ? f.far - f.near : 1 / f.near - 1 / f.far);
-  w = std::min(w, 0.5 * p.shadow_map_size);
-  return p.sigma_s + w * w / 16;
+  return search_sigma_from(p, light, light.frustum.near);
 }
 
 void refit_light_frusta(Scene& scene) {

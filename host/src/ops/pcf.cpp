@@ -9,10 +9,19 @@ namespace penumbra::detail {
 
 namespace {
 
-// Texels within which the gather finds every fragment whose window (of variance at most
-// `sigma`) can hold a texel: the window radius plus one for the bucket's rounding.
-int gather_reach(const RenderParams& p, double sigma) {
-  return int(std::ceil(std::sqrt(2 * sigma * std::log(1 / p.lambda_eps)))) + 1;
+constexpr double kSearchEps = 0.05;  // PCF_SEARCH_EPS of pcf.cl
+
+// Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
+// ε_λ) or search window (σ_b cut at PCF_SEARCH_EPS) can hold a texel, plus one for the
+// bucket's rounding.
+int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const ViewState& v,
+                 int light) {
+  auto rec = download_reals(k.ctx(), k.precision(), v.rec_light2, v.nrec * v.nlights * 4);
+  double sigma = p.sigma_s;
+  for (size_t r = 0; r < v.nrec; ++r) sigma = std::max(sigma, rec[(r * v.nlights + light) * 4 + 2]);
+  double r2 = 2 * sigma * std::log(1 / p.lambda_eps);
+  if (p.shadows == Shadows::Soft) r2 = std::max(r2, 2 * search_sigma * std::log(1 / kSearchEps));
+  return int(std::ceil(std::sqrt(r2))) + 1;
 }
 
 }  // namespace
@@ -42,7 +51,7 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
     bins = texel_buckets(k, v, light, Wm, Hm);
   else
     bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
-  const int reach = gather_reach(p, std::max(search_sigma, p.sigma_s));
+  const int reach = gather_reach(k, p, search_sigma, v, light);
   auto& ga = k.get("pcf.cl", "pcf_gather", variant);
   set_args(ga, v.P, n, light, nl, Wm, Hm, reach, lv.depth, v.rec_light, v.rec_light2,
            v.rec_lgrad, v.rec_lgrad2, bins.offsets, bins.counts, bins.items, g.S);
