@@ -61,9 +61,9 @@ int run_shadow_art(const ShadowArtArgs& a) {
 
   const Stopwatch clock;
 
-  // The starting object: the visual hull of the targets on a grid of about 64³ voxels over the
+  // The starting object: the visual hull of the targets on a grid of about 32³ voxels over the
   // cube the views share, meshed by surface nets and smoothed a little.
-  const int grid = stage_resolution(size, 64);
+  const int grid = stage_resolution(size, 32);
   std::vector<Image> coarse;
   for (const Image& t : problem.targets) coarse.push_back(binarize(downsample(t, size / grid)));
   const std::vector<unsigned char> hull = visual_hull(coarse, directions, kHalfHeight, grid, 1.0);

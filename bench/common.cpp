@@ -248,14 +248,14 @@ void throughput_counters(benchmark::State& state, const Scene& s, double fragmen
   C["image"] = s.cameras.front().width;
   C["map"] = p.shadow_map_size;
   C["faces"] = faces;
-  C["sigma_s"] = p.sigma_s;
+  C["sigma_s"] = shadow_sigma_s(p);
   C["lights"] = lights;
   C["fragments"] = fragments;
   if (seconds <= 0) return;
   C["pixel_face_pairs_per_s"] = pairs / seconds;
   if (!shadows) return;
   const bool truncated = p.sampling == Sampling::Truncated;
-  const double radius = std::sqrt(2.0 * p.sigma_s * std::log(1.0 / p.lambda_eps));
+  const double radius = std::sqrt(2.0 * shadow_sigma_s(p) * std::log(1.0 / p.lambda_eps));
   const double per_fragment = truncated ? 4.0 * radius * radius : map_texels;
   C["samples_per_s"] = fragments * lights * per_fragment / seconds;
   if (p.shadows == Shadows::Hard && !truncated) {

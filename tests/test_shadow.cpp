@@ -190,7 +190,7 @@ TEST(ShadowReference, NoneAndHardAgreeAwayFromShadowsSoftGemmThrows) {
   none.params.shadows = Shadows::None;
   const RenderOutput a = penumbra::reference::render(hard, 0), b = penumbra::reference::render(none, 0);
   const auto lit = pixel_of(hard.cameras[0], {1.3, 0.0, 1.1});
-  const double s = 1 / (1 + std::exp(-hard.params.beta / hard.params.gamma_s));
+  const double s = 1 / (1 + std::exp(-*hard.params.beta / *hard.params.gamma_s));
   // colour = a·I_a + s·a·I_L·cos, so None − Hard = (1 − s)·(direct part) ≤ (1 − s)·None; the
   // filtered depth on flat lit ground is within a little of the receiver's own (slack 1%).
   for (int c = 0; c < 3; ++c) {

@@ -303,7 +303,7 @@ Image penumbra(const Scene& scene, const ShadowMap& map, double light_size) {
   const View& view = map.view;
   const std::vector<Face> faces = setup_faces(scene, view);
   const int W = view.width, H = view.height;
-  const double sigma0 = sigmoid(-p.beta / p.gamma_s);
+  const double sigma0 = sigmoid(-shadow_beta(p) / shadow_gamma_s(p));
   const double lit = std::exp(-p.gamma_p);
   Image P(W, H, 1);
   for (int j = 0; j < H; ++j)
@@ -331,7 +331,7 @@ Image penumbra(const Scene& scene, const ShadowMap& map, double light_size) {
         const double r = d * (view.perspective ? z * view.scale : view.scale);  // world units
         const double tau = r / b;
         if (!(tau < 1.0)) continue;  // q outside t's cone
-        const double x = (Sq - p.beta - z) / p.gamma_s;
+        const double x = (Sq - shadow_beta(p) - z) / shadow_gamma_s(p);
         const double m = std::max(0.0, sigmoid(x) - sigma0) / (1.0 - sigma0);
         const double v = 1.0 - m * (1.0 - tau);
         const double a = (1.0 - v) * std::exp(-p.gamma_p * v);
@@ -364,7 +364,7 @@ double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) 
   if (p.sampling == Sampling::Truncated) {
     // g' = max(0, g − ε_λ), zero beyond R = sqrt(2σ_s·ln(1/ε_λ)).
     eps = p.lambda_eps;
-    const double R = std::sqrt(2.0 * p.sigma_s * std::log(1.0 / eps));
+    const double R = std::sqrt(2.0 * shadow_sigma_s(p) * std::log(1.0 / eps));
     i0 = std::max(int(std::ceil(mux - R)), 0);
     i1 = std::min(int(std::floor(mux + R)), Ws - 1);
     j0 = std::max(int(std::ceil(muy - R)), 0);
@@ -374,14 +374,14 @@ double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) 
   for (int j = j0; j <= j1; ++j)
     for (int i = i0; i <= i1; ++i) {
       const double dx = i - mux, dy = j - muy;
-      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * p.sigma_s)) - eps;
+      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * shadow_sigma_s(p))) - eps;
       if (g > 0.0) {
         sum += g;
         acc += g * map.S.at(i, j);
       }
     }
   if (!(sum > 0.0)) return 1.0;  // no texel has weight: lit
-  return sigmoid((acc / sum - d + p.beta) / p.gamma_s);
+  return sigmoid((acc / sum - d + shadow_beta(p)) / shadow_gamma_s(p));
 }
 
 // Receiver-plane depth gradient ∇_μ d (SPEC §4) of `face` at a point of light depth d: the
@@ -430,7 +430,7 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
   double eps = 0.0;  // exact: every texel, weights g
   if (p.sampling == Sampling::Truncated) {
     eps = p.lambda_eps;
-    const double R = std::sqrt(2.0 * p.sigma_s * std::log(1.0 / eps));
+    const double R = std::sqrt(2.0 * shadow_sigma_s(p) * std::log(1.0 / eps));
     i0 = std::max(int(std::ceil(mux - R)), 0);
     i1 = std::min(int(std::floor(mux + R)), Ws - 1);
     j0 = std::max(int(std::ceil(muy - R)), 0);
@@ -440,12 +440,12 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
   for (int j = j0; j <= j1; ++j)
     for (int i = i0; i <= i1; ++i) {
       const double dx = i - mux, dy = j - muy;
-      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * p.sigma_s)) - eps;
+      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * shadow_sigma_s(p))) - eps;
       if (!(g > 0.0)) continue;
       const double dij = d + grad.x * dx + grad.y * dy;
       const double S = map.S.at(i, j), P = map.P.at(i, j);
-      const double front = sigmoid((S - dij + p.beta) / p.gamma_s);
-      const double at = sigmoid((dij - S + p.beta) / p.gamma_s);
+      const double front = sigmoid((S - dij + shadow_beta(p)) / shadow_gamma_s(p));
+      const double at = sigmoid((dij - S + shadow_beta(p)) / shadow_gamma_s(p));
       sum += g;
       acc += g * front * (1.0 - at * (1.0 - P));
     }
@@ -455,7 +455,7 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
 
 // The accurate model (kernels/pcf.cl): c = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
 double lit_step(double delta, const RenderParams& p) {
-  const double t = std::clamp((delta - (p.beta - 2 * p.gamma_s)) / (4 * p.gamma_s), 0.0, 1.0);
+  const double t = std::clamp((delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
   return 1 - t * t * (3 - 2 * t);
 }
 
@@ -501,14 +501,14 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   // Slope limit: a face within 1° of edge-on extrapolates as if at 1° (texel size over tan 1°).
   const double limit = (ortho ? 1.0 : std::abs(d)) / (k * 0.017455), len = glm::length(grad);
   if (len > limit) grad *= limit / len;
-  double sigma = p.sigma_s;
+  double sigma = shadow_sigma_s(p);
   if (p.shadows == Shadows::Soft) {
     const double sigma_b = blocker_search_sigma(p, light);
     const auto b = pcf_sums(map, p, mu, d, grad, sigma_b, 0.05);  // the search's cut
     const double kappa = 1e-3 * b[0], V = b[0] - b[1] + kappa;
     const double zb = V > 0 ? (b[2] - b[3] + kappa * d) / V : d;
     const double w = light.size * k * std::max(0.0, ortho ? d - zb : 1 / zb - 1 / d);
-    sigma = std::min(p.sigma_s + w * w / 16, sigma_b);
+    sigma = std::min(shadow_sigma_s(p) + w * w / 16, sigma_b);
   }
   const auto f = pcf_sums(map, p, mu, d, grad, sigma, p.lambda_eps);
   return f[0] > 0.0 ? f[1] / f[0] : 1.0;

@@ -157,12 +157,12 @@ std::vector<double> base_params(const RenderParams& r, double sigma, double gamm
   P[P_CULL] = r.cull_backfaces ? 1 : 0;
   P[P_WEIGHT_LOG] = std::log(1.0 / r.weight_eps);
   P[P_SHADOWS] = double(int(r.shadows));
-  P[P_SIGMA_S] = r.sigma_s;
+  P[P_SIGMA_S] = shadow_sigma_s(r);
   P[P_LAMBDA_EPS] = r.lambda_eps;
-  P[P_WINDOW_R2] = 2 * r.sigma_s * std::log(1 / r.lambda_eps);  // once here, not per fragment
+  P[P_WINDOW_R2] = 2 * P[P_SIGMA_S] * std::log(1 / r.lambda_eps);  // once here, not per fragment
   P[P_WINDOW_R] = std::sqrt(P[P_WINDOW_R2]);
-  P[P_GAMMA_S] = r.gamma_s;
-  P[P_BETA] = r.beta;
+  P[P_GAMMA_S] = shadow_gamma_s(r);
+  P[P_BETA] = shadow_beta(r);
   P[P_GAMMA_P] = r.gamma_p;
   put_frame(P, P_FRAME, frame);
   return P;

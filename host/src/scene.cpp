@@ -178,10 +178,12 @@ void validate_params(const RenderParams& p) {
   check_open_unit("gamma", p.gamma);
   check_open_unit("eps", p.eps);
   check_open_unit("dist_eps", p.dist_eps);
-  check_positive("sigma_s", p.sigma_s);
+  check_positive("sigma_s", shadow_sigma_s(p));
   check_open_unit("lambda_eps", p.lambda_eps);
-  check_positive("gamma_s", p.gamma_s);
-  if (!std::isfinite(p.beta)) fail("render parameter beta = " + num(p.beta) + " is not finite");
+  check_positive("gamma_s", shadow_gamma_s(p));
+  check_positive("depth_unit", p.depth_unit);
+  if (!std::isfinite(shadow_beta(p)))
+    fail("render parameter beta = " + num(shadow_beta(p)) + " is not finite");
   check_positive("gamma_p", p.gamma_p);
   if (!(p.shadow_map_size >= 1 && p.shadow_map_size <= 8192))
     fail("render parameter shadow_map_size = " + std::to_string(p.shadow_map_size) +
@@ -338,7 +340,7 @@ double search_sigma_from(const RenderParams& p, const Light& light, double zmin)
   const double k = p.shadow_map_size / (2 * (ortho ? f.half_size : tan_half));
   double w = light.size * k * (ortho ? f.far - zmin : 1 / zmin - 1 / f.far);
   w = std::min(std::max(w, 0.0), 0.5 * p.shadow_map_size);
-  return p.sigma_s + w * w / 16;
+  return shadow_sigma_s(p) + w * w / 16;
 }
 
 void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ);
@@ -365,7 +367,7 @@ void fit_tight_frustum(const Scene& scene, Light& l, const Bounds& b) {
 void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ) {
   const RenderParams& p = scene.params;
   const double soft = p.shadows == Shadows::Soft ? l.size : 0.0;
-  const double window = std::sqrt(2 * p.sigma_s * std::log(1 / p.lambda_eps)) + 1;  // texels
+  const double window = std::sqrt(2 * shadow_sigma_s(p) * std::log(1 / p.lambda_eps)) + 1;  // texels
   const double texels = std::min(2.0 * window / p.shadow_map_size, 0.5);  // share of the map
   if (l.type == LightType::Point) {
     double zocc = std::numeric_limits<double>::infinity();
@@ -408,8 +410,18 @@ void fit_light_frusta(Scene& scene) {
   }
 }
 
+double shadow_sigma_s(const RenderParams& p) {
+  return p.sigma_s ? *p.sigma_s : p.shadow_model == ShadowModel::Paper ? 2.0 : 0.5;
+}
+double shadow_gamma_s(const RenderParams& p) {
+  return p.gamma_s ? *p.gamma_s : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.02 : 0.004);
+}
+double shadow_beta(const RenderParams& p) {
+  return p.beta ? *p.beta : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.05 : 0.01);
+}
+
 double blocker_search_sigma(const RenderParams& p, const Light& light) {
-  if (p.shadows != Shadows::Soft || !(light.size > 0)) return p.sigma_s;
+  if (p.shadows != Shadows::Soft || !(light.size > 0)) return shadow_sigma_s(p);
   if (light.frustum.search_sigma > 0) return light.frustum.search_sigma;
   return search_sigma_from(p, light, light.frustum.near);
 }
@@ -462,9 +474,8 @@ Scene framed_scene(Mesh mesh, int width, int height) {
 
   scene.ambient = {0.2, 0.2, 0.2};
   scene.background = {1, 1, 1};
-  // The depth-unit parameters (SPEC §7) are tuned for a unit sphere: scale them with the mesh.
-  scene.params.gamma_s *= r;
-  scene.params.beta *= r;
+  // The depth-unit defaults (SPEC §7) are for a unit sphere: scale them with the mesh.
+  scene.params.depth_unit = r;
   fit_light_frusta(scene);
   validate(scene);
   return scene;

@@ -2,6 +2,7 @@
 // Scene model: meshes, cameras, lights and render parameters (SPEC §0, §2, §7).
 // Host-side values are double so that gradient checks can run entirely in double precision.
 #include <glm/glm.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -101,10 +102,11 @@ struct RenderParams {
   double gamma = 1e-4;       // aggregation sharpness γ
   double eps = 1e-3;         // background depth ε of the aggregation
   double dist_eps = 1e-4;    // coverage cut-off ε_D
-  double sigma_s = 2.0;      // shadow-map Gaussian variance (texel²)
+  // σ_s, γ_s and β: unset, each takes its shadow model's default (shadow_sigma_s, ...).
+  std::optional<double> sigma_s;  // shadow-map Gaussian variance (texel²)
   double lambda_eps = 1e-3;  // truncation threshold ε_λ
-  double gamma_s = 0.02;     // depth-compare softness γ_s
-  double beta = 0.05;        // depth bias β (depth units)
+  std::optional<double> gamma_s;  // depth-compare softness γ_s (depth units)
+  std::optional<double> beta;     // depth bias β (depth units)
   double gamma_p = 10.0;     // penumbra soft-minimum sharpness γ_P
   bool cull_backfaces = false;
   Shadows shadows = Shadows::None;
@@ -117,7 +119,18 @@ struct RenderParams {
   // included) is left out of the colour and depth (but not the silhouette), so
   // that shadow terms are sampled only where they can show.
   double weight_eps = 1e-10;
+  // World size that the depth-unit defaults of γ_s and β are for (1: a unit-radius object);
+  // framed_scene sets the mesh's bounding radius.
+  double depth_unit = 1.0;
 };
+
+// σ_s, γ_s and β in force: the value given, else the shadow model's default — paper: 2 texel²,
+// 0.02, 0.05 (SPEC §7); accurate: 0.5 texel², 0.004, 0.01 (its compare needs no slack for a
+// tilted receiver, so a small β keeps contact shadows closed; docs/shadows.md). γ_s and β
+// defaults are multiplied by depth_unit.
+double shadow_sigma_s(const RenderParams& p);
+double shadow_gamma_s(const RenderParams& p);
+double shadow_beta(const RenderParams& p);
 
 struct Scene {
   std::vector<Mesh> meshes;
