@@ -62,10 +62,11 @@ int run_shadow_art(const ShadowArtArgs& a) {
   const Stopwatch clock;
 
   // The starting object: the visual hull of the targets on a grid of about 32³ voxels over the
-  // cube the views share, meshed by surface nets and smoothed a little.
+  // cube the views share, meshed by surface nets and smoothed a little. A coarse pixel counts as
+  // covered from a third of its area on: the meshing and smoothing pull the surface inwards.
   const int grid = stage_resolution(size, 32);
   std::vector<Image> coarse;
-  for (const Image& t : problem.targets) coarse.push_back(binarize(downsample(t, size / grid)));
+  for (const Image& t : problem.targets) coarse.push_back(binarize(downsample(t, size / grid), 0.35));
   const std::vector<unsigned char> hull = visual_hull(coarse, directions, kHalfHeight, grid, 1.0);
   if (std::count(hull.begin(), hull.end(), 1) == 0)
     throw Error("the targets have no object in common: no voxel of the " + std::to_string(grid) +

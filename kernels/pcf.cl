@@ -189,16 +189,17 @@ __kernel void pcf_sample(__global const real* P, int nrec, int light, int nl, in
 // Weighted moments of a window for the backward, with per-texel value v and slope q chosen by
 // `search`: the filter (v = c − s, q = dc/dΔ) or the blocker search (v = o·(S − z_b) +
 // κ·(d − z_b), q = −(S − z_b)·dc/dΔ), `ref` being s or z_b:
-//   .mu = Σ g·((i, j) − μ)/σ·v,  .q = Σ w·q,  .qoff = Σ w·q·((i, j) − μ),  .r2 = Σ g·r²·v
+//   .mu = Σ g·((i, j) − μ)/σ·v,  .q = Σ w·q,  .qoff = Σ w·q·((i, j) − μ),  .r2 = Σ g·r²·v,
+//   .w = Σ w, .wo = Σ w·(1 − c)
 typedef struct {
   real2 mu, qoff;
-  real q, r2;
+  real q, r2, w, wo;
 } Moments;
 
 inline Moments window_moments(Receiver x, real sigma, int search, real ref,
                               __global const real* P, __global const real* S, int Wm, int Hm) {
   Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
-  realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, dc;
+  realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
   for (int j = w.y0; j <= w.y1; ++j) {
@@ -217,10 +218,12 @@ inline Moments window_moments(Receiver x, real sigma, int search, real ref,
       q += lam * qv;
       qx += lam * qv * offx;
       qy += lam * qv * offy;
+      sw += lam;
+      swo += lam * (1 - lit);
     }
   }
   Moments m = {(real2)(hsumR(mux), hsumR(muy)) / sigma, (real2)(hsumR(qx), hsumR(qy)),
-               hsumR(q), hsumR(r2)};
+               hsumR(q), hsumR(r2), hsumR(sw), hsumR(swo)};
   return m;
 }
 
@@ -234,33 +237,32 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
   int at = r * nl + light;
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
-  real N = window_sums(x, sigma, 0, P, S, Wm, Hm).x;
-  if (!(N > 0)) {
+  // Through the filter, σ held: s = Σ w·c / Σ w.
+  Moments f = window_moments(x, sigma, 0, s, P, S, Wm, Hm);
+  if (!(f.w > 0)) {
     rec_lgrad[at] = 0;
     rec_lgrad2[at] = 0;
     return;
   }
-  // Through the filter, σ held: s = Σ w·c / Σ w.
-  Moments f = window_moments(x, sigma, 0, s, P, S, Wm, Hm);
-  real k = G / N;
+  real k = G / f.w;
   real2 gmu = k * (f.mu - x.grad * f.q), ggrad = k * f.qoff;
   real gd = k * f.q, gzb_v = 0, gsize = 0;
   if (soft_mode(P)) {  // through σ(w(z_b, d, D_L)) and z_b(μ, d, ∇_μ d, S)
     LightDisc L = light_disc(P, light);
-    real dzb, dd, dsize, dw, V;
-    real4 sums = window_sums(x, L.sigma_b, 1, P, S, Wm, Hm);
-    blocker_depth(sums, x.d, &V);
+    real dzb, dd, dsize, dw;
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     filter_sigma(w, P[P_SIGMA_S], L.sigma_b, &dw);
     real gw = k * f.r2 / (2 * sigma * sigma) * dw;  // dL/dw
     gsize = gw * dsize;
     gd += gw * dd;
     real gzb = gw * dzb;
-    if (gzb != 0 && V > 0) {
-      Moments b = window_moments(x, L.sigma_b, 1, zb, P, S, Wm, Hm);
+    Moments b;
+    if (gzb != 0) b = window_moments(x, L.sigma_b, 1, zb, P, S, Wm, Hm);
+    real V = gzb != 0 ? b.wo + PCF_KAPPA * b.w : 0;  // blocker_depth's denominator
+    if (V > 0) {
       gzb_v = gzb / V;
       gmu += gzb_v * (b.mu - x.grad * b.q);
-      gd += gzb_v * (b.q + PCF_KAPPA * sums.x);
+      gd += gzb_v * (b.q + PCF_KAPPA * b.w);
       ggrad += gzb_v * b.qoff;
     }
   }
