@@ -92,7 +92,7 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
           ->group(shadow_group);
   o.o_light_sigma = cmd.add_option("--light-sigma", o.light_sigma,
                                    "coverage sharpness σ_L of the light pass, in [0, 1) "
-                                   "(0: the same as σ)")
+                                   "(0: σ/10)")
                         ->group(shadow_group);
   o.o_light_gamma = cmd.add_option("--light-gamma", o.light_gamma,
                                    "aggregation sharpness γ_L of the light pass, in [0, 1) "
@@ -200,7 +200,7 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
   }
   if (given(o.o_light_sigma)) {
     require(std::isfinite(o.light_sigma) && o.light_sigma >= 0 && o.light_sigma < 1,
-            "--light-sigma", "in [0, 1) (0: the same as --sigma)", o.light_sigma);
+            "--light-sigma", "in [0, 1) (0: a tenth of --sigma)", o.light_sigma);
     p.light_sigma = o.light_sigma;
   }
   if (given(o.o_light_gamma)) {

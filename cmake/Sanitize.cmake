@@ -2,7 +2,7 @@
 #
 # PENUMBRA_SANITIZE=address,undefined (any list that -fsanitize= takes) instruments every target
 # of the build — host library, tool, tests, benchmarks — with GCC or clang. The preset `asan`
-# selects it; scripts/sanitize.sh builds and runs the test suite that way. The runtime options
+# selects it; `scripts/test.sh asan` builds and runs the test suite that way. The runtime options
 # that PoCL needs inside an instrumented process are compiled into every executable of the
 # build (cmake/sanitizer_defaults.cpp); the environment variables ASAN_OPTIONS, UBSAN_OPTIONS
 # and LSAN_OPTIONS still override them.
