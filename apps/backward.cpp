@@ -71,6 +71,36 @@ std::vector<double> flatten(const std::vector<glm::dvec3>& values) {
   return out;
 }
 
+// The gradient files: vertices_<mesh>.npy and albedo_<mesh>.npy per mesh, lights.npy (L, 7),
+// ambient.npy, all float64.
+std::vector<FileContent> gradient_files(const std::string& dir, const Scene& scene,
+                                        const SceneGrads& g) {
+  std::vector<FileContent> files;
+  auto npy = [&](const std::vector<double>& values, size_t rows, size_t cols,
+                 const std::string& name) {
+    const std::string path = (fs::path(dir) / name).string();
+    files.push_back({path, npy_bytes(values, rows, cols, path, true), "NumPy file"});
+  };
+  const std::vector<std::string> names = mesh_file_names(scene);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const std::vector<glm::dvec3> none;
+    const auto& gv = m < g.vertices.size() ? g.vertices[m] : none;
+    const auto& ga = m < g.albedo.size() ? g.albedo[m] : none;
+    npy(flatten(gv), gv.size(), 3, "vertices_" + names[m] + ".npy");
+    npy(flatten(ga), ga.size(), 3, "albedo_" + names[m] + ".npy");
+  }
+  std::vector<double> lights;
+  for (size_t l = 0; l < scene.lights.size(); ++l) {
+    const glm::dvec3 p = l < g.light_position.size() ? g.light_position[l] : glm::dvec3(0.0);
+    const glm::dvec3 c = l < g.light_color.size() ? g.light_color[l] : glm::dvec3(0.0);
+    const double size = l < g.light_size.size() ? g.light_size[l] : 0.0;
+    lights.insert(lights.end(), {p.x, p.y, p.z, c.x, c.y, c.z, size});
+  }
+  npy(lights, scene.lights.size(), 7, "lights.npy");
+  npy({g.ambient.x, g.ambient.y, g.ambient.z}, 1, 3, "ambient.npy");
+  return files;
+}
+
 int run_backward(const BackwardArgs& a) {
   Scene scene = load_scene_source(a.source);
   apply_render_options(a.render, scene);
@@ -93,26 +123,7 @@ int run_backward(const BackwardArgs& a) {
   const SceneGrads g = renderer.backward(scene, grads);
 
   make_dirs(a.output);
-  const std::vector<std::string> names = mesh_file_names(scene);
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    const std::vector<glm::dvec3> none;
-    const auto& gv = m < g.vertices.size() ? g.vertices[m] : none;
-    const auto& ga = m < g.albedo.size() ? g.albedo[m] : none;
-    save_npy(flatten(gv), gv.size(), 3,
-             (fs::path(a.output) / ("vertices_" + names[m] + ".npy")).string(), true);
-    save_npy(flatten(ga), ga.size(), 3,
-             (fs::path(a.output) / ("albedo_" + names[m] + ".npy")).string(), true);
-  }
-  std::vector<double> lights;
-  for (size_t l = 0; l < scene.lights.size(); ++l) {
-    const glm::dvec3 p = l < g.light_position.size() ? g.light_position[l] : glm::dvec3(0.0);
-    const glm::dvec3 c = l < g.light_color.size() ? g.light_color[l] : glm::dvec3(0.0);
-    const double size = l < g.light_size.size() ? g.light_size[l] : 0.0;
-    lights.insert(lights.end(), {p.x, p.y, p.z, c.x, c.y, c.z, size});
-  }
-  save_npy(lights, scene.lights.size(), 7, (fs::path(a.output) / "lights.npy").string(), true);
-  save_npy(std::vector<double>{g.ambient.x, g.ambient.y, g.ambient.z}, 1, 3,
-           (fs::path(a.output) / "ambient.npy").string(), true);
+  write_files(gradient_files(a.output, scene, g));
 
   std::printf("wrote gradients of %zu mesh%s, %zu light%s and ambient to %s\n", scene.meshes.size(),
               scene.meshes.size() == 1 ? "" : "es", scene.lights.size(),

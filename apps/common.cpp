@@ -539,8 +539,8 @@ std::vector<double> FitRecorder::finish(const Mesh& result, const std::vector<Im
     for (int k = 0; k < 10; ++k) gif_->add_frame(final_frame);  // hold the result a moment
     gif_->close();
   }
-  save_png(final_frame, path("result.png"));
-  save_obj(result, path("mesh.obj"));
+  write_files({{path("result.png"), png_bytes(final_frame, path("result.png")), "PNG"},
+               {path("mesh.obj"), obj_text(result), "OBJ file"}});
   return ious;
 }
 

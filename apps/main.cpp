@@ -1,6 +1,7 @@
 // `penumbra`: the command-line tool. One file per subcommand; shared options in common.cpp.
 // Every failure prints one line `penumbra: error: <message>` to stderr and exits with 1
 // (2 for usage errors).
+#include <csignal>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -19,6 +20,11 @@ int fail(const std::string& message, int code = 1) {
 
 int main(int argc, char** argv) {
   using namespace penumbra::cli;
+  // A write past a file-size limit (RLIMIT_FSIZE) or into a pipe nobody reads would kill the
+  // process with SIGXFSZ or SIGPIPE; ignored, the write fails with EFBIG or EPIPE instead and
+  // the file writer reports it as an error.
+  std::signal(SIGXFSZ, SIG_IGN);
+  std::signal(SIGPIPE, SIG_IGN);
   CLI::App app{
       "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
       "gradient checks, turnaround animations, fitting shapes to silhouettes and shadows)",

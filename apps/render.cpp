@@ -22,6 +22,35 @@ struct RenderArgs {
   std::string output, raw_dir, precision;
 };
 
+// Every file of the render: the PNG of each view, and with --raw the arrays of each view and
+// the shadow map S (penumbra map P for soft shadows) of each light. Creates the folders.
+std::vector<FileContent> render_files(const RenderArgs& a, const std::vector<RenderOutput>& views,
+                                      const Renderer& renderer) {
+  std::vector<FileContent> files;
+  auto png = [&](const Image& image, const std::string& path) {
+    files.push_back({path, png_bytes(image, path), "PNG"});
+  };
+  auto npy = [&](const Image& image, const std::string& path) {
+    files.push_back({path, npy_bytes(image, path), "NumPy file"});
+  };
+  for (size_t v = 0; v < views.size(); ++v) png(views[v].color, view_path(a.output, v));
+  make_parent_dirs(a.output);
+  if (a.raw_dir.empty()) return files;
+  make_dirs(a.raw_dir);
+  for (size_t v = 0; v < views.size(); ++v) {
+    npy(views[v].color, view_file(a.raw_dir, "color", v));
+    npy(views[v].silhouette, view_file(a.raw_dir, "silhouette", v));
+    npy(views[v].depth, view_file(a.raw_dir, "depth", v));
+  }
+  auto maps = [&](const std::vector<Image>& images, const std::string& stem) {
+    for (size_t l = 0; l < images.size(); ++l)
+      npy(images[l], (fs::path(a.raw_dir) / (stem + std::to_string(l) + ".npy")).string());
+  };
+  maps(renderer.shadow_maps(), "shadow_map_");
+  maps(renderer.penumbra_maps(), "penumbra_map_");
+  return files;
+}
+
 int run_render(const RenderArgs& a) {
   Scene scene = load_scene_source(a.source);
   apply_render_options(a.render, scene);
@@ -34,25 +63,7 @@ int run_render(const RenderArgs& a) {
   const auto t1 = std::chrono::steady_clock::now();
   const double ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
 
-  make_parent_dirs(a.output);
-  for (size_t v = 0; v < views.size(); ++v) save_png(views[v].color, view_path(a.output, v));
-  if (!a.raw_dir.empty()) {
-    make_dirs(a.raw_dir);
-    for (size_t v = 0; v < views.size(); ++v) {
-      save_npy(views[v].color, view_file(a.raw_dir, "color", v));
-      save_npy(views[v].silhouette, view_file(a.raw_dir, "silhouette", v));
-      save_npy(views[v].depth, view_file(a.raw_dir, "depth", v));
-    }
-    // Shadow map S of every light (light-view depth) when shadows are on, and its penumbra map
-    // P for soft shadows.
-    auto save_maps = [&](const std::vector<Image>& maps, const std::string& stem) {
-      for (size_t l = 0; l < maps.size(); ++l)
-        save_npy(maps[l], (fs::path(a.raw_dir) / (stem + std::to_string(l) + ".npy")).string());
-    };
-    save_maps(renderer.shadow_maps(), "shadow_map_");
-    save_maps(renderer.penumbra_maps(), "penumbra_map_");
-  }
-
+  write_files(render_files(a, views, renderer));
   size_t faces = 0;
   for (const Mesh& m : scene.meshes) faces += m.faces.size();
   const Camera& cam = scene.cameras.front();

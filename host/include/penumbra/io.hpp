@@ -1,6 +1,8 @@
 #pragma once
 // Files in and out: OBJ meshes, JSON scenes, PNG images, NumPy .npy arrays.
 // Every loader throws penumbra::Error with a one-line message naming the file and the problem.
+// Every writer goes through OutputFile: a failed write leaves nothing at the destination and
+// an earlier file there untouched.
 #include <memory>
 #include <string>
 #include <vector>
@@ -10,10 +12,47 @@
 
 namespace penumbra {
 
+// A file written atomically: to a temporary file in the destination's folder, every write and
+// the close checked, then renamed over `path` by commit(). On any failure (and when destroyed
+// before commit()) the temporary file is removed, and the failures throw penumbra::Error
+// "cannot write <what> '<path>': <reason>" (the reason from strerror). A destination that
+// exists and is not a regular file (/dev/null, /dev/full, a named pipe) is written directly,
+// with the same checks. A symbolic link to a file keeps pointing at the new file.
+class OutputFile {
+ public:
+  // `what` names the kind of file in messages: "PNG", "NumPy file", ...
+  OutputFile(const std::string& path, const std::string& what);
+  ~OutputFile();
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+  void write(const void* data, size_t size);
+  void write(const std::string& bytes);
+  void close();   // closes and checks; the file is not yet in place
+  void commit();  // close(), then rename into place
+  const std::string& path() const { return path_; }
+
+ private:
+  void discard() noexcept;
+  [[noreturn]] void fail(const std::string& reason);
+  std::string path_, what_, target_, temporary_;
+  int fd_ = -1;
+  bool committed_ = false;
+};
+
+// One whole file through OutputFile.
+void write_file(const std::string& path, const std::string& bytes, const std::string& what);
+// Several files, all or none: every file is written and closed to its temporary first, and
+// only when all of them succeeded are they renamed into place.
+struct FileContent {
+  std::string path, bytes, what;
+};
+void write_files(const std::vector<FileContent>& files);
+
 // OBJ via tinyobjloader; polygons are triangulated; the mesh is validated (penumbra::validate).
 // Albedo: per-vertex colours if the OBJ has them, else `default_albedo` per vertex.
 Mesh load_obj(const std::string& path, glm::dvec3 default_albedo = {0.8, 0.8, 0.8});
 void save_obj(const Mesh& mesh, const std::string& path);
+std::string obj_text(const Mesh& mesh);  // what save_obj writes
 
 // The scene format is documented in docs/scene-format.md. Mesh paths are relative to the
 // scene file. The result is validated.
@@ -22,6 +61,8 @@ Scene parse_scene(const std::string& json_text, const std::string& base_dir);
 
 // PNG: values are clamped to [0,1]; 1 channel → grey, 3 → RGB, 4 → RGBA.
 void save_png(const Image& image, const std::string& path);
+// The bytes save_png writes; `path` only names the file in error messages.
+std::string png_bytes(const Image& image, const std::string& path);
 // Any format stb_image reads; channels = the file's channel count unless `channels` > 0.
 Image load_image(const std::string& path, int channels = 0);
 
@@ -32,6 +73,10 @@ Image load_npy(const std::string& path);
 // Plain arrays of N×K values (vertex gradients and the like), shape (N, K).
 void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
               const std::string& path, bool f64 = false);
+// The bytes the save_npy above write; `path` only names the file in error messages.
+std::string npy_bytes(const Image& image, const std::string& path, bool f64 = false);
+std::string npy_bytes(const std::vector<double>& values, size_t rows, size_t cols,
+                      const std::string& path, bool f64 = false);
 
 // Animated GIF (GIF89a), looping forever (NETSCAPE2.0 extension). Every frame is mapped by
 // nearest colour (Euclidean in 8-bit RGB, ties to the lower index) to one fixed global palette
@@ -45,8 +90,8 @@ void save_gif(const std::vector<Image>& frames, const std::string& path,
 
 // The same file written one frame at a time, so that a long animation need not be held in
 // memory: the constructor opens the file and writes the header, add_frame appends a frame of
-// the given size, close() writes the trailer (it throws if no frame was added). A writer
-// destroyed without close() leaves an unfinished file.
+// the given size, close() writes the trailer (it throws if no frame was added) and puts the
+// file in place (OutputFile). A writer destroyed without close() leaves nothing.
 class GifWriter {
  public:
   GifWriter(const std::string& path, int width, int height, int delay_centiseconds = 10);

@@ -225,15 +225,12 @@ std::string frame_shape(const Image& f) {
 
 struct GifWriter::Impl {
   std::string path;
-  std::ofstream file;
+  std::unique_ptr<OutputFile> file;
   int width = 0, height = 0, delay = 10, frames = 0;
   bool closed = false;
   LzwTable table;
 
-  void write(const std::vector<uint8_t>& bytes) {
-    file.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-    if (!file) throw Error("cannot write GIF " + quoted(path) + ": write failed");
-  }
+  void write(const std::vector<uint8_t>& bytes) { file->write(bytes.data(), bytes.size()); }
 };
 
 GifWriter::GifWriter(const std::string& path, int width, int height, int delay_centiseconds)
@@ -249,11 +246,7 @@ GifWriter::GifWriter(const std::string& path, int width, int height, int delay_c
   m.width = width;
   m.height = height;
   m.delay = delay_centiseconds;
-  errno = 0;
-  m.file.open(path, std::ios::binary | std::ios::trunc);
-  if (!m.file)
-    throw Error("cannot write GIF " + quoted(path) + ": " +
-                (errno ? std::string(std::strerror(errno)) : std::string("cannot open")));
+  m.file = std::make_unique<OutputFile>(path, "GIF");
 
   std::vector<uint8_t> head = {'G', 'I', 'F', '8', '9', 'a'};
   put16(head, width);
@@ -318,9 +311,8 @@ void GifWriter::close() {
   if (m.closed) return;
   if (m.frames == 0) throw Error("cannot write GIF " + quoted(m.path) + ": no frames");
   m.write({0x3B});
-  m.file.close();
   m.closed = true;
-  if (!m.file) throw Error("cannot write GIF " + quoted(m.path) + ": closing the file failed");
+  m.file->commit();
 }
 
 void save_gif(const std::vector<Image>& frames, const std::string& path,

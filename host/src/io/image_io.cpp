@@ -136,8 +136,8 @@ void put_le(std::string& out, uint64_t bits, int bytes) {
   for (int i = 0; i < bytes; ++i) out.push_back(char((bits >> (8 * i)) & 0xff));
 }
 
-void write_npy(const double* values, const std::vector<size_t>& shape, const std::string& path,
-               bool f64) {
+std::string npy_encode(const double* values, const std::vector<size_t>& shape,
+                       const std::string& path, bool f64) {
   std::string shape_text = "(";
   for (size_t i = 0; i < shape.size(); ++i) {
     if (i) shape_text += ", ";
@@ -176,12 +176,7 @@ void write_npy(const double* values, const std::vector<size_t>& shape, const std
       put_le(out, bits, 4);
     }
   }
-
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  if (!f) throw Error("cannot write NumPy file " + quoted(path) + ": " + std::strerror(errno));
-  f.write(out.data(), std::streamsize(out.size()));
-  f.close();
-  if (!f) throw Error("cannot write NumPy file " + quoted(path) + ": write failed");
+  return out;
 }
 
 // ---- .npy reading -------------------------------------------------------------------------
@@ -304,11 +299,16 @@ std::string shape_string(const std::vector<size_t>& shape) {
   return out + ")";
 }
 
-}  // namespace
-
 // ---- PNG and other images -----------------------------------------------------------------
 
-void save_png(const Image& image, const std::string& path) {
+// stbi_write_png_to_func's sink: appends to a std::string.
+void append_bytes(void* context, void* data, int size) {
+  static_cast<std::string*>(context)->append(static_cast<const char*>(data), size_t(size));
+}
+
+}  // namespace
+
+std::string png_bytes(const Image& image, const std::string& path) {
   check_image(image, "PNG", path);
   if (image.channels > 4)
     throw Error("cannot write PNG " + quoted(path) + ": " + std::to_string(image.channels) +
@@ -320,11 +320,15 @@ void save_png(const Image& image, const std::string& path) {
     bytes[i] = static_cast<unsigned char>(std::lround(v * 255.0));
   }
   const int stride = image.width * image.channels;
-  errno = 0;
-  if (!stbi_write_png(path.c_str(), image.width, image.height, image.channels, bytes.data(),
-                      stride))
-    throw Error("cannot write PNG " + quoted(path) + ": " +
-                (errno ? std::string(std::strerror(errno)) : std::string("write failed")));
+  std::string png;
+  if (!stbi_write_png_to_func(append_bytes, &png, image.width, image.height, image.channels,
+                              bytes.data(), stride))
+    throw Error("cannot write PNG " + quoted(path) + ": encoding failed");
+  return png;
+}
+
+void save_png(const Image& image, const std::string& path) {
+  write_file(path, png_bytes(image, path), "PNG");
 }
 
 Image load_image(const std::string& path, int channels) {
@@ -390,20 +394,29 @@ Image load_image(const std::string& path, int channels) {
 
 // ---- NumPy --------------------------------------------------------------------------------
 
-void save_npy(const Image& image, const std::string& path, bool f64) {
+std::string npy_bytes(const Image& image, const std::string& path, bool f64) {
   check_image(image, "NumPy file", path);
   std::vector<size_t> shape = {size_t(image.height), size_t(image.width)};
   if (image.channels != 1) shape.push_back(size_t(image.channels));
-  write_npy(image.data.data(), shape, path, f64);
+  return npy_encode(image.data.data(), shape, path, f64);
 }
 
-void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
-              const std::string& path, bool f64) {
+std::string npy_bytes(const std::vector<double>& values, size_t rows, size_t cols,
+                      const std::string& path, bool f64) {
   if (values.size() != rows * cols)
     throw Error("cannot write NumPy file " + quoted(path) + ": " +
                 std::to_string(values.size()) + " values do not fill shape (" +
                 std::to_string(rows) + ", " + std::to_string(cols) + ")");
-  write_npy(values.data(), {rows, cols}, path, f64);
+  return npy_encode(values.data(), {rows, cols}, path, f64);
+}
+
+void save_npy(const Image& image, const std::string& path, bool f64) {
+  write_file(path, npy_bytes(image, path, f64), "NumPy file");
+}
+
+void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
+              const std::string& path, bool f64) {
+  write_file(path, npy_bytes(values, rows, cols, path, f64), "NumPy file");
 }
 
 Image load_npy(const std::string& path) {

@@ -3,6 +3,7 @@
 // Parsing is tinyobjloader's (polygons triangulated as fans). tinyobjloader reads a malformed
 // number as 0 without complaint, so the `v` and `f` lines are checked first by a small scan
 // that rejects anything that is not a finite number or an integer index, with its line number.
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -213,27 +214,32 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
   return mesh;
 }
 
-void save_obj(const Mesh& mesh, const std::string& path) {
-  FILE* f = std::fopen(path.c_str(), "w");
-  if (!f)
-    throw Error("cannot write OBJ file " + quoted(path) + ": " + std::strerror(errno));
+std::string obj_text(const Mesh& mesh) {
+  std::string out;
+  char line[256];
+  auto put = [&](int n) { out.append(line, size_t(std::min<int>(n, sizeof line - 1))); };
   const bool colors =
       mesh.albedo_mode == AlbedoMode::PerVertex && mesh.albedo.size() == mesh.vertices.size();
-  if (!mesh.name.empty()) std::fprintf(f, "# %s\n", mesh.name.c_str());
-  std::fprintf(f, "# %zu vertices, %zu faces\n", mesh.vertices.size(), mesh.faces.size());
+  if (!mesh.name.empty()) out += "# " + mesh.name + "\n";
+  put(std::snprintf(line, sizeof line, "# %zu vertices, %zu faces\n", mesh.vertices.size(),
+                    mesh.faces.size()));
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     const glm::dvec3& v = mesh.vertices[i];
     if (colors) {
       const glm::dvec3& c = mesh.albedo[i];
-      std::fprintf(f, "v %.9g %.9g %.9g %.9g %.9g %.9g\n", v.x, v.y, v.z, c.x, c.y, c.z);
+      put(std::snprintf(line, sizeof line, "v %.9g %.9g %.9g %.9g %.9g %.9g\n", v.x, v.y, v.z,
+                        c.x, c.y, c.z));
     } else {
-      std::fprintf(f, "v %.9g %.9g %.9g\n", v.x, v.y, v.z);
+      put(std::snprintf(line, sizeof line, "v %.9g %.9g %.9g\n", v.x, v.y, v.z));
     }
   }
-  for (const glm::ivec3& t : mesh.faces) std::fprintf(f, "f %d %d %d\n", t.x + 1, t.y + 1, t.z + 1);
-  const bool write_error = std::ferror(f) != 0;
-  if (std::fclose(f) != 0 || write_error)
-    throw Error("cannot write OBJ file " + quoted(path) + ": write failed");
+  for (const glm::ivec3& t : mesh.faces)
+    put(std::snprintf(line, sizeof line, "f %d %d %d\n", t.x + 1, t.y + 1, t.z + 1));
+  return out;
+}
+
+void save_obj(const Mesh& mesh, const std::string& path) {
+  write_file(path, obj_text(mesh), "OBJ file");
 }
 
 }  // namespace penumbra

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "penumbra/error.hpp"
+#include "penumbra/io.hpp"
 #include "penumbra/scene.hpp"
 
 namespace penumbra {
@@ -353,8 +354,7 @@ void TuningDatabase::save(const std::string& path) const {
   for (auto& [key, t] : entries_) doc["entries"][key] = to_json(t);
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
-  std::ofstream out(path);
-  if (!(out << doc.dump(2) << "\n")) throw Error("cannot write the tuning database " + path);
+  write_file(path, doc.dump(2) + "\n", "tuning database");
 }
 
 }  // namespace penumbra
