@@ -1,6 +1,8 @@
 // `penumbra backward`: renders a scene, reads dL/d(outputs) from .npy files and writes the
 // gradients with respect to vertices, albedo, lights and ambient as float64 .npy files.
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -30,6 +32,42 @@ std::string shape_of(int height, int width, int channels) {
   return s + ")";
 }
 
+const char* const kGradStems[] = {"color", "silhouette", "depth"};
+
+// Every file --grad-in may hold for a scene of `views` cameras: color.npy, silhouette.npy,
+// depth.npy, then the same with _k for camera k >= 1.
+std::vector<std::string> expected_grad_names(size_t views) {
+  std::vector<std::string> names;
+  for (size_t v = 0; v < views; ++v)
+    for (const char* stem : kGradStems) names.push_back(fs::path(view_file("", stem, v)).string());
+  return names;
+}
+
+// Throws when the folder holds anything that is not the gradient of an output of the scene (a
+// misspelt name, a camera the scene does not have), which would otherwise be read as zero.
+void check_grad_names(const std::string& dir, size_t views) {
+  const std::vector<std::string> expected = expected_grad_names(views);
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (std::find(expected.begin(), expected.end(), name) != expected.end()) continue;
+    std::string list;
+    for (const std::string& e : expected) list += (list.empty() ? "" : ", ") + e;
+    throw Error("--grad-in: " + it->path().string() + " matches no output of the scene (" +
+                std::to_string(views) + " camera" + (views == 1 ? "" : "s") + "; expected " +
+                list + ")");
+  }
+  if (ec) throw Error("--grad-in: cannot list " + dir + ": " + ec.message());
+}
+
+// "[i, j]" or "[i, j, c]": the position of flat index `i` in an (H, W, C) array.
+std::string index_of(const Image& image, size_t i) {
+  const size_t c = size_t(image.channels), w = size_t(image.width);
+  std::string s = "[" + std::to_string(i / c / w) + ", " + std::to_string(i / c % w);
+  if (c != 1) s += ", " + std::to_string(i % c);
+  return s + "]";
+}
+
 // The gradient image of one output, or an empty image (zero gradient) if the file is missing.
 Image read_grad(const std::string& dir, const std::string& stem, size_t view, const Camera& cam,
                 int channels) {
@@ -42,6 +80,11 @@ Image read_grad(const std::string& dir, const std::string& stem, size_t view, co
                 " to match the render of camera " + std::to_string(view) + ", got " +
                 shape_of(image.height, image.width, image.channels));
   }
+  for (size_t i = 0; i < image.data.size(); ++i)
+    if (!std::isfinite(image.data[i]))
+      throw Error(path + ": value " +
+                  (std::isnan(image.data[i]) ? "NaN" : image.data[i] > 0 ? "inf" : "-inf") +
+                  " at index " + index_of(image, i) + " is not finite; gradients must be finite");
   return image;
 }
 
@@ -109,6 +152,7 @@ int run_backward(const BackwardArgs& a) {
   if (!fs::is_directory(a.grad_in, ec)) throw Error("--grad-in: " + a.grad_in + " is not a folder");
 
   // Read (and check) the incoming gradients before any device work.
+  check_grad_names(a.grad_in, scene.cameras.size());
   std::vector<OutputGrads> grads(scene.cameras.size());
   for (size_t v = 0; v < scene.cameras.size(); ++v) {
     const Camera& cam = scene.cameras[v];
@@ -143,7 +187,8 @@ Command add_backward_command(CLI::App& root) {
   c.app
       ->add_option("--grad-in", args->grad_in,
                    "folder with color.npy (H,W,3), silhouette.npy (H,W), depth.npy (H,W) "
-                   "(suffix _k for camera k >= 1); a missing file means zero gradient")
+                   "(suffix _k for camera k >= 1); a missing file means zero gradient; other "
+                   "files and non-finite values are errors")
       ->required();
   c.app
       ->add_option("-o,--output", args->output,

@@ -299,4 +299,54 @@ TEST(FaultsCli, ReadOnlyFolderFailsAndKeepsTheEarlierFiles) {
   EXPECT_EQ(names_in(dir + "/raw"), std::vector<std::string>{"color.npy"});
 }
 
+// ---------------------------------------------------------------------------------------------
+// backward --grad-in.
+
+// `backward` of the bundled scene (one camera, 24x24) with the gradients in `dir`.
+RunResult backward_with(const std::string& dir, const std::string& tag) {
+  return run_cli("backward --grad-in " + quote(dir) + " -o " + quote(dir + "_out") + kSmall, tag);
+}
+
+TEST(FaultsCli, BackwardRefusesNonFiniteGradients) {
+  for (const double bad : {std::nan(""), double(INFINITY), -double(INFINITY)}) {
+    const std::string dir = fresh_dir("grad_nonfinite");
+    penumbra::Image color(24, 24, 3, 0.5);
+    color.data[(5 * 24 + 7) * 3 + 2] = bad;  // row 5, column 7, channel 2
+    color.data[(9 * 24 + 1) * 3 + 0] = bad;  // a later one: not the one named
+    penumbra::save_npy(color, dir + "/color.npy", true);
+    const RunResult r = backward_with(dir, "grad_nonfinite");
+    expect_clean_error(r, dir + "/color.npy: value ");
+    EXPECT_NE(r.err.find("at index [5, 7, 2] is not finite"), std::string::npos) << show(r);
+    EXPECT_FALSE(fs::exists(dir + "_out")) << show(r);
+  }
+  const std::string dir = fresh_dir("grad_nonfinite_depth");
+  penumbra::Image depth(24, 24, 1, 0.0);
+  depth.data[3 * 24 + 4] = INFINITY;  // float32 on disk: still infinite
+  penumbra::save_npy(depth, dir + "/depth.npy");
+  const RunResult r = backward_with(dir, "grad_nonfinite_depth");
+  expect_clean_error(r, dir + "/depth.npy: value inf at index [3, 4] is not finite");
+}
+
+TEST(FaultsCli, BackwardRefusesFilesThatMatchNoOutput) {
+  for (const std::string name : {"colour.npy", "color_3.npy", "notes.txt"}) {
+    const std::string dir = fresh_dir("grad_names");
+    penumbra::save_npy(penumbra::Image(24, 24, 3, 0.5), dir + "/color.npy");
+    write_text(dir + "/" + name, "x");
+    const RunResult r = backward_with(dir, "grad_names");
+    expect_clean_error(r, dir + "/" + name + " matches no output of the scene");
+    EXPECT_NE(r.err.find("expected color.npy, silhouette.npy, depth.npy)"), std::string::npos)
+        << show(r);
+  }
+}
+
+TEST(FaultsCli, BackwardAcceptsEveryExpectedName) {
+  const std::string dir = fresh_dir("grad_good");
+  penumbra::save_npy(penumbra::Image(24, 24, 3, 0.5), dir + "/color.npy");
+  penumbra::save_npy(penumbra::Image(24, 24, 1, 0.5), dir + "/silhouette.npy");
+  penumbra::save_npy(penumbra::Image(24, 24, 1, 0.5), dir + "/depth.npy");
+  const RunResult r = backward_with(dir, "grad_good");
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  EXPECT_TRUE(fs::exists(dir + "_out/ambient.npy")) << show(r);
+}
+
 }  // namespace
