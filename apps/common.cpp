@@ -149,15 +149,15 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
   RenderParams& p = scene.params;
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (given(o.o_sigma)) {
-    require(positive(o.sigma), "--sigma", "positive", o.sigma);
+    require(positive(o.sigma), "--sigma", "a positive finite number", o.sigma);
     p.sigma = o.sigma;
   }
   if (given(o.o_gamma)) {
-    require(positive(o.gamma), "--gamma", "positive", o.gamma);
+    require(positive(o.gamma), "--gamma", "a positive finite number", o.gamma);
     p.gamma = o.gamma;
   }
   if (given(o.o_eps)) {
-    require(std::isfinite(o.eps), "--eps", "finite", o.eps);
+    require(std::isfinite(o.eps), "--eps", "a finite number", o.eps);
     p.eps = o.eps;
   }
   if (given(o.o_dist_eps)) {
@@ -165,7 +165,7 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     p.dist_eps = o.dist_eps;
   }
   if (given(o.o_sigma_s)) {
-    require(positive(o.sigma_s), "--sigma-s", "positive", o.sigma_s);
+    require(positive(o.sigma_s), "--sigma-s", "a positive finite number", o.sigma_s);
     p.sigma_s = o.sigma_s;
   }
   if (given(o.o_lambda_eps)) {
@@ -173,15 +173,15 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     p.lambda_eps = o.lambda_eps;
   }
   if (given(o.o_gamma_s)) {
-    require(positive(o.gamma_s), "--gamma-s", "positive", o.gamma_s);
+    require(positive(o.gamma_s), "--gamma-s", "a positive finite number", o.gamma_s);
     p.gamma_s = o.gamma_s;
   }
   if (given(o.o_beta)) {
-    require(std::isfinite(o.beta), "--beta", "finite", o.beta);
+    require(std::isfinite(o.beta), "--beta", "a finite number", o.beta);
     p.beta = o.beta;
   }
   if (given(o.o_gamma_p)) {
-    require(positive(o.gamma_p), "--gamma-p", "positive", o.gamma_p);
+    require(positive(o.gamma_p), "--gamma-p", "a positive finite number", o.gamma_p);
     p.gamma_p = o.gamma_p;
   }
   if (given(o.o_shadows)) p.shadows = parse_shadows(o.shadows);

@@ -4,10 +4,15 @@
 //   tune: device=NAME entries=N path=PATH
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "common.hpp"
 #include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/io.hpp"
 #include "penumbra/tuning.hpp"
 
 namespace penumbra::cli {
@@ -21,9 +26,28 @@ struct TuneArgs {
   int runs = 5;
 };
 
+// The database file as it is now, "" when there is none.
+std::string read_database(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return "";
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in || in.bad()) throw Error("cannot read the tuning database " + path);
+  return text.str();
+}
+
 int run_tune(const TuneArgs& a) {
   Scene scene = load_scene_source(a.source);
   Context context(a.device);
+  const std::string path = a.output.empty() ? TuningDatabase::user_path() : a.output;
+  const std::string key = TuningDatabase::device_key(context.info());
+  // Before the minutes of tuning: the database must be one, and its folder writable.
+  const std::string existing = read_database(path);
+  TuningDatabase::updated_text(existing, path, key, Tuning());
+  make_parent_dirs(path);
+  OutputFile file(path, "tuning database");
+
   TuneOptions options;
   options.quick = a.quick;
   options.runs = a.runs;
@@ -33,12 +57,11 @@ int run_tune(const TuneArgs& a) {
   for (const auto& c : report.candidates)
     std::printf("%-9s %-28s %9.2f ms %s%s\n", c.stage.c_str(), c.name.c_str(), c.median_ms,
                 c.accepted ? "" : "REJECTED: ", c.note.c_str());
-  const std::string path = a.output.empty() ? TuningDatabase::user_path() : a.output;
-  TuningDatabase db = TuningDatabase::load({});
-  if (std::filesystem::exists(path)) db = TuningDatabase::load({path});
-  db.set(TuningDatabase::device_key(context.info()), report.best);
-  db.save(path);
-  std::printf("tune: device=%s entries=%zu path=%s\n", context.info().name.c_str(), db.size(),
+  const std::string text = TuningDatabase::updated_text(existing, path, key, report.best);
+  file.write(text);
+  file.commit();
+  const size_t entries = nlohmann::json::parse(text).at("entries").size();
+  std::printf("tune: device=%s entries=%zu path=%s\n", context.info().name.c_str(), entries,
               path.c_str());
   return 0;
 }

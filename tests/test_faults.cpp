@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -26,6 +27,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/io.hpp"
+#include "penumbra/tuning.hpp"
 
 namespace fs = std::filesystem;
 using namespace penumbra_tests;
@@ -347,6 +349,162 @@ TEST(FaultsCli, BackwardAcceptsEveryExpectedName) {
   const RunResult r = backward_with(dir, "grad_good");
   EXPECT_EQ(r.exit_code, 0) << show(r);
   EXPECT_TRUE(fs::exists(dir + "_out/ambient.npy")) << show(r);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Input files: duplicate keys, messages that name the file, the field and what is expected.
+
+TEST(FaultsInput, DuplicateJsonKeysAreRefusedWithTheirPath) {
+  const std::string dir = fresh_dir("duplicate");
+  write_text(dir + "/tetra.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\n");
+  const std::string mesh = R"({"file": "tetra.obj"})";
+  const std::pair<std::string, std::string> cases[] = {
+      {R"({"meshes": [], "meshes": [], "cameras": [{}]})", "duplicate key 'meshes'"},
+      {R"({"meshes": [{"file": "tetra.obj", "file": "x.obj"}], "cameras": [{}]})",
+       "duplicate key 'meshes[0].file'"},
+      {"{\"meshes\": [" + mesh + "], \"cameras\": [{}, {\"eye\": [0, 0, 3], \"up\": [0, 1, 0], "
+       "\"eye\": [0, 0, 4]}]}",
+       "duplicate key 'cameras[1].eye'"},
+      {"{\"meshes\": [" + mesh + "], \"cameras\": [{}], \"render\": {\"sigma\": 1e-4, "
+       "\"shadows\": \"hard\", \"sigma\": 1e-3}}",
+       "duplicate key 'render.sigma'"}};
+  for (const auto& [text, message] : cases) {
+    write_text(dir + "/scene.json", text);
+    const std::string error = error_of([&] { penumbra::load_scene(dir + "/scene.json"); });
+    EXPECT_NE(error.find("'" + dir + "/scene.json': " + message), std::string::npos)
+        << text << "\n" << error;
+  }
+  // The same keys in different objects are not duplicates.
+  write_text(dir + "/scene.json", "{\"meshes\": [" + mesh + ", " + mesh +
+                                      "], \"cameras\": [{\"eye\": [0, 0, 3]}, {\"eye\": [0, 0, 4]}]}");
+  EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }), "");
+}
+
+TEST(FaultsInput, MissingKeyNamesTheFileTheKeyAndWhatItHolds) {
+  const std::string dir = fresh_dir("missing_key");
+  write_text(dir + "/scene.json", R"({"meshes": []})");
+  EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }),
+            "'" + dir + "/scene.json': the required key 'cameras' is missing (expected an array "
+            "of cameras, each an object such as {\"eye\": [0, 0, 3]})");
+  write_text(dir + "/scene.json", R"({"meshes": [{"name": "a"}], "cameras": [{}]})");
+  EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }),
+            "'" + dir + "/scene.json': the required key 'meshes[0].file' is missing (expected "
+            "the path of an OBJ file)");
+}
+
+TEST(FaultsInput, FaceCornerWithoutItsTextureIndexIsNamed) {
+  const std::string dir = fresh_dir("face_corner");
+  write_text(dir + "/a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/ 2/ 3/\n");
+  EXPECT_EQ(error_of([&] { penumbra::load_obj(dir + "/a.obj"); }),
+            "OBJ file '" + dir + "/a.obj' line 4: face corner '1/' is not v, v/vt, v/vt/vn or "
+            "v//vn (integer indices)");
+  write_text(dir + "/b.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n");
+  EXPECT_EQ(error_of([&] { penumbra::load_obj(dir + "/b.obj"); }), "");
+}
+
+TEST(FaultsCli, InfiniteSigmaSaysWhatIsExpected) {
+  const RunResult r = run_cli("render -o /dev/null --sigma inf" + kSmall, "sigma_inf");
+  expect_clean_error(r, "--sigma must be a positive finite number (got inf)");
+}
+
+// ---------------------------------------------------------------------------------------------
+// penumbra tune and its database.
+
+// A database as penumbra writes it (2-space JSON), with entries penumbra would not write
+// itself: a partial device entry (xgemm null, keys out of order) and a class entry.
+const std::string kOtherEntries = R"({
+  "version": 1,
+  "entries": {
+    "Other Device": {
+      "raster": {
+        "tile": 8
+      },
+      "exact": {
+        "xgemm": null,
+        "clblast": false
+      }
+    },
+    "acme/gpu": {
+      "penumbra": {
+        "tile": 32
+      }
+    }
+  }
+}
+)";
+
+TEST(FaultsTuning, UpdatingOneEntryKeepsTheOthersByteIdentical) {
+  penumbra::Tuning t;
+  t.raster.tile = 32;
+  const std::string added =
+      penumbra::TuningDatabase::updated_text(kOtherEntries, "db.json", "Mine", t);
+  const std::string kept = kOtherEntries.substr(0, kOtherEntries.rfind("\n    }\n"));
+  EXPECT_EQ(added.substr(0, kept.size()), kept) << added;
+  EXPECT_NE(added.find("\"Mine\": {"), std::string::npos) << added;
+  // Replacing the first entry leaves the second as it was, in its place.
+  const std::string replaced =
+      penumbra::TuningDatabase::updated_text(kOtherEntries, "db.json", "Other Device", t);
+  const size_t tail = kOtherEntries.find("    \"acme/gpu\"");
+  EXPECT_EQ(replaced.substr(replaced.size() - (kOtherEntries.size() - tail)),
+            kOtherEntries.substr(tail));
+  EXPECT_EQ(replaced.find("\"xgemm\": null,\n        \"clblast\": false"), std::string::npos);
+  // Unchanged when the entry is set to what it holds: a database penumbra wrote round-trips.
+  EXPECT_EQ(penumbra::TuningDatabase::updated_text(added, "db.json", "Mine", t), added);
+}
+
+TEST(FaultsTuning, AnythingButADatabaseIsRefused) {
+  for (const std::string text : {std::string("\x89PNG\r\n"), std::string(R"({"entries": 3})"),
+                                 std::string(R"({"entries": {"a": {}, "a": {}}})")}) {
+    const std::string message = error_of(
+        [&] { penumbra::TuningDatabase::updated_text(text, "db.json", "Mine", penumbra::Tuning()); });
+    EXPECT_NE(message.find("cannot update the tuning database db.json: "), std::string::npos)
+        << message;
+    for (char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << message;  // printable
+  }
+}
+
+TEST(FaultsTuning, WarningAboutABinaryDatabaseIsOnePrintableLine) {
+  const std::string dir = fresh_dir("tuning_binary");
+  write_text(dir + "/db.json", std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16));
+  ::testing::internal::CaptureStderr();
+  penumbra::TuningDatabase::load({dir + "/db.json"});
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(lines(err).size(), 1u) << err;
+  EXPECT_NE(err.find("ignoring tuning database " + dir + "/db.json ("), std::string::npos) << err;
+  EXPECT_NE(err.find("'\\x89'"), std::string::npos) << err;  // the byte, written as an escape
+  for (char c : err.substr(0, err.size() - 1)) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << err;
+}
+
+TEST(FaultsCli, TuneChecksItsOutputBeforeTuning) {
+  const std::string dir = fresh_dir("tune_output");
+  write_text(dir + "/file", "x");
+  write_text(dir + "/corrupt.json", "not a database");
+  const std::pair<std::string, std::string> cases[] = {
+      {"/sys/kernel/penumbra_tuning.json", "cannot write tuning database"},
+      {dir + "/file/tuning.json", dir + "/file"},
+      {dir + "/corrupt.json", "cannot update the tuning database " + dir + "/corrupt.json"}};
+  for (const auto& [path, message] : cases) {
+    const auto start = std::chrono::steady_clock::now();
+    const RunResult r = run_cli("tune --quick --runs 1 -o " + quote(path), "tune_output");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    expect_clean_error(r, message);  // one line: tuning never started
+    EXPECT_LT(seconds, 3.0) << show(r);
+  }
+  EXPECT_EQ(read_text(dir + "/corrupt.json"), "not a database");
+  EXPECT_EQ(names_in(dir), (std::vector<std::string>{"corrupt.json", "file"}));
+}
+
+TEST(FaultsCli, TuneLeavesOtherDevicesEntriesByteIdentical) {
+  const std::string dir = fresh_dir("tune_roundtrip");
+  write_text(dir + "/db.json", kOtherEntries);
+  const RunResult r = run_cli("tune --quick --runs 1 -o " + quote(dir + "/db.json"), "tune_rt");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  EXPECT_NE(r.out.find(" entries=3 path="), std::string::npos) << show(r);
+  const std::string after = read_text(dir + "/db.json");
+  const std::string kept = kOtherEntries.substr(0, kOtherEntries.rfind("\n    }\n"));
+  EXPECT_EQ(after.substr(0, kept.size()), kept) << after;
+  EXPECT_EQ(names_in(dir), std::vector<std::string>{"db.json"});
 }
 
 }  // namespace

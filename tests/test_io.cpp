@@ -118,7 +118,7 @@ TEST(IoObj, Errors) {
   expect_error([] { obj_mesh("malformed", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n"); },
                "not a number");
   expect_error([] { obj_mesh("badface", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n"); },
-               "not a vertex index");
+               "is not v, v/vt, v/vt/vn or v//vn");
   expect_error([] { obj_mesh("empty", "# nothing here\n"); }, "contains no faces");
   expect_error([] { obj_mesh("nofaces", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"); }, "contains no faces");
   expect_error([] { obj_mesh("nan", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"); },
@@ -380,7 +380,7 @@ TEST(IoScene, Errors) {
                "'render.cull_backfaces' must be true or false");
   expect_error(parse("{" + mesh + ", " + cam + R"(, "lights": {}})"),
                "'lights' must be an array");
-  expect_error(parse("{" + cam + "}"), "missing the required key 'meshes'");
+  expect_error(parse("{" + cam + "}"), "the required key 'meshes' is missing");
   expect_error(parse("{" + mesh + ", " + cam + ", }"), "JSON syntax error");
   expect_error(parse(R"({"meshes": [{"file": "nope.obj"}], )" + cam + "}"), "nope.obj");
   // Validation runs at the end.

@@ -101,6 +101,12 @@ class TuningDatabase {
   size_t size() const { return entries_.size(); }
   // Writes every entry as JSON (creating the folder); throws penumbra::Error on failure.
   void save(const std::string& path) const;
+  // The text of a database file `existing` (named `origin` in messages; empty: a new
+  // database) with the entry `key` set to `tuning` and everything else kept as it was: the
+  // other entries' keys, order and values, so that an entry written by penumbra stays
+  // byte-identical. Throws penumbra::Error when `existing` is not a tuning database.
+  static std::string updated_text(const std::string& existing, const std::string& origin,
+                                  const std::string& key, const Tuning& tuning);
 
   static std::string device_key(const DeviceInfo& device);  // the exact device name
   static std::string class_key(const DeviceInfo& device);   // "<vendor>/<cpu|gpu>"

@@ -23,30 +23,12 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
+#include "text.hpp"
 
 namespace penumbra {
 namespace {
 
 std::string quoted(const std::string& path) { return "'" + path + "'"; }
-
-// Text from a file, for an error message: control and non-ASCII bytes as \xNN (so that the
-// message stays on one line), cut after `max` characters.
-std::string printable(const std::string& text, size_t max = 40) {
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (size_t i = 0; i < text.size(); ++i) {
-    if (i == max) return out + "...";
-    const unsigned char c = static_cast<unsigned char>(text[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      out += char(c);
-    } else {
-      out += "\\x";
-      out += hex[c >> 4];
-      out += hex[c & 15];
-    }
-  }
-  return out;
-}
 
 // ---- image formats ------------------------------------------------------------------------
 //

@@ -77,8 +77,8 @@ bool is_face_corner(const std::string& tok) {
     start = slash + 1;
   }
   if (parts.size() > 3 || !is_integer(parts[0])) return false;
-  if (parts.size() >= 2 && !parts[1].empty() && !is_integer(parts[1])) return false;
-  if (parts.size() == 3 && !is_integer(parts[2])) return false;
+  if (parts.size() == 2) return is_integer(parts[1]);  // v/vt: "1/" has no vt
+  if (parts.size() == 3) return (parts[1].empty() || is_integer(parts[1])) && is_integer(parts[2]);
   return true;
 }
 
@@ -126,7 +126,8 @@ size_t prescan(const std::string& text, const std::string& path) {
                     " corners (at least 3 needed)");
       for (size_t i = 1; i < tok.size(); ++i) {
         if (!is_face_corner(tok[i]))
-          throw Error("OBJ " + where + "face corner '" + tok[i] + "' is not a vertex index");
+          throw Error("OBJ " + where + "face corner '" + tok[i] +
+                      "' is not v, v/vt, v/vt/vn or v//vn (integer indices)");
         const long long idx = std::atoll(tok[i].c_str());
         if (idx == 0)
           throw Error("OBJ " + where + "face corner '" + tok[i] +

@@ -14,6 +14,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
+#include "text.hpp"
 
 namespace penumbra {
 namespace {
@@ -119,14 +120,18 @@ void opt(const json& obj, const std::string& where, const char* key, T& out, Rea
   if (it != obj.end()) out = read(*it, child(where, key));
 }
 
-const json& require(const json& obj, const std::string& where, const char* key) {
+// The value of a key that must be present; `expected` says what it should hold.
+const json& require(const json& obj, const std::string& where, const char* key,
+                    const std::string& expected) {
   auto it = obj.find(key);
-  if (it == obj.end()) fail("'" + where + "' is missing the required key '" + key + "'");
+  if (it == obj.end())
+    fail("the required key '" + child(where, key) + "' is missing (expected " + expected + ")");
   return *it;
 }
 
-const json& require_array(const json& obj, const std::string& where, const char* key) {
-  const json& a = require(obj, where, key);
+const json& require_array(const json& obj, const std::string& where, const char* key,
+                          const std::string& expected) {
+  const json& a = require(obj, where, key, expected);
   if (!a.is_array()) fail("'" + child(where, key) + "' must be an array, got " + type_name(a));
   return a;
 }
@@ -137,7 +142,8 @@ std::string item(const char* key, size_t i) {
 
 Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::path& base) {
   check_object(j, where, {"file", "name", "translate", "scale", "albedo"});
-  const std::string file = get_string(require(j, where, "file"), child(where, "file"));
+  const std::string file = get_string(require(j, where, "file", "the path of an OBJ file"),
+                                       child(where, "file"));
   if (file.empty()) fail("'" + child(where, "file") + "' is empty");
   std::filesystem::path path(file);
   if (path.is_relative()) path = base / path;
@@ -279,10 +285,13 @@ Scene parse_document(const json& doc, const std::filesystem::path& base) {
   if (!doc.is_object()) fail(std::string("the document must be an object, got ") + type_name(doc));
   check_object(doc, "", {"meshes", "cameras", "lights", "ambient", "background", "render"});
   Scene scene;
-  const json& meshes = require_array(doc, "", "meshes");
+  const json& meshes =
+      require_array(doc, "", "meshes", "an array of meshes, each {\"file\": \"x.obj\"}");
   for (size_t i = 0; i < meshes.size(); ++i)
     scene.meshes.push_back(parse_mesh(meshes[i], item("meshes", i), base));
-  const json& cameras = require_array(doc, "", "cameras");
+  const json& cameras = require_array(doc, "", "cameras",
+                                     "an array of cameras, each an object such as "
+                                     "{\"eye\": [0, 0, 3]}");
   for (size_t i = 0; i < cameras.size(); ++i)
     scene.cameras.push_back(parse_camera(cameras[i], item("cameras", i)));
   if (doc.contains("lights")) {
@@ -340,7 +349,9 @@ Error scene_error(const std::string& label, const std::string& message) {
 Scene parse(const std::string& text, const std::filesystem::path& base, const std::string& label) {
   json doc;
   try {
-    doc = json::parse(text);
+    doc = parse_json(text);
+  } catch (const Error& e) {
+    throw scene_error(label, e.what());  // a duplicate key
   } catch (const json::parse_error& e) {
     throw scene_error(label, "JSON syntax error: " + json_message(e));
   } catch (const json::exception& e) {

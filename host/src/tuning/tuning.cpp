@@ -12,6 +12,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
+#include "io/text.hpp"
 #include "penumbra/scene.hpp"
 
 namespace penumbra {
@@ -249,7 +250,7 @@ std::string TuningDatabase::user_path() {
 
 void TuningDatabase::merge_json(const std::string& text, const std::string& origin) {
   try {
-    const json doc = json::parse(text);
+    const json doc = parse_json(text);
     if (!doc.is_object() || !doc.contains("entries") || !doc.at("entries").is_object())
       throw std::runtime_error("no \"entries\" object");
     for (const auto& [key, value] : doc.at("entries").items()) {
@@ -261,7 +262,8 @@ void TuningDatabase::merge_json(const std::string& text, const std::string& orig
       set(key, t);
     }
   } catch (const std::exception& e) {
-    warn("ignoring tuning database " + origin + " (" + e.what() + "); using defaults");
+    warn("ignoring tuning database " + origin + " (" + printable(e.what(), 200) +
+         "); using defaults");
   }
 }
 
@@ -347,6 +349,25 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& wor
     out = heuristic_tuning(device, workload);
   }
   return out;
+}
+
+std::string TuningDatabase::updated_text(const std::string& existing, const std::string& origin,
+                                         const std::string& key, const Tuning& tuning) {
+  using ordered = nlohmann::ordered_json;
+  ordered doc = {{"version", 1}, {"entries", ordered::object()}};
+  if (!existing.empty()) {
+    try {
+      parse_json(existing);  // for its checks (duplicate keys); the order is kept below
+      doc = ordered::parse(existing);
+      if (!doc.is_object() || !doc.contains("entries") || !doc.at("entries").is_object())
+        throw std::runtime_error("no \"entries\" object");
+    } catch (const std::exception& e) {
+      throw Error("cannot update the tuning database " + origin + ": " +
+                  printable(e.what(), 200) + "; move it away or name another file with -o");
+    }
+  }
+  doc["entries"][key] = ordered::parse(to_json(tuning).dump());
+  return doc.dump(2) + "\n";
 }
 
 void TuningDatabase::save(const std::string& path) const {
