@@ -27,6 +27,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/io.hpp"
+#include "penumbra/scene.hpp"
 #include "penumbra/tuning.hpp"
 
 namespace fs = std::filesystem;
@@ -405,6 +406,56 @@ TEST(FaultsInput, FaceCornerWithoutItsTextureIndexIsNamed) {
 TEST(FaultsCli, InfiniteSigmaSaysWhatIsExpected) {
   const RunResult r = run_cli("render -o /dev/null --sigma inf" + kSmall, "sigma_inf");
   expect_clean_error(r, "--sigma must be a positive finite number (got inf)");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Degenerate faces: judged by each face's own shape, at any scale.
+
+penumbra::Mesh triangle_mesh(const std::vector<glm::dvec3>& vertices) {
+  penumbra::Mesh mesh;
+  mesh.vertices = vertices;
+  mesh.faces = {{0, 1, 2}};
+  mesh.albedo.assign(vertices.size(), glm::dvec3(0.5));
+  return mesh;
+}
+
+TEST(FaultsInput, SmallTriangleBesideAFarVertexIsValid) {
+  // The face is 1e-6 across; an unused vertex 1e6 away made the old, mesh-wide test reject it.
+  const penumbra::Mesh mesh =
+      triangle_mesh({{0, 0, 0}, {1e-6, 0, 0}, {0, 1e-6, 0}, {1e6, 1e6, 1e6}});
+  EXPECT_EQ(error_of([&] { penumbra::validate(mesh); }), "");
+}
+
+TEST(FaultsInput, DegenerateFacesAreFoundAtEveryScale) {
+  for (const double scale : {1e-300, 1e-20, 1.0, 1e20, 1e300}) {
+    const penumbra::Mesh good = triangle_mesh({{0, 0, 0}, {scale, 0, 0}, {0, scale, 0}});
+    EXPECT_EQ(error_of([&] { penumbra::validate(good); }), "") << scale;
+    const penumbra::Mesh sliver = triangle_mesh({{0, 0, 0}, {scale, 0, 0}, {0, 1e-6 * scale, 0}});
+    EXPECT_EQ(error_of([&] { penumbra::validate(sliver); }), "") << scale;
+    const penumbra::Mesh line = triangle_mesh({{0, 0, 0}, {scale, 0, 0}, {2 * scale, 0, 0}});
+    EXPECT_NE(error_of([&] { penumbra::validate(line); }).find("face 0 (0, 1, 2) is degenerate"),
+              std::string::npos)
+        << scale;
+    const penumbra::Mesh point = triangle_mesh({{scale, scale, 0}, {scale, scale, 0}, {0, 0, 0}});
+    EXPECT_NE(error_of([&] { penumbra::validate(point); }).find("is degenerate"),
+              std::string::npos)
+        << scale;
+  }
+}
+
+TEST(FaultsCli, TinyFaceInAMeshRendersFinite) {
+  // A quad the camera frames, and beside it a face a millionth of its size.
+  const std::string dir = fresh_dir("tiny_face");
+  write_text(dir + "/m.obj",
+             "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nv 0 0 0.5\nv 1e-6 0 0.5\nv 0 1e-6 0.5\n"
+             "f 1 2 3\nf 1 3 4\nf 5 6 7\n");
+  const RunResult r = run_cli("render --mesh " + quote(dir + "/m.obj") + " -o " +
+                                  quote(dir + "/m.png") + " --raw " + quote(dir + "/raw") + kSmall,
+                              "tiny_face");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  for (const char* name : {"color", "silhouette", "depth"})
+    for (double v : penumbra::load_npy(dir + "/raw/" + name + ".npy").data)
+      ASSERT_TRUE(std::isfinite(v)) << name;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -39,23 +39,29 @@ bool any_negative(const glm::dvec3& v) { return v.x < 0 || v.y < 0 || v.z < 0; }
 
 [[noreturn]] void fail(const std::string& message) { throw Error(message); }
 
+// Twice the area of the triangle (a, b, c) over its longest edge squared: 0 for corners on one
+// line, at most √3/2, the same at any scale and whatever else the mesh holds. The edges are
+// first divided by their largest coordinate, so that no square overflows or underflows.
+double relative_area(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  glm::dvec3 ab = b - a, ac = c - a, bc = c - b;
+  const glm::dvec3 m = glm::max(glm::abs(ab), glm::max(glm::abs(ac), glm::abs(bc)));
+  const double largest = std::max({m.x, m.y, m.z});
+  if (!(largest > 0) || !std::isfinite(largest)) return 0;
+  ab /= largest, ac /= largest, bc /= largest;
+  const double longest = std::max({glm::length(ab), glm::length(ac), glm::length(bc)});
+  return glm::length(glm::cross(ab, ac)) / (longest * longest);
+}
+
 void validate_mesh(const Mesh& mesh, const std::string& label) {
   if (mesh.faces.empty()) fail(label + " has no faces");
   if (mesh.vertices.empty()) fail(label + " has no vertices");
 
   const auto n = static_cast<long long>(mesh.vertices.size());
-  glm::dvec3 lo(std::numeric_limits<double>::infinity());
-  glm::dvec3 hi(-std::numeric_limits<double>::infinity());
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     const glm::dvec3& v = mesh.vertices[i];
     if (!finite(v))
       fail(label + ": vertex " + std::to_string(i) + " has a non-finite coordinate " + vec(v));
-    lo = glm::min(lo, v);
-    hi = glm::max(hi, v);
   }
-  // Zero-area test relative to the mesh's size, so that it means the same at any scale.
-  const double scale = glm::length(hi - lo);
-  const double area_tol = 1e-12 * scale * scale;
 
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const glm::ivec3& t = mesh.faces[f];
@@ -66,12 +72,11 @@ void validate_mesh(const Mesh& mesh, const std::string& label) {
     }
     if (t.x == t.y || t.y == t.z || t.z == t.x)
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) + " repeats a vertex index");
-    const glm::dvec3& a = mesh.vertices[t.x];
-    const glm::dvec3 c = glm::cross(mesh.vertices[t.y] - a, mesh.vertices[t.z] - a);
-    const double twice_area = glm::length(c);
-    if (!(twice_area > area_tol))
+    const double area = relative_area(mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]);
+    if (!(area > 1e-12))
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) +
-           " is degenerate (zero area: |cross| = " + num(twice_area) + ")");
+           " is degenerate (its corners are on one line: twice its area is " + num(area) +
+           " times its longest edge squared)");
   }
 
   const bool per_vertex = mesh.albedo_mode == AlbedoMode::PerVertex;
