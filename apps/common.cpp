@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <filesystem>
 #include <sstream>
 #include <utility>
@@ -378,6 +381,12 @@ std::string cl_error_name(int code) {
   return "CL_ERROR(" + std::to_string(code) + ")";
 }
 
+std::string joined(const std::vector<std::string>& words) {
+  std::string out;
+  for (const std::string& w : words) out += (out.empty() ? "" : ",") + w;
+  return out;
+}
+
 std::string one_line(const std::string& text) {
   std::string out;
   out.reserve(text.size());
@@ -433,6 +442,35 @@ void add_light_dir_option(CLI::App& cmd, std::vector<std::string>& light_dirs) {
 void add_fit_device_option(CLI::App& cmd, std::string& device) {
   cmd.add_option("--device", device,
                  "OpenCL device: index from `penumbra devices` or part of its name");
+}
+
+void add_checkpoint_options(CLI::App& cmd, CheckpointOptions& options) {
+  cmd.add_option("--checkpoint-every", options.every,
+                 "write DIR/checkpoint.json every N iterations and after the last (0: never)")
+      ->capture_default_str();
+  cmd.add_flag("--resume", options.resume,
+               "go on from DIR/checkpoint.json, left by an interrupted run with the same options");
+}
+
+FitCheckpointFile::FitCheckpointFile(const CheckpointOptions& options, const std::string& dir,
+                                     const std::string& command, std::string run)
+    : path_((fs::path(dir) / "checkpoint.json").string()), run_(std::move(run)) {
+  if (options.every < 0)
+    throw Error("--checkpoint-every must be 0 (never) or a positive number of iterations (got " +
+                std::to_string(options.every) + ")");
+  hooks_.every = options.every;
+  hooks_.save = [this](const optim::FitState& state) {
+    write_file(path_, optim::checkpoint_text(state, run_), "checkpoint");
+  };
+  if (!options.resume) return;
+  std::ifstream in(path_, std::ios::binary);
+  if (!in) throw Error("--resume: cannot read the checkpoint " + path_ + ": " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  resumed_ = optim::parse_checkpoint(text.str(), path_, run_);
+  hooks_.resume = &resumed_;
+  std::fprintf(stderr, "%s: resuming from %s at iteration %d\n", command.c_str(), path_.c_str(),
+               resumed_.iteration);
 }
 
 void check_fit_counts(int iterations, int min_iterations, int gif_every) {

@@ -91,6 +91,8 @@ void make_parent_dirs(const std::string& file);
 
 // Name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(<code>)".
 std::string cl_error_name(int code);
+// "a,b,c".
+std::string joined(const std::vector<std::string>& words);
 // Replaces line breaks so that an error message prints as one line.
 std::string one_line(const std::string& text);
 
@@ -106,6 +108,30 @@ void add_gif_every_option(CLI::App& cmd, int& gif_every);
 void add_radius_option(CLI::App& cmd, double& radius);
 void add_light_dir_option(CLI::App& cmd, std::vector<std::string>& light_dirs);
 void add_fit_device_option(CLI::App& cmd, std::string& device);
+
+// --checkpoint-every N and --resume.
+struct CheckpointOptions {
+  int every = 25;
+  bool resume = false;
+};
+void add_checkpoint_options(CLI::App& cmd, CheckpointOptions& options);
+
+// DIR/checkpoint.json of a fit, written (atomically) every N iterations and after the last, and
+// with --resume read first: it must exist and belong to the same run, `run` naming the command
+// and every option that decides the fit. hooks() is what the fit takes.
+class FitCheckpointFile {
+ public:
+  FitCheckpointFile(const CheckpointOptions& options, const std::string& dir,
+                    const std::string& command, std::string run);
+  FitCheckpointFile(const FitCheckpointFile&) = delete;
+  FitCheckpointFile& operator=(const FitCheckpointFile&) = delete;
+  const optim::FitCheckpoints& hooks() const { return hooks_; }
+
+ private:
+  std::string path_, run_;
+  optim::FitState resumed_;
+  optim::FitCheckpoints hooks_;
+};
 
 // Throws unless min_iterations ≤ iterations ≤ 100000 and gif_every ≥ 1.
 void check_fit_counts(int iterations, int min_iterations, int gif_every);

@@ -34,6 +34,7 @@ struct FitShadowsArgs {
   int gif_every = 4;
   double radius = 0.75;
   double light_size = 0.05;
+  CheckpointOptions checkpoints;
 };
 
 // A shadow-map size of about `texels_per_pixel` texels per camera pixel (the map spans
@@ -86,12 +87,18 @@ int run_fit_shadows(const FitShadowsArgs& a) {
   stages[1] = {size, fine, m1, light_sigma(m1), 0.003, 1, reg, size0 / 4};
 
   const Mesh sphere = start_sphere(a.radius);
+  const FitCheckpointFile checkpoints(
+      a.checkpoints, a.output, "fit-shadows",
+      "fit-shadows iterations=" + std::to_string(n) + " radius=" + std::to_string(a.radius) +
+          " shadows=" + a.shadows + " light-size=" + std::to_string(a.light_size) +
+          " targets=" + joined(files) + " light-dirs=" + joined(a.light_dirs));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   const Stopwatch clock;
   FitRecorder recorder("fit-shadows", a.output, problem.targets, n, a.gif_every, clock);
-  const Mesh result = fit_shadows(renderer, sphere, problem, stages,
-                                  [&](const FitProgress& p) { recorder.update(p); });
+  const Mesh result = fit_shadows(
+      renderer, sphere, problem, stages, [&](const FitProgress& p) { recorder.update(p); },
+      checkpoints.hooks());
   // Final: the hard shadows at the targets' size.
   const std::vector<Image> hard = hard_shadows(renderer, result, directions, size, w);
   const double total_seconds = clock.seconds();
@@ -125,6 +132,7 @@ Command add_fit_shadows_command(CLI::App& root) {
   add_output_option(*c.app, args->output, "mesh.obj, result.png, scene.png and fit.gif");
   add_gif_every_option(*c.app, args->gif_every);
   add_radius_option(*c.app, args->radius);
+  add_checkpoint_options(*c.app, args->checkpoints);
   add_fit_device_option(*c.app, args->device);
   c.run = [args] { return run_fit_shadows(*args); };
   return c;

@@ -30,6 +30,7 @@ struct FitSilhouetteArgs {
   int iterations = 600;
   int gif_every = 5;
   double radius = 0.75;
+  CheckpointOptions checkpoints;
 };
 
 int run_fit_silhouette(const FitSilhouetteArgs& a) {
@@ -84,12 +85,17 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
                {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
 
   const Mesh sphere = start_sphere(a.radius);
+  const FitCheckpointFile checkpoints(
+      a.checkpoints, a.output, "fit-silhouette",
+      "fit-silhouette iterations=" + std::to_string(n) + " radius=" + std::to_string(a.radius) +
+          " targets=" + joined(files) + " views=" + joined(views));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   const Stopwatch clock;
   FitRecorder recorder("fit-silhouette", a.output, problem.targets, n, a.gif_every, clock);
-  const Mesh result = fit_silhouettes(renderer, sphere, problem, stages,
-                                      [&](const FitProgress& p) { recorder.update(p); });
+  const Mesh result = fit_silhouettes(
+      renderer, sphere, problem, stages, [&](const FitProgress& p) { recorder.update(p); },
+      checkpoints.hooks());
   // Final: hard silhouettes at the targets' size.
   const std::vector<Image> hard = hard_silhouettes(renderer, result, directions, kHalfHeight, size);
   const double total_seconds = clock.seconds();
@@ -118,6 +124,7 @@ Command add_fit_silhouette_command(CLI::App& root) {
   add_output_option(*c.app, args->output, "mesh.obj, result.png and fit.gif");
   add_gif_every_option(*c.app, args->gif_every);
   add_radius_option(*c.app, args->radius);
+  add_checkpoint_options(*c.app, args->checkpoints);
   add_fit_device_option(*c.app, args->device);
   c.run = [args] { return run_fit_silhouette(*args); };
   return c;

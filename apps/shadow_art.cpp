@@ -34,6 +34,7 @@ struct ShadowArtArgs {
   std::string device;
   int iterations = 250;
   int gif_every = 2;
+  CheckpointOptions checkpoints;
 };
 
 int run_shadow_art(const ShadowArtArgs& a) {
@@ -86,11 +87,16 @@ int run_shadow_art(const ShadowArtArgs& a) {
   stages[1] = {size, n * 2 / 5, sigma(0.2, size), 0.002, 0, reg};
   stages[2] = {size, n - 2 * (n * 2 / 5), sigma(0.09, size), 0.001, 0, reg};
 
+  const FitCheckpointFile checkpoints(a.checkpoints, a.output, "shadow-art",
+                                      "shadow-art iterations=" + std::to_string(n) +
+                                          " targets=" + joined(files) +
+                                          " light-dirs=" + joined(a.light_dirs));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   FitRecorder recorder("shadow-art", a.output, problem.targets, n, a.gif_every, clock);
-  const Mesh result = fit_silhouettes(renderer, start, problem, stages,
-                                      [&](const FitProgress& p) { recorder.update(p); });
+  const Mesh result = fit_silhouettes(
+      renderer, start, problem, stages, [&](const FitProgress& p) { recorder.update(p); },
+      checkpoints.hooks());
   // Final: the hard shadow on each wall, at the targets' size.
   const WallSetup walls;
   const std::vector<Image> shadows = hard_shadows(renderer, result, directions, size, walls);
@@ -120,6 +126,7 @@ Command add_shadow_art_command(CLI::App& root) {
   add_iterations_option(*c.app, args->iterations);
   add_output_option(*c.app, args->output, "mesh.obj, result.png, scene.png and fit.gif");
   add_gif_every_option(*c.app, args->gif_every);
+  add_checkpoint_options(*c.app, args->checkpoints);
   add_fit_device_option(*c.app, args->device);
   c.run = [args] { return run_shadow_art(*args); };
   return c;

@@ -23,6 +23,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "cli_run.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
@@ -556,6 +558,73 @@ TEST(FaultsCli, TuneLeavesOtherDevicesEntriesByteIdentical) {
   const std::string kept = kOtherEntries.substr(0, kOtherEntries.rfind("\n    }\n"));
   EXPECT_EQ(after.substr(0, kept.size()), kept) << after;
   EXPECT_EQ(names_in(dir), std::vector<std::string>{"db.json"});
+}
+
+// ---------------------------------------------------------------------------------------------
+// Checkpoints of the long optimisations.
+
+// The iteration of DIR/checkpoint.json, or -1 while there is none (it is replaced atomically,
+// so that it is always whole when it is there).
+int checkpoint_iteration(const std::string& dir) {
+  const std::string text = read_text(dir + "/checkpoint.json");
+  if (text.empty()) return -1;
+  return nlohmann::json::parse(text).at("iteration").get<int>();
+}
+
+TEST(FaultsCli, FitKilledMidWayResumesToTheSameResult) {
+  const std::string fit = " fit-silhouette --iterations 200 --checkpoint-every 10 --gif-every 50";
+  const std::string reference = fresh_dir("fit_reference"), killed = fresh_dir("fit_killed");
+  const RunResult whole = run_cli(fit + " -o " + quote(reference), "fit_reference");
+  ASSERT_EQ(whole.exit_code, 0) << show(whole);
+
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const std::string command = "exec " + quote(PENUMBRA_CLI) + fit + " -o " + quote(killed) +
+                                " >/dev/null 2>&1";
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  int at = -1;
+  for (int polls = 0; polls < 60000 && at < 30; ++polls) {
+    ::usleep(5000);
+    at = checkpoint_iteration(killed);
+  }
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before it was killed";
+  at = checkpoint_iteration(killed);
+  ASSERT_GE(at, 30);
+  ASSERT_LT(at, 200);
+  EXPECT_FALSE(fs::exists(killed + "/mesh.obj"));
+
+  const RunResult resumed = run_cli(fit + " --resume -o " + quote(killed), "fit_resumed");
+  ASSERT_EQ(resumed.exit_code, 0) << show(resumed);
+  EXPECT_NE(resumed.err.find("fit-silhouette: resuming from " + killed +
+                             "/checkpoint.json at iteration " + std::to_string(at)),
+            std::string::npos)
+      << show(resumed);
+  const std::string last = lines(resumed.out).back(), whole_last = lines(whole.out).back();
+  EXPECT_EQ(last.rfind("fit-silhouette: iterations=200 ", 0), 0u) << last;
+  EXPECT_EQ(last.substr(last.find(" iou=")), whole_last.substr(whole_last.find(" iou=")));
+  // Bit for bit the mesh of the run that was never interrupted.
+  EXPECT_EQ(read_text(killed + "/mesh.obj"), read_text(reference + "/mesh.obj"));
+  EXPECT_EQ(checkpoint_iteration(killed), 200);
+}
+
+TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
+  const std::string dir = fresh_dir("resume_checks");
+  const std::string fit = " fit-silhouette --iterations 20 --checkpoint-every 5 -o " + quote(dir);
+  expect_clean_error(run_cli(fit + " --resume", "resume_none"),
+                     "--resume: cannot read the checkpoint " + dir + "/checkpoint.json");
+  ASSERT_EQ(run_cli(fit, "resume_first").exit_code, 0);
+  expect_clean_error(
+      run_cli(" fit-silhouette --iterations 24 --resume -o " + quote(dir), "resume_other"),
+      "was written by another run (fit-silhouette iterations=20 ");
+  write_text(dir + "/checkpoint.json", read_text(dir + "/checkpoint.json").substr(0, 100));
+  expect_clean_error(run_cli(fit + " --resume", "resume_cut"), "is not a checkpoint");
+  expect_clean_error(run_cli(" fit-silhouette --checkpoint-every -1 -o " + quote(dir), "resume_every"),
+                     "--checkpoint-every must be 0");
 }
 
 }  // namespace

@@ -307,6 +307,7 @@ bool closed(const Mesh& m) {
   return t.hinges.size() == t.edges.size();
 }
 
+
 }  // namespace
 
 TEST(OptimMesh, TopologyOfTheIcosahedron) {
@@ -551,4 +552,41 @@ TEST(OptimScenes, ShortSilhouetteFitImproves) {
     EXPECT_GT(last[v], first[v] + 0.05) << "view " << v;
     EXPECT_GT(last[v], 0.7) << "view " << v << " first " << first[v];
   }
+}
+
+TEST(OptimScenes, FitResumedFromAnyCheckpointEndsBitIdentical) {
+  // Two stages (the second subdivides): a checkpoint after every iteration, then a fit resumed
+  // from each of them (through the checkpoint's text, as a file would hold it) must end with
+  // the very mesh of the fit that was never stopped, stage boundaries included.
+  SilhouetteProblem problem;
+  problem.half_height = 1.0;
+  for (const char* v : {"front", "side"}) {
+    problem.targets.push_back(binarize(
+        downsample(load_target(kData + "/targets/silhouette_" + std::string(v) + ".png"), 8)));
+    problem.directions.push_back(named_view(v));
+  }
+  std::vector<SilhouetteStage> stages(2);
+  stages[0] = {8, 3, 2e-2, 0.01, 0, {1.0, 0.0, 0.01, EdgeLoss::Variance}};
+  stages[1] = {16, 3, 1e-2, 0.005, 1, {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
+  std::vector<std::string> saved;
+  FitCheckpoints every;
+  every.every = 1;
+  every.save = [&](const FitState& s) { saved.push_back(checkpoint_text(s, "test run")); };
+  const Mesh whole = fit_silhouettes(renderer(), sphere(0.75), problem, stages, nullptr, every);
+  ASSERT_EQ(saved.size(), 6u);
+  for (size_t k = 0; k < saved.size(); ++k) {
+    const FitState state = parse_checkpoint(saved[k], "checkpoint " + std::to_string(k), "test run");
+    EXPECT_EQ(state.iteration, int(k) + 1);
+    FitCheckpoints resume;
+    resume.resume = &state;
+    int observed = 0;
+    const Mesh out = fit_silhouettes(renderer(), sphere(0.75), problem, stages,
+                                     [&](const FitProgress& p) { observed = p.iteration; }, resume);
+    EXPECT_EQ(out.vertices, whole.vertices) << "resumed after iteration " << k + 1;
+    EXPECT_EQ(out.faces, whole.faces);
+    EXPECT_EQ(observed, k + 1 < saved.size() ? 6 : 0) << k;
+  }
+  EXPECT_NE(error_of([&] { parse_checkpoint(saved[0], "c.json", "another run"); })
+                .find("checkpoint c.json was written by another run (test run)"),
+            std::string::npos);
 }

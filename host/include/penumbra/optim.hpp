@@ -80,6 +80,13 @@ class Adam {
   double lr() const { return options_.lr; }
   size_t size() const { return m_.size(); }
   long steps() const { return t_; }
+  // The moments and the step count, to continue exactly where it stopped (checkpoints).
+  struct State {
+    std::vector<double> m, v;
+    long t = 0;
+  };
+  State state() const { return {m_, v_, t_}; }
+  void restore(const State& state);
 
  private:
   AdamOptions options_;
@@ -203,12 +210,34 @@ struct FitProgress {
 };
 using FitObserver = std::function<void(const FitProgress&)>;
 
+// A fit between two iterations: what it takes to go on exactly where it stopped.
+struct FitState {
+  int iteration = 0;   // iterations done, over all stages
+  int stage = 0;       // the stage the last of them belongs to
+  Mesh mesh;           // the mesh after them, subdivided as that stage has it
+  Adam::State adam;    // that stage's optimiser
+};
+// Checkpoints of a fit: `save` gets the state after every `every`-th iteration and after the
+// last (0: never); with `resume` the fit starts from that state instead of the beginning, and
+// goes on exactly as the run that saved it would have.
+struct FitCheckpoints {
+  int every = 0;
+  std::function<void(const FitState&)> save;
+  const FitState* resume = nullptr;
+};
+// A checkpoint file's text: the state and `run`, a description of the run it belongs to.
+std::string checkpoint_text(const FitState& state, const std::string& run);
+// Reads it back; throws penumbra::Error naming `path` when the text is not a checkpoint or was
+// written for another run than `run`.
+FitState parse_checkpoint(const std::string& text, const std::string& path, const std::string& run);
+
 // Render parameters of a silhouette view: no lights, no shadows, σ as given.
 Scene silhouette_scene(const Mesh& mesh, const std::vector<glm::dvec3>& directions,
                        double half_height, int size, double sigma);
 // Runs the stages and returns the final mesh.
 Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& problem,
-                     const std::vector<SilhouetteStage>& stages, const FitObserver& observer);
+                     const std::vector<SilhouetteStage>& stages, const FitObserver& observer,
+                     const FitCheckpoints& checkpoints = {});
 // The mesh's hard silhouettes (binary: 1 where the coverage exceeds 0.5, rendered with a tiny σ
 // so that a pixel is 1 exactly when its centre is covered), `size` pixels.
 std::vector<Image> hard_silhouettes(Renderer& renderer, const Mesh& mesh,
@@ -289,7 +318,8 @@ struct ShadowProblem {
 };
 
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
-                 const std::vector<ShadowStage>& stages, const FitObserver& observer);
+                 const std::vector<ShadowStage>& stages, const FitObserver& observer,
+                 const FitCheckpoints& checkpoints = {});
 
 // ---------------------------------------------------------------------------------------------
 // Progress of an optimisation on stderr: on a terminal one line redrawn in place after every

@@ -15,6 +15,16 @@ void Adam::reset(size_t size) {
   t_ = 0;
 }
 
+void Adam::restore(const State& state) {
+  if (state.m.size() != state.v.size() || state.t < 0)
+    throw Error("Adam::restore: " + std::to_string(state.m.size()) + " first and " +
+                std::to_string(state.v.size()) + " second moments, step " +
+                std::to_string(state.t));
+  m_ = state.m;
+  v_ = state.v;
+  t_ = state.t;
+}
+
 void Adam::step(double* x, const double* g) {
   ++t_;
   if (m_.empty()) return;

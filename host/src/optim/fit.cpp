@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "optim/stages.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/optim.hpp"
 
@@ -34,7 +35,8 @@ Scene silhouette_scene(const Mesh& mesh, const std::vector<glm::dvec3>& directio
 }
 
 Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& problem,
-                     const std::vector<SilhouetteStage>& stages, const FitObserver& observer) {
+                     const std::vector<SilhouetteStage>& stages, const FitObserver& observer,
+                     const FitCheckpoints& checkpoints) {
   check_targets(problem.targets, {});
   if (problem.targets.size() != problem.directions.size())
     throw Error("fit_silhouettes: " + std::to_string(problem.targets.size()) + " targets for " +
@@ -52,19 +54,27 @@ Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& pro
     mesh.albedo_mode = AlbedoMode::PerVertex;
   }
 
+  check_resume(checkpoints, stages.size(), total);
   int iteration = 0;
   for (size_t si = 0; si < stages.size(); ++si) {
     const SilhouetteStage& stage = stages[si];
-    for (int k = 0; k < stage.subdivisions; ++k) mesh = subdivide(mesh);
+    const int iterations = std::max(stage.iterations, 0);
+    if (stage_done(checkpoints, si)) {
+      iteration += iterations;
+      continue;
+    }
+    const int first =
+        enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
+    iteration += first;
     const Topology topo = topology(mesh.faces, mesh.vertices.size());
     std::vector<Image> targets;
     for (const Image& t : problem.targets) targets.push_back(downsample(t, full / stage.resolution));
     Scene scene = silhouette_scene(mesh, problem.directions, problem.half_height,
                                    stage.resolution, stage.sigma);
-    Adam adam(3 * mesh.vertices.size(), AdamOptions{stage.lr});
+    Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
     std::vector<OutputGrads> grads(targets.size());
     std::vector<Image> silhouettes(targets.size());
-    for (int it = 0; it < stage.iterations; ++it) {
+    for (int it = first; it < stage.iterations; ++it) {
       scene.meshes.front().vertices = mesh.vertices;
       const std::vector<RenderOutput> out = renderer.render(scene);
       FitProgress p;
@@ -84,6 +94,7 @@ Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& pro
       p.images = &silhouettes;
       if (observer) observer(p);
       adam.step(mesh.vertices, grad);
+      after_step(checkpoints, iteration, total, si, mesh, adam);
     }
   }
   return mesh;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "optim/stages.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/optim.hpp"
 
@@ -135,7 +136,8 @@ RenderParams ShadowProblem::default_shadow_fit_params() {
 }
 
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
-                 const std::vector<ShadowStage>& stages, const FitObserver& observer) {
+                 const std::vector<ShadowStage>& stages, const FitObserver& observer,
+                 const FitCheckpoints& checkpoints) {
   check_targets(problem.targets, {});
   if (problem.targets.size() != problem.directions.size())
     throw Error("fit_shadows: " + std::to_string(problem.targets.size()) + " targets for " +
@@ -153,10 +155,18 @@ Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
     mesh.albedo_mode = AlbedoMode::PerVertex;
   }
   const size_t nl = problem.directions.size();
+  check_resume(checkpoints, stages.size(), total);
   int iteration = 0;
   for (size_t si = 0; si < stages.size(); ++si) {
     const ShadowStage& stage = stages[si];
-    for (int k = 0; k < stage.subdivisions; ++k) mesh = subdivide(mesh);
+    const int iterations = std::max(stage.iterations, 0);
+    if (stage_done(checkpoints, si)) {
+      iteration += iterations;
+      continue;
+    }
+    const int first =
+        enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
+    iteration += first;
     const Topology topo = topology(mesh.faces, mesh.vertices.size());
     RenderParams params = problem.params;
     params.light_sigma = stage.light_sigma;
@@ -173,9 +183,9 @@ Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
                                   problem.setup, true));
       scenes.back().lights.front().size = stage.light_size;
     }
-    Adam adam(3 * mesh.vertices.size(), AdamOptions{stage.lr});
+    Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
     std::vector<Image> shadows(nl);
-    for (int it = 0; it < stage.iterations; ++it) {
+    for (int it = first; it < stage.iterations; ++it) {
       FitProgress p;
       p.iteration = ++iteration;
       p.total = total;
@@ -198,6 +208,7 @@ Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
       p.images = &shadows;
       if (observer) observer(p);
       adam.step(mesh.vertices, grad);
+      after_step(checkpoints, iteration, total, si, mesh, adam);
     }
   }
   return mesh;
