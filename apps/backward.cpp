@@ -162,6 +162,7 @@ int run_backward(const BackwardArgs& a) {
   }
 
   Context context(a.render.device);
+  limit_memory(a.render, context);
   Renderer renderer(context, precision);
   renderer.render(scene);
   const SceneGrads g = renderer.backward(scene, grads);

@@ -33,6 +33,8 @@ void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh) {
 
 namespace {
 
+bool given(const CLI::Option* option) { return option != nullptr && option->count() > 0; }
+
 // A CLI11 check that the value is one of `words`, with a message that lists them.
 CLI::Validator one_of(const std::vector<std::string>& words) {
   std::string list;
@@ -130,11 +132,35 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
   cmd.add_option("--device", o.device,
                  "OpenCL device: index from `penumbra devices` or part of its name "
                  "(default: $PENUMBRA_DEVICE, else the first GPU, else the first device)");
+  o.o_max_memory = cmd.add_option("--max-memory", o.max_memory,
+                                  "refuse, before allocating, a call estimated to need more "
+                                  "device memory than this (e.g. 1GiB, 512MiB; default: all "
+                                  "the device has)");
+}
+
+size_t parse_bytes(const std::string& text, const std::string& option) {
+  static const std::pair<const char*, double> units[] = {
+      {"", 1},           {"B", 1},          {"KiB", 1024.0},   {"MiB", 1048576.0},
+      {"GiB", 1073741824.0}, {"TiB", 1099511627776.0}, {"kB", 1e3}, {"KB", 1e3},
+      {"MB", 1e6},       {"GB", 1e9},       {"TB", 1e12}};
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  const double value = std::strtod(begin, &end);
+  std::string unit(end == begin ? "?" : end);
+  while (!unit.empty() && unit.front() == ' ') unit.erase(0, 1);
+  for (const auto& [name, scale] : units)
+    if (unit == name && std::isfinite(value) && value * scale >= 1 && value * scale < 1.8e19)
+      return size_t(value * scale);
+  throw Error(option + " must be a positive size such as 512MiB, 2GiB or 1e9 (got '" + text +
+              "')");
+}
+
+void limit_memory(const RenderOptions& o, Context& context) {
+  if (given(o.o_max_memory))
+    context.set_memory_limit(parse_bytes(o.max_memory, "--max-memory"), "--max-memory");
 }
 
 namespace {
-
-bool given(const CLI::Option* option) { return option != nullptr && option->count() > 0; }
 
 std::string number(double v) {
   std::ostringstream s;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/context.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
@@ -54,19 +55,25 @@ struct RenderOptions {
   int map_size = 0;               // shadow_map_size
   double light_size = 0, light_sigma = 0, light_gamma = 0, weight_eps = 0;
   int width = 0, height = 0;
-  std::string device;
+  std::string device, max_memory;
   // The parsed options, to tell "given" from "left at the default".
   CLI::Option *o_sigma = nullptr, *o_gamma = nullptr, *o_eps = nullptr, *o_dist_eps = nullptr,
               *o_sigma_s = nullptr, *o_lambda_eps = nullptr, *o_gamma_s = nullptr,
               *o_beta = nullptr, *o_gamma_p = nullptr, *o_width = nullptr, *o_height = nullptr,
               *o_shadows = nullptr, *o_sampling = nullptr, *o_shadow_model = nullptr, *o_map_size = nullptr,
               *o_light_size = nullptr, *o_light_sigma = nullptr, *o_light_gamma = nullptr,
-              *o_weight_eps = nullptr;
+              *o_weight_eps = nullptr, *o_max_memory = nullptr;
 };
 void add_render_options(CLI::App& cmd, RenderOptions& options);
 // Applies the given overrides to every camera / the scene parameters; throws penumbra::Error for
 // values that make no sense (zero image size, non-positive σ, ...), then validates the scene.
 void apply_render_options(const RenderOptions& options, Scene& scene);
+
+// The device named by --device, with the memory limit of --max-memory when given.
+void limit_memory(const RenderOptions& options, Context& context);
+// A size in bytes: a number, optionally followed by B, KiB, MiB, GiB, TiB (powers of 1024) or
+// kB, MB, GB, TB (powers of 1000); throws penumbra::Error naming `option` otherwise.
+size_t parse_bytes(const std::string& text, const std::string& option);
 
 // The shadow mode of a --shadows word (the words of every enum: penumbra::word, scene.hpp).
 Shadows parse_shadows(const std::string& word);

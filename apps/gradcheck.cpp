@@ -41,6 +41,7 @@ int run_gradcheck(const GradcheckArgs& a) {
   options.rtol = a.rtol;
 
   Context context(a.render.device);
+  limit_memory(a.render, context);
   const GradCheckResult r = gradcheck(context, scene, options);
   if (a.verbose) {
     std::printf("%-24s %15s %15s %10s\n", "entry", "analytic", "numeric", "rel_err");

@@ -57,6 +57,7 @@ int run_render(const RenderArgs& a) {
   const Precision precision = parse_precision(a.precision);
 
   Context context(a.render.device);
+  limit_memory(a.render, context);
   Renderer renderer(context, precision);
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<RenderOutput> views = renderer.render(scene);

@@ -85,6 +85,7 @@ int run_turnaround(const TurnaroundArgs& a) {
   const Camera base = scene.cameras.front();
 
   Context context(a.render.device);
+  limit_memory(a.render, context);
   Renderer renderer(context, precision);
   make_dirs(a.output);
   const std::string gif_path = (fs::path(a.output) / "turnaround.gif").string();

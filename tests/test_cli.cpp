@@ -408,5 +408,5 @@ TEST(Cli, SceneTooLargeForTheDeviceFailsUpFront) {
   const RunResult r = run_cli("render -o " + quote(temp_path("huge.png")) +
                                   " --width 16384 --height 16384 --map-size 8192",
                               "huge");
-  expect_clean_error(r, "MiB of device memory");
+  expect_clean_error(r, "GiB of device memory, more than the ");
 }

@@ -29,6 +29,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/io.hpp"
+#include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
 #include "penumbra/tuning.hpp"
 
@@ -625,6 +626,90 @@ TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
   expect_clean_error(run_cli(fit + " --resume", "resume_cut"), "is not a checkpoint");
   expect_clean_error(run_cli(" fit-silhouette --checkpoint-every -1 -o " + quote(dir), "resume_every"),
                      "--checkpoint-every must be 0");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Device memory, bounded before anything is allocated.
+
+TEST(FaultsCli, MemoryLimitRefusesTooLargeARenderAtOnce) {
+  const auto start = std::chrono::steady_clock::now();
+  const RunResult r = run_cli(
+      "render --width 4096 --height 4096 --map-size 8192 --shadows soft --max-memory 1GiB -o " +
+          quote(fresh_dir("memory") + "/big.png"),
+      "memory");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  expect_clean_error(r, "rendering the scene (1312 faces) needs ");
+  EXPECT_NE(r.err.find(" GiB of device memory, more than the 1.00 GiB allowed by --max-memory "
+                       "(device '"),
+            std::string::npos)
+      << show(r);
+  EXPECT_LT(seconds, 1.0) << show(r);
+  EXPECT_TRUE(names_in(::testing::TempDir() + "penumbra_faults_memory").empty());
+}
+
+TEST(FaultsCli, MaxMemoryMustBeASize) {
+  for (const char* bad : {"0", "-1GiB", "12 apples", "GiB", "1e30"})
+    expect_clean_error(run_cli(std::string("render -o /dev/null --max-memory '") + bad + "'" + kSmall,
+                               "max_memory"),
+                       "--max-memory must be a positive size such as 512MiB");
+  const RunResult ok = run_cli("render -o /dev/null --max-memory 0.5GiB" + kSmall, "max_memory_ok");
+  EXPECT_EQ(ok.exit_code, 0) << show(ok);
+}
+
+penumbra::Context& context() {
+  static penumbra::Context ctx;
+  return ctx;
+}
+
+TEST(FaultsMemory, TheLimitIsTheEstimate) {
+  penumbra::Scene scene = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) +
+                                               "/scenes/turnaround.json");
+  for (penumbra::Camera& c : scene.cameras) c.width = c.height = 48;
+  scene.params.shadow_map_size = 64;
+  for (const bool backward : {false, true}) {
+    const size_t need = penumbra::estimate_device_memory(scene, penumbra::Precision::Float, backward);
+    penumbra::Renderer renderer(context());
+    context().set_memory_limit(need - 1, "the test's limit");
+    const std::string message = error_of([&] {
+      renderer.render(scene);
+      if (backward) renderer.backward(scene, std::vector<penumbra::OutputGrads>(1));
+    });
+    EXPECT_NE(message.find("allowed by the test's limit"), std::string::npos) << message;
+    context().set_memory_limit(need, "the test's limit");
+    EXPECT_EQ(error_of([&] {
+                renderer.render(scene);
+                if (backward) renderer.backward(scene, std::vector<penumbra::OutputGrads>(1));
+              }),
+              "");
+  }
+  context().set_memory_limit(0, "");
+}
+
+TEST(FaultsMemory, EstimateGrowsWithEveryPartOfTheWork) {
+  penumbra::Scene scene = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) +
+                                               "/scenes/turnaround.json");
+  const auto estimate = [&](const penumbra::Scene& s) {
+    return penumbra::estimate_device_memory(s, penumbra::Precision::Float);
+  };
+  const size_t base = estimate(scene);
+  penumbra::Scene more = scene;
+  more.params.shadow_map_size *= 2;
+  EXPECT_GT(estimate(more), base);
+  more = scene;
+  more.cameras.front().width *= 2;
+  EXPECT_GT(estimate(more), base);
+  more = scene;
+  more.params.shadows = penumbra::Shadows::Soft;
+  EXPECT_GT(estimate(more), base);
+  more = scene;
+  more.params.sampling = penumbra::Sampling::Exact;
+  EXPECT_GT(estimate(more), base);
+  more = scene;
+  more.params.shadows = penumbra::Shadows::None;
+  EXPECT_LT(estimate(more), base);
+  EXPECT_GT(penumbra::estimate_device_memory(scene, penumbra::Precision::Double), base);
+  EXPECT_GT(penumbra::estimate_device_memory(scene, penumbra::Precision::Float, true), base);
 }
 
 }  // namespace

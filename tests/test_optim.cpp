@@ -307,7 +307,6 @@ bool closed(const Mesh& m) {
   return t.hinges.size() == t.edges.size();
 }
 
-
 }  // namespace
 
 TEST(OptimMesh, TopologyOfTheIcosahedron) {

@@ -316,15 +316,8 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   const int nl = int(s.lights.size());
   m.packed = pack(s);
   const Packed& p = m.packed;
-  {  // everything but the fragments (checked once counted): geometry, per-view images, maps
-    const size_t rs = detail::real_size(m.precision);
-    size_t pixels = 0;
-    for (const Camera& c : s.cameras) pixels += size_t(c.width) * c.height;
-    if (shadows) pixels += s.lights.size() * size_t(s.params.shadow_map_size) * s.params.shadow_map_size;
-    detail::check_memory(ctx, size_t(p.nv) * 4 * rs * 3 + size_t(p.nf) * (16 * rs + 48) + pixels * 16 * rs,
-                         "the scene (" + std::to_string(p.nf) + " faces, " +
-                             std::to_string(pixels) + " pixels and texels)");
-  }
+  detail::check_memory(ctx, estimate_device_memory(s, m.precision),
+                       "rendering the scene (" + std::to_string(p.nf) + " faces)");
   DeviceGeometry& g = m.geometry;
   g.nv = p.nv;
   g.nf = p.nf;
@@ -405,6 +398,9 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     same = view_params(fitted, fitted.cameras[c]) == m.view_P[c];
   if (!same)
     throw Error("backward: the scene differs from the one last rendered; call render() first");
+  detail::check_memory(ctx, estimate_device_memory(m.scene, m.precision, true),
+                       "the backward pass of the scene (" + std::to_string(m.packed.nf) +
+                           " faces)");
   if (grads.size() != scene.cameras.size())
     throw Error("backward: got gradients for " + std::to_string(grads.size()) +
                 " camera(s), the scene has " + std::to_string(scene.cameras.size()));

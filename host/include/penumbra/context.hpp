@@ -37,7 +37,16 @@ class Context {
   // Source of kernels/<file> with includes expanded (for tests and diagnostics).
   static std::string kernel_source(const std::string& file);
 
+  // The device memory a call may use: `bytes`, named `by` in messages ("--max-memory"), or
+  // (0, the default) all the device reports. A render or backward that needs more, estimated
+  // before anything is allocated, throws penumbra::Error with both amounts in GiB.
+  void set_memory_limit(size_t bytes, const std::string& by);
+  size_t memory_limit() const { return memory_limit_ ? memory_limit_ : info_.global_mem; }
+  const std::string& memory_limit_by() const { return memory_limit_by_; }
+
  private:
+  size_t memory_limit_ = 0;
+  std::string memory_limit_by_;
   DeviceInfo info_;
   cl::Context context_;
   cl::CommandQueue queue_;

@@ -114,6 +114,11 @@ std::vector<DeviceInfo> list_devices() {
   return out;
 }
 
+void Context::set_memory_limit(size_t bytes, const std::string& by) {
+  memory_limit_ = bytes;
+  memory_limit_by_ = by;
+}
+
 Context::Context(const std::string& device) {
   std::string spec = device;
   if (spec.empty())

@@ -84,12 +84,21 @@ cl::Buffer alloc_ints(Context& ctx, size_t count) {
   return make_buffer(ctx, std::max<size_t>(count, 1) * sizeof(int), nullptr);
 }
 
+std::string gib(size_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f GiB", double(bytes) / double(size_t(1) << 30));
+  return text;
+}
+
 void check_memory(Context& ctx, size_t bytes, const std::string& what) {
   const DeviceInfo& d = ctx.info();
-  if (bytes > d.global_mem)
-    throw Error(what + " needs " + std::to_string((bytes + (1 << 20) - 1) >> 20) +
-                " MiB of device memory; '" + d.name + "' has " +
-                std::to_string(d.global_mem >> 20) + " MiB");
+  if (bytes <= ctx.memory_limit()) return;
+  const std::string device = "device '" + d.name + "' has";
+  throw Error(what + " needs " + gib(bytes) + " of device memory, more than " +
+              (ctx.memory_limit_by().empty()
+                   ? "the " + gib(d.global_mem) + " that " + device
+                   : "the " + gib(ctx.memory_limit()) + " allowed by " + ctx.memory_limit_by() +
+                         " (" + device + " " + gib(d.global_mem) + ")"));
 }
 
 cl::Buffer zero_reals(Context& ctx, Precision p, size_t count) {

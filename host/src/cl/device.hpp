@@ -25,9 +25,12 @@ std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count
 // Uninitialised device buffer of `count` reals (at least one element).
 cl::Buffer alloc_reals(Context& ctx, Precision p, size_t count);
 cl::Buffer alloc_ints(Context& ctx, size_t count);
-// Throws penumbra::Error "<what> needs N MiB of device memory; the device has M MiB" when
-// `bytes` exceeds the device's memory (checked before allocating what a stage needs).
+// Throws penumbra::Error "<what> needs N GiB of device memory, more than ..." when `bytes`
+// exceeds the context's memory limit (Context::memory_limit: the device's memory unless set);
+// checked before allocating.
 void check_memory(Context& ctx, size_t bytes, const std::string& what);
+// "1.25 GiB".
+std::string gib(size_t bytes);
 
 // Zero-filled buffer of `count` reals (for accumulators, and for products that must never read
 // NaN from old memory).
