@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -710,6 +711,36 @@ TEST(FaultsMemory, EstimateGrowsWithEveryPartOfTheWork) {
   EXPECT_LT(estimate(more), base);
   EXPECT_GT(penumbra::estimate_device_memory(scene, penumbra::Precision::Double), base);
   EXPECT_GT(penumbra::estimate_device_memory(scene, penumbra::Precision::Float, true), base);
+}
+
+// ---------------------------------------------------------------------------------------------
+// docs/faults.md names a test for every row; those tests must exist, and every test here must
+// be in the table.
+
+TEST(FaultsDoc, EveryTestTheTableNamesExistsAndEveryFaultTestIsInIt) {
+  const std::string doc = read_text(std::string(PENUMBRA_DATA_DIR) + "/../docs/faults.md");
+  ASSERT_FALSE(doc.empty());
+  std::vector<std::string> registered;
+  const ::testing::UnitTest& unit = *::testing::UnitTest::GetInstance();
+  for (int i = 0; i < unit.total_test_suite_count(); ++i) {
+    const ::testing::TestSuite& suite = *unit.GetTestSuite(i);
+    for (int j = 0; j < suite.total_test_count(); ++j)
+      registered.push_back(std::string(suite.name()) + "." + suite.GetTestInfo(j)->name());
+  }
+  // `Suite.Name` (or `Suite.*`) in back quotes: a test.
+  const std::regex named("`([A-Z][A-Za-z]+)\\.([A-Z][A-Za-z]*|\\*)`");
+  int rows = 0;
+  for (std::sregex_iterator it(doc.begin(), doc.end(), named), end; it != end; ++it, ++rows) {
+    const std::string suite = (*it)[1], name = (*it)[2];
+    const bool found = std::any_of(registered.begin(), registered.end(), [&](const std::string& t) {
+      return name == "*" ? t.rfind(suite + ".", 0) == 0 : t == suite + "." + name;
+    });
+    EXPECT_TRUE(found) << "docs/faults.md names " << suite << "." << name << ", which is no test";
+  }
+  EXPECT_GT(rows, 30);
+  for (const std::string& t : registered)
+    if (t.rfind("Faults", 0) == 0 && t.rfind("FaultsDoc.", 0) != 0)
+      EXPECT_NE(doc.find("`" + t + "`"), std::string::npos) << t << " is not in docs/faults.md";
 }
 
 }  // namespace
