@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmarks, from a fresh Debian machine to docs/benchmarks.md:
-#   1. installs the packages (scripts/setup.sh, plus libembree-dev for the ray-traced ground
-#      truth and python3-matplotlib for the plots),
+#   1. installs the packages (scripts/setup.sh, which includes libembree-dev for the ray-traced
+#      ground truth, plus python3-matplotlib for the plots),
 #   2. builds penumbra_bench (Release) into build/ (or $PENUMBRA_BUILD_DIR),
 #   3. runs the default suite (a few minutes on two cores) with JSON output in out/bench/,
 #   4. profiles one forward frame per shadow mode with PoCL's command-queue profiler
@@ -35,7 +35,7 @@ done
 # --- packages ------------------------------------------------------------------------------
 ./scripts/setup.sh
 missing=()
-for p in libembree-dev python3-matplotlib; do
+for p in python3-matplotlib; do
   status=$(dpkg-query -W -f='${db:Status-Status}' "$p" 2>/dev/null || true)
   [[ "$status" == "installed" ]] || missing+=("$p")
 done
