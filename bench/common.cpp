@@ -128,6 +128,7 @@ Scene make_scene(const Case& c) {
     s.lights.push_back(L);
   }
   s.params.shadows = c.shadows;
+  s.params.shadow_model = c.model;
   s.params.sampling = c.sampling;
   s.params.shadow_map_size = c.map;
   s.params.sigma_s = c.sigma_s;

@@ -35,6 +35,7 @@ struct Case {
   int frequency = 0;       // 0: the bundled 1280-face sphere; else an icosphere of this frequency
   double sigma_s = 2.0;    // texel²
   int lights = 1;          // 1 to 3
+  ShadowModel model = ShadowModel::Accurate;
 };
 
 // data/scenes/turnaround.json (a unit sphere resting on an 8×8 ground plane, one point light of

@@ -3,7 +3,7 @@
 
   bench/report.py --json out/bench/bench.json [--machine out/bench/machine.json]
                   [--doc docs/benchmarks.md] [--images docs/images]
-                  [--accuracy-images out/bench/images]
+                  [--accuracy-images out/bench/images] [--accuracy-only]
   bench/report.py --smoke --bench build/penumbra_bench [--out-dir DIR]
 
 The first form writes the report of a finished run. --smoke runs penumbra_bench on two tiny
@@ -24,6 +24,19 @@ import sys
 import tempfile
 
 REF = {"img": 256, "map": 256, "faces": 1312, "sigma_s": 2.0, "lights": 1}
+TEXT_KEYS = ("model", "scene")  # name segments key:value whose value is a word
+
+# The accuracy group (bench/accuracy.hpp): scenes in their order, and the issue's targets for
+# the accurate model (bench/test_accuracy.cpp asserts the same).
+ACC_SCENES = ["sphere", "knot_h0", "knot_h0.3", "knot_h1", "grazing"]
+ACC_SCENE_WORDS = {
+    "sphere": "the bundled unit sphere resting on the ground",
+    "knot_h0": "a torus knot (3840 faces) lying on the ground",
+    "knot_h0.3": "the knot 0.3 above the ground",
+    "knot_h1": "the knot 1 above the ground",
+    "grazing": "a sphere of radius 0.5 under a light at 18° elevation",
+}
+ACC_TARGETS = {"area": 0.05, "lit": 0.02, "rmse": 0.05, "leak": 0.0, "time": 1.5}
 
 # Targets: this 2-core machine, PoCL, the turnaround scene, 256² image, 256² map, forward.
 FRAME_TARGETS = [
@@ -76,7 +89,7 @@ def parse_name(name):
     for p in parts:
         if ":" in p:
             k, v = p.split(":", 1)
-            params[k] = float(v) if k == "sigma_s" else int(v)
+            params[k] = v if k in TEXT_KEYS else float(v) if k == "sigma_s" else int(v)
         else:
             words.append(p)
     if not words:
@@ -120,7 +133,7 @@ class Results:
 
     def find(self, kind="render", **want):
         """The one record of `kind` matching `want`; parameters not given take REF's values."""
-        keys = dict(REF) if kind in ("render", "accuracy") else {}
+        keys = dict(REF) if kind == "render" else {}
         keys.update(want)
         for r in self.records:
             if r.get("kind") != kind:
@@ -244,50 +257,57 @@ def plot_sweep(plt, res, key, xlabel, path, logx=True, **fixed):
     return True
 
 
+def acc_ref(r):
+    """The reference settings of the accuracy group: 256² map, σ_s = 2."""
+    return r["map"] == 256 and r["sigma_s"] == 2.0
+
+
 def plot_tradeoff(plt, res, path):
-    acc = res.all("accuracy")
-    if not acc:
+    """Shadow-region RMSE against forward time, one panel per scene: both models, every
+    mode and sampling (reference map and σ_s; exact at its own map size)."""
+    acc = [r for r in res.all("accuracy") if r["shadows"] != "none" and
+           (acc_ref(r) or r["sampling"] == "exact")]
+    scenes = [sc for sc in ACC_SCENES if any(r["scene"] == sc for r in acc)]
+    if not scenes:
         return False
-    fig, ax = plt.subplots(figsize=(7, 4.8))
-    for r in acc:
-        ref = "sphere" if r["shadows"] == "soft" else "point"
-        color = {"none": "C0", "hard": "C1", "soft": "C2"}[r["shadows"]]
-        marker = {"truncated": "o", "exact": "s", "gemm": "^"}[r["sampling"]]
-        ax.scatter(ms(r), r[f"rmse_shadow_{ref}"], color=color, marker=marker)
-        label = f"{r['shadows']} {r['sampling']} {r['map']}² σs={fmt(r['sigma_s'], 2)}"
-        if r["shadows"] == "none":
-            label = "none"
-        ax.annotate(label, (ms(r), r[f"rmse_shadow_{ref}"]), fontsize=6,
-                    xytext=(3, 2), textcoords="offset points")
-    ax.set_xscale("log")
-    ax.set_xlabel("forward time per frame, median (ms)")
-    ax.set_ylabel("RMSE in the shadow region\n(hard & none vs point light, soft vs sphere light)")
-    ax.grid(True, which="both", alpha=0.3)
+    fig, axes = plt.subplots(1, len(scenes), figsize=(3.2 * len(scenes), 3.6), sharey=True,
+                             squeeze=False)
+    for ax, sc in zip(axes[0], scenes):
+        for r in (r for r in acc if r["scene"] == sc):
+            color = {"accurate": "C2", "paper": "C3"}[r["model"]]
+            marker = {"truncated": "o", "exact": "s", "gemm": "^"}[r["sampling"]]
+            fill = color if r["shadows"] == "hard" else "none"
+            ax.scatter(ms(r), r["rmse_shadow"], edgecolors=color, facecolors=fill, marker=marker)
+        ax.axhline(ACC_TARGETS["rmse"], color="grey", lw=0.8, ls="--")
+        ax.set_xscale("log")
+        ax.set_title(sc, fontsize=9)
+        ax.set_xlabel("forward ms (median)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].set_ylabel("shadow-region RMSE\n(hard vs point light, soft vs sphere light)")
+    from matplotlib.lines import Line2D
+    handles = [Line2D([], [], color=c, marker="o", ls="", label=l)
+               for c, l in (("C2", "accurate"), ("C3", "paper"))]
+    handles += [Line2D([], [], color="k", marker=m, ls="", mfc=f, label=l)
+                for m, f, l in (("o", "k", "hard, truncated"), ("o", "none", "soft, truncated"),
+                                ("s", "k", "exact"), ("^", "k", "gemm"))]
+    axes[0][-1].legend(handles=handles, fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
     return True
 
 
-def montage(plt, folder, path):
-    names = [("truth_point.png", "ray traced, point light"),
-             ("hard_truncated_img_256_map_256_faces_1312_sigma_s_2_lights_1.png",
-              "penumbra hard, truncated"),
-             ("truth_sphere.png", "ray traced, sphere light"),
-             ("soft_truncated_img_256_map_256_faces_1312_sigma_s_2_lights_1.png",
-              "penumbra soft, truncated")]
-    if not folder or not all(os.path.exists(os.path.join(folder, n)) for n, _ in names):
-        return False
-    import matplotlib.image as mpimg
-    fig, axes = plt.subplots(1, 4, figsize=(14, 3.9))
-    for ax, (n, title) in zip(axes, names):
-        ax.imshow(mpimg.imread(os.path.join(folder, n)))
-        ax.set_title(title, fontsize=9)
-        ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return True
+def copy_comparisons(folder, image_dir):
+    """truth | penumbra | difference strips of the accurate model (compare_*_accurate_*.png
+    written by the accuracy group under $PENUMBRA_BENCH_IMAGES) → image_dir/accuracy_*.png."""
+    copied = []
+    for sc in ACC_SCENES:
+        for sh in ("hard", "soft"):
+            src = os.path.join(folder or "", f"compare_{sc}_accurate_{sh}.png")
+            if folder and os.path.exists(src):
+                shutil.copyfile(src, os.path.join(image_dir, f"accuracy_{sc}_{sh}.png"))
+                copied.append((sc, sh))
+    return copied
 
 
 # ---- per-kernel profiles ------------------------------------------------------------------
@@ -604,8 +624,6 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
         plots["sigma_s"] = plot_sweep(plt, res, "sigma_s", "σ_s (texel²)",
                                       os.path.join(image_dir, "bench_time_vs_sigma_s.png"))
         plots["tradeoff"] = plot_tradeoff(plt, res, os.path.join(image_dir, "bench_error_vs_time.png"))
-        plots["montage"] = montage(plt, accuracy_images,
-                                   os.path.join(image_dir, "bench_accuracy_images.png"))
 
     for key, title, xname, plot in (
             ("img", "Image size", "image", "res"), ("map", "Shadow-map size", "map", "map"),
@@ -655,56 +673,7 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("")
 
     # Accuracy.
-    w("## Accuracy beside cost")
-    w("")
-    acc = res.all("accuracy")
-    if not acc:
-        w("(not run: the accuracy group needs Embree 3 at build time — Debian `libembree-dev`.)")
-        w("")
-    else:
-        w("Camera 0 of the turnaround scene at 256², penumbra's float colour against a ground")
-        w("truth ray-traced with Embree on the CPU: the same geometry, camera, and Lambert +")
-        w("ambient shading, one primary ray per pixel centre, visibility from shadow rays — one")
-        w("to the point light (the hard reference) or 256 stratified points on the disc of a")
-        w("sphere light of radius D_L/2 = 0.25 (the soft reference). RMSE of RGB in [0, 1] over")
-        w("the whole image, over the ground (pixels whose ray and four neighbours' rays hit the")
-        w("ground; silhouettes, where the soft rasterizer blends, are left out), and over the")
-        w("shadow region (ground pixels within 8 pixels of the sphere light's shadow, penumbra")
-        w("included; the same pixels for every method). The reference that matches the method")
-        w("is in bold.")
-        w("")
-        rows = []
-        order = {"none": 0, "hard": 1, "soft": 2}
-        samp = {"truncated": 0, "exact": 1, "gemm": 2}
-        for r in sorted(acc, key=lambda r: (order[r["shadows"]], samp[r["sampling"]], r["map"], r["sigma_s"])):
-            bold_pt = r["shadows"] in ("none", "hard")
-            bold_sp = r["shadows"] in ("none", "soft")
-
-            def cell(key, bold):
-                s = fmt(r.get(key), 3)
-                return f"**{s}**" if bold else s
-            rows.append((f"{r['shadows']} / {r['sampling']}", f"{r['map']}²", fmt(r["sigma_s"], 2),
-                         fmt(ms(r)),
-                         cell("rmse_shadow_point", bold_pt), cell("rmse_ground_point", bold_pt),
-                         cell("rmse_image_point", bold_pt),
-                         cell("rmse_shadow_sphere", bold_sp), cell("rmse_ground_sphere", bold_sp),
-                         cell("rmse_image_sphere", bold_sp)))
-        w(table(("method", "map", "σ_s", "forward ms", "shadow RMSE (point)", "ground (point)",
-                 "image (point)", "shadow RMSE (sphere)", "ground (sphere)", "image (sphere)"),
-                rows))
-        w("")
-        px = acc[0]
-        w(f"Region sizes: ground {fmt(px.get('ground_pixels'))} pixels, shadow region "
-          f"{fmt(px.get('shadow_pixels'))} pixels (of {256 * 256}).")
-        w("")
-        w(accuracy_notes(res))
-        w("")
-        if plots.get("tradeoff"):
-            w(f"![error vs time]({rel_images}/bench_error_vs_time.png)")
-            w("")
-        if plots.get("montage"):
-            w(f"![ground truth and penumbra]({rel_images}/bench_accuracy_images.png)")
-            w("")
+    L.extend(accuracy_section(res, plots.get("tradeoff"), rel_images, accuracy_images, image_dir))
 
     # Large and failed.
     large = [r for r in res.records if r["large"]]
@@ -859,35 +828,155 @@ def stage_notes(res, peak, exp_rate, profiles):
     return "\n".join(out) if out else "(not enough cases measured)"
 
 
-def accuracy_notes(res):
-    out = []
-    none = res.find("accuracy", shadows="none", sampling="truncated")
-    hard = res.find("accuracy", shadows="hard", sampling="truncated")
-    soft = res.find("accuracy", shadows="soft", sampling="truncated")
-    ex = res.find("accuracy", shadows="hard", sampling="exact")
-    if none and hard and soft:
-        out.append(f"At the reference settings the shadow-region error against the point light is "
-                   f"{fmt(none['rmse_shadow_point'])} with no shadows, {fmt(hard['rmse_shadow_point'])} "
-                   f"with hard truncated shadows; against the sphere light it is "
-                   f"{fmt(none['rmse_shadow_sphere'])} with none and {fmt(soft['rmse_shadow_sphere'])} "
-                   f"with soft truncated shadows.")
-    if hard and ex:
-        a, b = hard["rmse_shadow_point"], ex["rmse_shadow_point"]
-        s = (f"Exact sampling changes the hard-shadow error from {fmt(a)} to {fmt(b)} at "
-             f"{fmt(ms(ex) / ms(hard))}× the time")
-        s += (": the truncation at ε_λ costs almost nothing in accuracy." if abs(a - b) <= 0.05 * max(a, b)
-              else ".")
-        out.append(s)
-    ss = sorted((r["sigma_s"], r["rmse_shadow_point"]) for r in res.all("accuracy")
-                if r["shadows"] == "hard" and r["sampling"] == "truncated" and r["map"] == 256)
-    if len(ss) >= 2:
-        out.append("Hard truncated, error against the point light by σ_s: " +
-                   ", ".join(f"σ_s = {fmt(x, 2)}: {fmt(e)}" for x, e in ss) +
-                   ". Filtering the depth before the compare (SPEC §4, eq. 7) widens the shadow "
-                   "where the occluder–receiver gap is large compared with β, and a lit receiver "
-                   "keeps s = sigmoid(β/γ_s) < 1, so part of the error is the method itself, not "
-                   "its sampling.")
-    return " ".join(out)
+def acc_case(res, scene, model, shadows, sampling, exact_map=None):
+    for r in res.all("accuracy"):
+        if (r["scene"], r["model"], r["shadows"], r["sampling"]) != (scene, model, shadows, sampling):
+            continue
+        if r["sigma_s"] == 2.0 and (r["map"] == 256 if exact_map is None else r["map"] == exact_map):
+            return r
+    return None
+
+
+def accuracy_rows(res):
+    """The table of every scene, model, mode and sampling (reference σ_s; every map measured)."""
+    rows = []
+    order = {"none": 0, "hard": 1, "soft": 2}
+    samp = {"truncated": 0, "exact": 1, "gemm": 2}
+    acc = sorted(res.all("accuracy"), key=lambda r: (
+        ACC_SCENES.index(r["scene"]) if r["scene"] in ACC_SCENES else 99, r["model"] != "accurate",
+        order[r["shadows"]], samp[r["sampling"]], r["map"], r["sigma_s"]))
+    for r in acc:
+        rows.append((r["scene"], r["model"] if r["shadows"] != "none" else "–",
+                     f"{r['shadows']} / {r['sampling']}", f"{r['map']}²", fmt(r["sigma_s"], 2),
+                     fmt(ms(r)), fmt(r.get("area_ratio")), fmt(r.get("lit_error")),
+                     fmt(r.get("rmse_shadow")), fmt(r.get("leak"))))
+    return rows
+
+
+def accuracy_target_rows(res):
+    """The issue's targets for the accurate model, truncated, per scene and mode."""
+    rows, misses = [], []
+    for sc in ACC_SCENES:
+        for sh in ("hard", "soft"):
+            a = acc_case(res, sc, "accurate", sh, "truncated")
+            p = acc_case(res, sc, "paper", sh, "truncated")
+            if not a:
+                continue
+            checks = [("area", a.get("area_ratio"), lambda x: abs(x - 1) <= ACC_TARGETS["area"]),
+                      ("lit", a.get("lit_error"), lambda x: x <= ACC_TARGETS["lit"]),
+                      ("rmse", a.get("rmse_shadow"), lambda x: x <= ACC_TARGETS["rmse"]),
+                      ("leak", a.get("leak"), lambda x: x <= ACC_TARGETS["leak"]),
+                      ("time", ms(a) / ms(p) if p and ms(p) else None,
+                       lambda x: x <= ACC_TARGETS["time"])]
+            cells = []
+            for name, x, ok in checks:
+                if x is None:
+                    cells.append("–")
+                    continue
+                good = ok(x)
+                cells.append(fmt(x) + ("" if good else " **missed**"))
+                if not good:
+                    misses.append(f"{sc} {sh} {name} {fmt(x)}")
+            rows.append([sc, sh] + cells)
+    return rows, misses
+
+
+def accuracy_section(res, tradeoff_plot, rel_images, accuracy_images, image_dir):
+    L = []
+    w = L.append
+    w("## Accuracy beside cost")
+    w("")
+    acc = res.all("accuracy")
+    if not acc:
+        w("(not run: the accuracy group needs Embree 3 at build time — Debian `libembree-dev`.)")
+        w("")
+        return L
+    w("Each shadow model, mode and sampling against a ground truth ray-traced with Embree on the")
+    w("CPU (`bench/truth.cpp`): the same geometry, camera and Lambert + ambient shading, one")
+    w("primary ray per pixel centre, visibility from shadow rays — one to the point light (the")
+    w("truth of hard shadows and of none) or 256 stratified points on the disc of a sphere light")
+    w("of diameter D_L = 0.5 (the truth of soft shadows). Camera 0 of the turnaround scene at")
+    w("256², default settings, on these scenes (`bench/accuracy.cpp`):")
+    w("")
+    for sc in ACC_SCENES:
+        if any(r["scene"] == sc for r in acc):
+            w(f"- `{sc}`: {ACC_SCENE_WORDS[sc]};")
+    w("")
+    w("and these measures, over ground pixels (the pixel's ray and its four neighbours' rays hit")
+    w("the ground; silhouettes, where the soft rasterizer blends, are left out). penumbra's")
+    w("visibility is its per-pixel shadow term, s = (C − C_ambient)/(C_unshadowed − C_ambient)")
+    w("from three renders of the same scene:")
+    w("")
+    w("- *area*: ground pixels with s < 0.5 over those with truth visibility < 0.5 (1 is right);")
+    w("- *lit error*: mean relative colour error Σ|C − T|/ΣT over ground pixels the truth lights")
+    w("  fully;")
+    w("- *shadow RMSE*: RGB RMSE over ground pixels within 8 px of the sphere light's shadow")
+    w("  (penumbra included; the same pixels for every method of a scene);")
+    w("- *leak*: of the ground pixels within 3 px of where the caster touches the ground that the")
+    w("  truth shadows, the fraction penumbra lights (– where nothing touches the ground).")
+    w("")
+    rows, misses = accuracy_target_rows(res)
+    if rows:
+        w("### The accurate model's targets")
+        w("")
+        w(f"Truncated sampling, 256² map. Targets: area within {ACC_TARGETS['area']:.0%} of the")
+        w(f"truth, lit error ≤ {ACC_TARGETS['lit']:.0%}, shadow RMSE ≤ {ACC_TARGETS['rmse']},")
+        w(f"no leak, forward time ≤ {ACC_TARGETS['time']}× the paper model's (medians of this")
+        w("run; `bench/test_accuracy.cpp`, run by ctest as `bench_accuracy_targets`, asserts the")
+        w("same targets).")
+        w("")
+        w(table(("scene", "shadows", "area ratio", "lit error", "shadow RMSE", "leak",
+                 "time / paper"), rows))
+        w("")
+        w("Missed: " + ("; ".join(misses) if misses else "none") + ".")
+        w("")
+    w("### Every model, mode and sampling")
+    w("")
+    w(table(("scene", "model", "shadows / sampling", "map", "σ_s", "forward ms", "area ratio",
+             "lit error", "shadow RMSE", "leak"), accuracy_rows(res)))
+    w("")
+    if tradeoff_plot:
+        w("Shadow-region error against forward time (green: accurate, red: paper; filled: hard,")
+        w("hollow: soft; dashed: the 0.05 target):")
+        w("")
+        w(f"![error vs time]({rel_images}/bench_error_vs_time.png)")
+        w("")
+    copied = copy_comparisons(accuracy_images, image_dir)
+    if copied:
+        w("Truth | accurate model | difference (red: penumbra darker, blue: brighter, ×4) of every")
+        w("scene: [shadows.md](shadows.md#against-a-ray-tracer).")
+        w("")
+    return L
+
+
+def write_accuracy_only(context, records, machine, doc_path, image_dir, accuracy_images):
+    """The accuracy section alone, from a run of that group, with the run's own machine lines."""
+    res = Results(records)
+    plt = get_plt()
+    os.makedirs(image_dir, exist_ok=True)
+    rel_images = os.path.relpath(image_dir, os.path.dirname(os.path.abspath(doc_path)))
+    tradeoff = plt and plot_tradeoff(plt, res, os.path.join(image_dir, "bench_error_vs_time.png"))
+    lines = accuracy_section(res, tradeoff, rel_images, accuracy_images, image_dir)
+    m = machine or {}
+    loads = sorted(r["loadavg_1min"] for r in res.records if r.get("loadavg_1min") is not None)
+    run = [f"This section comes from its own run of the accuracy group, {context.get('date', '–')}:",
+           f"`{m.get('command', '–')}` on {context.get('device', '–')} ({m.get('nproc', '–')} cores),",
+           f"load average {m.get('loadavg_before', context.get('loadavg_at_start', '–'))} before,",
+           f"{m.get('loadavg_after', '–')} after"]
+    if loads:
+        run[-1] += f", 1-min load at the end of each case {fmt(loads[0])}–{fmt(loads[-1])}"
+    run[-1] += (" (the machine is shared: above 2, other processes competed for its two cores and"
+                " times are longer than penumbra alone would take).")
+    replace_section(doc_path, lines[:2] + run + [""] + lines[2:])
+
+
+def replace_section(doc_path, lines):
+    """Replaces the '## Accuracy beside cost' section of an existing page with `lines`."""
+    text = open(doc_path).read().split("\n")
+    start = text.index("## Accuracy beside cost")
+    end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
+    with open(doc_path, "w") as f:
+        f.write("\n".join(text[:start] + lines + text[end:]))
 
 
 # ---- smoke ---------------------------------------------------------------------------------
@@ -922,6 +1011,9 @@ def main():
     ap.add_argument("--images", default="docs/images")
     ap.add_argument("--accuracy-images", help="folder of PNGs from PENUMBRA_BENCH_IMAGES")
     ap.add_argument("--profiles", help="folder of profile_fwd_*.txt from scripts/bench.sh")
+    ap.add_argument("--accuracy-only", action="store_true",
+                    help="rewrite only the accuracy section of --doc from a run of the accuracy "
+                         "group (--benchmark_filter=^accuracy/), keeping the rest of the page")
     ap.add_argument("--smoke", action="store_true", help="tiny run + report check (CI)")
     ap.add_argument("--bench", help="penumbra_bench executable (with --smoke)")
     ap.add_argument("--out-dir", help="where --smoke writes (default: a temporary folder)")
@@ -945,6 +1037,9 @@ def main():
     if a.machine and os.path.exists(a.machine):
         with open(a.machine) as f:
             machine = json.load(f)
+    if a.accuracy_only:
+        write_accuracy_only(context, records, machine, a.doc, a.images, a.accuracy_images)
+        return
     write_report(context, records, machine, a.doc, a.images, a.accuracy_images,
                  profiles=load_profiles(a.profiles))
 

@@ -11,18 +11,21 @@
 #   scripts/bench.sh                 the default suite
 #   scripts/bench.sh --large         also the large/ cases (much longer)
 #   scripts/bench.sh --smoke         two tiny cases, report into out/bench/smoke/ (seconds)
+#   scripts/bench.sh --accuracy      only the accuracy group; rewrites only the accuracy section
+#                                    of docs/benchmarks.md and its pictures (no profiles)
 #   scripts/bench.sh --no-report     run only; JSON in out/bench/bench.json
 #   scripts/bench.sh --profile-only  redo the per-kernel profiles and the report of the last run
 #   scripts/bench.sh -- ARGS...      extra arguments for penumbra_bench (e.g. a filter)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-large=0 smoke=0 report=1 run=1
+large=0 smoke=0 report=1 run=1 accuracy=0
 extra=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --large) large=1 ;;
     --smoke) smoke=1 ;;
+    --accuracy) accuracy=1 ;;
     --no-report) report=0 ;;
     --profile-only) run=0 ;;
     --) shift; extra=("$@"); break ;;
@@ -75,6 +78,7 @@ if [[ $run -eq 1 ]]; then
   mkdir -p out/bench/images
   args=(--benchmark_out=out/bench/bench.json --benchmark_out_format=json)
   [[ $large -eq 1 ]] && args+=("--benchmark_filter=.")
+  [[ $accuracy -eq 1 ]] && args+=("--benchmark_filter=^accuracy/")
   args+=("${extra[@]}")
 
   pocl=$(dpkg-query -W -f='${Version}' libpocl2 2>/dev/null || true)
@@ -100,6 +104,13 @@ json.dump({"cpu_model": model, "nproc": nproc, "pocl_version": pocl, "loadavg_be
           open("out/bench/machine.json", "w"), indent=1)
 EOF
   echo "bench: JSON in out/bench/bench.json (${wall} s)"
+fi
+
+if [[ $accuracy -eq 1 ]]; then
+  [[ $report -eq 1 ]] && "$PYTHON" bench/report.py --json out/bench/bench.json \
+    --machine out/bench/machine.json --doc docs/benchmarks.md --images docs/images \
+    --accuracy-images out/bench/images --accuracy-only
+  exit 0
 fi
 
 # --- per-kernel profile --------------------------------------------------------------------

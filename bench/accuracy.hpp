@@ -1,0 +1,94 @@
+#pragma once
+// Accuracy against the ray-traced truth (truth.hpp), shared by the benchmark group
+// (bench_accuracy.cpp) and the test of the accurate model's targets (test_accuracy.cpp).
+//
+// Scenes (camera 0 of data/scenes/turnaround.json, 256², a point light of diameter
+// D_L = 0.5 on the 8 × 8 ground plane, default settings):
+//   sphere             the bundled unit sphere resting on the ground, light at (3, 6, 2.5);
+//   knot_h0, knot_h0.3, knot_h1
+//                      a (2, 3) torus knot tube (torus_knot: 3840 faces, 2.8 wide, 1.0 tall)
+//                      lying flat, its lowest point 0 (touching the ground), 0.3 and 1 above it;
+//   grazing            a sphere of radius 0.5 resting on the ground under a light 8 away at an
+//                      elevation of 18° (seen from the sphere's centre).
+//
+// Metrics of one render against the truth that matches its shadow mode (point light for hard
+// and none, sphere light for soft), over ground pixels (the primary ray and its four
+// neighbours' rays hit the ground: silhouettes, where the soft rasterizer blends, are left
+// out). penumbra's visibility is its per-pixel shadow term, recovered from three renders of
+// the same scene: s = (C − C_ambient) / (C_unshadowed − C_ambient), channels summed.
+//   area_ratio   ground pixels with s < 0.5 over ground pixels with truth visibility < 0.5;
+//   lit_error    mean relative colour error Σ_k|C_k − T_k| / Σ_k T_k over ground pixels the
+//                truth lights fully (visibility 1);
+//   rmse_shadow  colour RMSE over the shadow region: ground pixels within 8 px of a pixel
+//                the sphere-light truth shadows (visibility < 0.999, penumbra included), the
+//                same pixels for every method of a scene;
+//   leak         the contact region (ground pixels within 3 px of a surface point 0.1 or less
+//                from a caster vertex on the ground): the fraction of its pixels the truth
+//                shadows (v < 0.5) that penumbra lights (s ≥ 0.5); absent where nothing
+//                touches the ground.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common.hpp"
+#include "truth.hpp"
+
+namespace penumbra::bench {
+
+// A (p, q) torus knot tube: the curve ((R + r cos qt) cos pt, (R + r cos qt) sin pt, r sin qt),
+// t ∈ [0, 2π), swept by a circle of radius `tube` in the plane normal to it; its z axis turned
+// to +y (lying flat) and its lowest vertex at height `lift`. segments × sides × 2 faces,
+// outward counter-clockwise.
+Mesh torus_knot(int p, int q, double R, double r, double tube, int segments, int sides,
+                double lift, glm::dvec3 albedo = {0.85, 0.35, 0.3});
+
+const std::vector<std::string>& accuracy_scene_names();
+
+// What an accuracy case renders: a scene of accuracy_scene_names() and the shadow settings.
+struct AccuracyCase {
+  std::string scene = "sphere";
+  ShadowModel model = ShadowModel::Accurate;
+  Shadows shadows = Shadows::Hard;
+  Sampling sampling = Sampling::Truncated;
+  int map = 256;
+  double sigma_s = 2.0;
+};
+
+// The scene of the case, its light frusta fitted to it.
+Scene accuracy_scene(const AccuracyCase& c);
+
+// The truth of a scene (ray-traced once per process and scene; it does not depend on the
+// shadow settings) and the one that matches a shadow mode.
+const GroundTruth& truth(const std::string& scene, TruthLight light);
+TruthLight truth_for(Shadows shadows);
+
+// penumbra's colour and per-pixel shadow term (see above) of camera 0.
+struct Rendered {
+  Image color;
+  std::vector<double> vis;
+};
+Rendered render_visibility(Renderer& r, const Scene& s);
+
+struct AccuracyMetrics {
+  double area_ratio = 0, lit_error = 0, rmse_shadow = 0;
+  std::optional<double> leak;
+  int ground_pixels = 0, shadow_pixels = 0, true_shadow_pixels = 0, lit_pixels = 0,
+      contact_pixels = 0;
+};
+AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered);
+
+// The targets for the accurate model.
+struct AccuracyTargets {
+  static constexpr double area = 0.05;        // |area_ratio − 1| ≤
+  static constexpr double lit = 0.02;         // lit_error ≤
+  static constexpr double rmse = 0.05;        // rmse_shadow ≤
+  static constexpr double leak = 0.0;         // leak ≤
+  static constexpr double time_ratio = 1.5;   // accurate / paper forward time ≤
+};
+
+// truth | penumbra | difference, side by side, as a PNG: the difference is white where they
+// agree, red where penumbra is darker than the truth, blue where it is brighter, at 4× the
+// mean difference of the channels.
+void save_comparison(const GroundTruth& truth, const Image& color, const std::string& path);
+
+}  // namespace penumbra::bench

@@ -1,0 +1,137 @@
+// The accurate shadow model's targets (issue "Accurate shadows"; docs/benchmarks.md, "Accuracy
+// beside cost") against the ray-traced truth, on every scene of bench/accuracy.hpp at 256²
+// with default settings, truncated sampling, hard and soft shadows:
+//   area   shadow area within 5 % of the truth's;
+//   lit    lit ground within 2 % of the truth's colour;
+//   rmse   shadow-region RMSE ≤ 0.05;
+//   leak   no ground pixel at the contact the truth shadows lit by penumbra (knot_h0, the
+//          knot touching the ground; the spheres touch it too, but out of the camera's sight);
+//   time   forward time ≤ 1.5× the paper model's at equal settings (fastest of kTimedFrames
+//          frames of each, interleaved, so that other load on the machine counts less).
+// Each target of each scene and mode is one test, AccurateModel.<scene>_<mode>_<target>. A
+// target the model is known to miss is listed in kKnownMisses with what it measured: its test
+// is registered DISABLED_ (still built, run by --gtest_also_run_disabled_tests) until the model
+// meets it; the target itself is never loosened.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <functional>
+#include <map>
+#include <memory>
+
+#include "accuracy.hpp"
+
+namespace penumbra::bench {
+namespace {
+
+constexpr int kTimedFrames = 5;
+constexpr const char* kContactScene = "knot_h0";
+
+struct KnownMiss {
+  const char* test;  // <scene>_<mode>_<target>
+  const char* measured;
+};
+// Measured on this project's 2-core machine; see docs/benchmarks.md for the whole table.
+const std::vector<KnownMiss> kKnownMisses = {};
+
+bool known_miss(const std::string& test) {
+  for (const auto& m : kKnownMisses)
+    if (test == m.test) return true;
+  return false;
+}
+
+AccuracyCase accurate(const std::string& scene, Shadows shadows) {
+  AccuracyCase c;
+  c.scene = scene;
+  c.shadows = shadows;
+  return c;
+}
+
+const AccuracyMetrics& metrics(const std::string& scene, Shadows shadows) {
+  static std::map<std::pair<std::string, Shadows>, AccuracyMetrics> cache;
+  const auto key = std::make_pair(scene, shadows);
+  if (!cache.count(key)) {
+    const AccuracyCase c = accurate(scene, shadows);
+    const Scene s = accuracy_scene(c);
+    cache[key] = measure(c, render_visibility(renderer(s), s));
+  }
+  return cache.at(key);
+}
+
+// Fastest forward time of the accurate model over the paper model's, same settings.
+double time_ratio(const std::string& scene, Shadows shadows) {
+  AccuracyCase paper = accurate(scene, shadows);
+  paper.model = ShadowModel::Paper;
+  const Scene a = accuracy_scene(accurate(scene, shadows)), p = accuracy_scene(paper);
+  Renderer& r = renderer(a);
+  r.render(a), r.render(p);  // build the programs
+  double ta = 1e300, tp = 1e300;
+  for (int i = 0; i < kTimedFrames; ++i) {
+    auto t0 = Clock::now();
+    r.render(a);
+    ta = std::min(ta, seconds_since(t0));
+    t0 = Clock::now();
+    r.render(p);
+    tp = std::min(tp, seconds_since(t0));
+  }
+  return ta / tp;
+}
+
+void check(const std::string& scene, Shadows shadows, const std::string& target) {
+  using T = AccuracyTargets;
+  if (target == "time") {
+    EXPECT_LE(time_ratio(scene, shadows), T::time_ratio);
+    return;
+  }
+  const AccuracyMetrics& m = metrics(scene, shadows);
+  ASSERT_GT(m.true_shadow_pixels, 0) << "the truth casts no shadow on the ground";
+  if (target == "area") {
+    EXPECT_NEAR(m.area_ratio, 1.0, T::area);
+  } else if (target == "lit") {
+    EXPECT_LE(m.lit_error, T::lit);
+  } else if (target == "rmse") {
+    EXPECT_LE(m.rmse_shadow, T::rmse);
+  } else if (target == "leak") {
+    ASSERT_TRUE(m.leak.has_value()) << "no truth shadow at the contact";
+    EXPECT_LE(*m.leak, T::leak) << m.contact_pixels << " contact pixels";
+  }
+}
+
+class Target : public testing::Test {
+ public:
+  explicit Target(std::function<void()> body) : body_(std::move(body)) {}
+  void TestBody() override { body_(); }
+
+ private:
+  std::function<void()> body_;
+};
+
+std::string test_name(std::string scene, Shadows shadows, const std::string& target) {
+  std::replace(scene.begin(), scene.end(), '.', '_');
+  return scene + "_" + word(shadows) + "_" + target;
+}
+
+void register_targets() {
+  for (const std::string& scene : accuracy_scene_names())
+    for (Shadows shadows : {Shadows::Hard, Shadows::Soft})
+      for (std::string target : {"area", "lit", "rmse", "leak", "time"}) {
+        if (target == "leak" && scene != kContactScene) continue;
+        std::string name = test_name(scene, shadows, target);
+        if (known_miss(name)) name = "DISABLED_" + name;
+        testing::RegisterTest("AccurateModel", name.c_str(), nullptr, nullptr, __FILE__,
+                              __LINE__, [=]() -> testing::Test* {
+                                return new Target([=] { check(scene, shadows, target); });
+                              });
+      }
+}
+
+}  // namespace
+}  // namespace penumbra::bench
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  penumbra::bench::register_targets();
+  const int status = RUN_ALL_TESTS();
+  penumbra::bench::release_device();
+  return status;
+}
