@@ -247,7 +247,7 @@ AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered) {
   const Regions& R = regions(c.scene);
   AccuracyMetrics m;
   double se = 0, lit = 0;
-  int rendered_shadow = 0, true_contact_shadow = 0, leaking = 0;
+  int rendered_shadow = 0, leaking = 0;
   for (size_t p = 0; p < T.vis.size(); ++p) {
     if (!R.ground[p]) continue;
     const double* C = &rendered.color.data[3 * p];
@@ -268,14 +268,14 @@ AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered) {
     }
     if (R.contact[p]) {
       ++m.contact_pixels;
-      true_contact_shadow += true_shadow;
+      m.contact_shadow_pixels += true_shadow;
       leaking += true_shadow && !shadow;
     }
   }
   m.area_ratio = m.true_shadow_pixels ? double(rendered_shadow) / m.true_shadow_pixels : 0.0;
   m.lit_error = m.lit_pixels ? lit / m.lit_pixels : 0.0;
   m.rmse_shadow = m.shadow_pixels ? std::sqrt(se / (3.0 * m.shadow_pixels)) : 0.0;
-  if (true_contact_shadow > 0) m.leak = double(leaking) / true_contact_shadow;
+  if (m.contact_shadow_pixels > 0) m.leak = double(leaking) / m.contact_shadow_pixels;
   return m;
 }
 

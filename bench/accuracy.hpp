@@ -73,7 +73,7 @@ struct AccuracyMetrics {
   double area_ratio = 0, lit_error = 0, rmse_shadow = 0;
   std::optional<double> leak;
   int ground_pixels = 0, shadow_pixels = 0, true_shadow_pixels = 0, lit_pixels = 0,
-      contact_pixels = 0;
+      contact_pixels = 0, contact_shadow_pixels = 0;
 };
 AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered);
 

@@ -41,6 +41,7 @@ void metric_counters(benchmark::State& state, const AccuracyMetrics& m) {
   C["true_shadow_pixels"] = m.true_shadow_pixels;
   C["lit_pixels"] = m.lit_pixels;
   C["contact_pixels"] = m.contact_pixels;
+  C["contact_shadow_pixels"] = m.contact_shadow_pixels;
 }
 
 bool reference_settings(const AccuracyCase& c) {

@@ -32,8 +32,28 @@ struct KnownMiss {
   const char* test;  // <scene>_<mode>_<target>
   const char* measured;
 };
-// Measured on this project's 2-core machine; see docs/benchmarks.md for the whole table.
-const std::vector<KnownMiss> kKnownMisses = {};
+// Measured on this project's 2-core machine (shared, load average 4–10; the times are the
+// range over four runs of this test, where the hard-shadow ratios lie around 1.3–1.7 and come
+// out either side of 1.5 from run to run); docs/benchmarks.md has the whole table. Remove an
+// entry when the model meets its target.
+const std::vector<KnownMiss> kKnownMisses = {
+    {"sphere_hard_rmse", "0.0507"},
+    {"knot_h0_hard_rmse", "0.104"},
+    {"knot_h0_soft_rmse", "0.0874"},
+    {"knot_h0_3_hard_rmse", "0.0925"},
+    {"knot_h0_3_soft_rmse", "0.0675"},
+    {"knot_h1_hard_rmse", "0.0787"},
+    {"knot_h0_hard_leak", "0.0250"},
+    {"knot_h0_soft_leak", "0.0252"},
+    {"sphere_hard_time", "1.12–1.67, over 1.5 in 2 of 3 runs"},
+    {"knot_h0_3_hard_time", "1.39–2.04, over 1.5 in 2 of 3 runs"},
+    {"knot_h1_hard_time", "1.37–1.69, over 1.5 in 2 of 4 runs"},
+    {"sphere_soft_time", "9.8–10.2"},
+    {"knot_h0_soft_time", "3.5–5.8"},
+    {"knot_h0_3_soft_time", "4.2–8.2"},
+    {"knot_h1_soft_time", "5.2–6.6"},
+    {"grazing_soft_time", "21–33"},
+};
 
 bool known_miss(const std::string& test) {
   for (const auto& m : kKnownMisses)
@@ -98,7 +118,8 @@ void check(const std::string& scene, Shadows shadows, const std::string& target)
     EXPECT_LE(m.rmse_shadow, T::rmse);
   } else if (target == "leak") {
     ASSERT_TRUE(m.leak.has_value()) << "no truth shadow at the contact";
-    EXPECT_LE(*m.leak, T::leak) << m.contact_pixels << " contact pixels";
+    EXPECT_LE(*m.leak, T::leak) << m.contact_shadow_pixels << " of " << m.contact_pixels
+                                 << " contact pixels shadowed by the truth";
   }
 }
 
