@@ -196,10 +196,10 @@ Scene accuracy_scene(const AccuracyCase& c) {
   k.shadows = c.shadows;
   k.sampling = c.sampling;
   k.map = c.map;
-  k.sigma_s = c.sigma_s;
   k.model = c.model;
   k.image = 256;
   Scene s = make_scene(k);
+  s.params.sigma_s = c.sigma_s;
   set_scene(s, c.scene);
   for (auto& L : s.lights) L.frustum = LightFrustum{};
   fit_light_frusta(s);

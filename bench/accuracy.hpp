@@ -51,7 +51,7 @@ struct AccuracyCase {
   Shadows shadows = Shadows::Hard;
   Sampling sampling = Sampling::Truncated;
   int map = 256;
-  double sigma_s = 2.0;
+  std::optional<double> sigma_s;  // unset: the shadow model's default
 };
 
 // The scene of the case, its light frusta fitted to it.

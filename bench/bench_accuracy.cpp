@@ -5,7 +5,8 @@
 // model:<accurate|paper>/scene:<name>. Counters (accuracy.hpp defines them): area_ratio,
 // lit_error, rmse_shadow, leak (scenes with a contact), the pixel counts of each region, plus
 // the timing counters of the render cases. With $PENUMBRA_BENCH_IMAGES set, every case at the
-// reference settings (truncated, 256² map, σ_s = 2) writes truth | penumbra | difference as
+// reference settings (truncated, 256² map, the model's default σ_s) writes
+// truth | penumbra | difference as
 // compare_<scene>_<model>_<shadows>.png there.
 //
 // Built only when CMake finds Embree 3 (Debian: libembree-dev); otherwise the group is absent
@@ -18,6 +19,7 @@
 #ifdef PENUMBRA_HAVE_EMBREE
 
 #include <cstdlib>
+#include <optional>
 #include <sstream>
 
 #include "accuracy.hpp"
@@ -30,8 +32,9 @@ namespace {
 // at this map size, the large/ cases at 256².
 constexpr int kExactMap = 128;
 
-void metric_counters(benchmark::State& state, const AccuracyMetrics& m) {
+void metric_counters(benchmark::State& state, const AccuracyCase& c, const AccuracyMetrics& m) {
   auto& C = state.counters;
+  C["default_sigma_s"] = c.sigma_s ? 0 : 1;  // σ_s left to the shadow model
   C["area_ratio"] = m.area_ratio;
   C["lit_error"] = m.lit_error;
   C["rmse_shadow"] = m.rmse_shadow;
@@ -45,7 +48,7 @@ void metric_counters(benchmark::State& state, const AccuracyMetrics& m) {
 }
 
 bool reference_settings(const AccuracyCase& c) {
-  return c.sampling == Sampling::Truncated && c.map == 256 && c.sigma_s == 2.0;
+  return c.sampling == Sampling::Truncated && c.map == 256 && !c.sigma_s;
 }
 
 void save_images(const AccuracyCase& c, const Image& color) {
@@ -70,7 +73,7 @@ void run_accuracy(benchmark::State& state, const AccuracyCase& c) {
     const double med = timed_frames(state, [&] { benchmark::DoNotOptimize(r.render(s)); });
     throughput_counters(state, s, fragments, med, false);
     memory_counter(state);
-    metric_counters(state, measure(c, out));
+    metric_counters(state, c, measure(c, out));
   } catch (const std::exception& e) {
     state.SkipWithError(e.what());
   }
@@ -80,7 +83,8 @@ std::string name_of(const AccuracyCase& c, bool large) {
   std::ostringstream o;
   o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/' << word(c.sampling)
     << "/img:256/map:" << c.map << "/faces:" << total_faces(accuracy_scene(c))
-    << "/sigma_s:" << c.sigma_s << "/lights:1/model:" << word(c.model) << "/scene:" << c.scene;
+    << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params) << "/lights:1/model:"
+    << word(c.model) << "/scene:" << c.scene;
   return o.str();
 }
 
@@ -92,7 +96,7 @@ void add(const AccuracyCase& c, bool large = false) {
 }
 
 AccuracyCase make(const std::string& scene, ShadowModel model, Shadows sh, Sampling sa,
-                  int map = 256, double sigma_s = 2.0) {
+                  int map = 256, std::optional<double> sigma_s = std::nullopt) {
   AccuracyCase c;
   c.scene = scene;
   c.model = model;
@@ -115,10 +119,14 @@ void register_accuracy_benchmarks() {
         add(make(scene, model, sh, Sampling::Exact), true);
       }
   }
-  // The sphere scene: filter width and map size, both models.
+  // The sphere scene: filter width (those of 0.5, 2 and 8 texel² that are not the model's
+  // default) and map size, both models.
   for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})
     for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
-      for (double ss : {0.5, 8.0}) add(make("sphere", model, sh, Sampling::Truncated, 256, ss));
+      const AccuracyCase base = make("sphere", model, sh, Sampling::Truncated);
+      const double standard = shadow_sigma_s(accuracy_scene(base).params);
+      for (double ss : {0.5, 2.0, 8.0})
+        if (ss != standard) add(make("sphere", model, sh, Sampling::Truncated, 256, ss));
       for (int map : {128, 512}) add(make("sphere", model, sh, Sampling::Truncated, map));
     }
   add(make("sphere", ShadowModel::Paper, Shadows::Hard, Sampling::Gemm));

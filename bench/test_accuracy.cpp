@@ -35,17 +35,18 @@ struct KnownMiss {
   const char* test;  // <scene>_<mode>_<target>
   const char* measured;
 };
-// Measured on this project's 2-core machine (main at 79d2c1f); docs/benchmarks.md has the
-// whole table. Remove an entry when the model meets its target.
+// Measured on this project's 2-core machine (main at b4f258b: the model's own σ_s, γ_s and β
+// defaults); docs/benchmarks.md has the whole table. Remove an entry when the model meets its
+// target.
 const std::vector<KnownMiss> kKnownMisses = {
-    {"sphere_hard_rmse", "0.0507"},
-    {"knot_h0_hard_rmse", "0.104"},
-    {"knot_h0_soft_rmse", "0.0871"},
-    {"knot_h0_3_hard_rmse", "0.0925"},
-    {"knot_h0_3_soft_rmse", "0.0669"},
-    {"knot_h1_hard_rmse", "0.0787"},
-    {"knot_h0_hard_leak", "0.0250"},
-    {"knot_h0_soft_leak", "0.0252"},
+    {"knot_h0_soft_area", "1.053"},
+    {"knot_h0_hard_rmse", "0.0952"},
+    {"knot_h0_soft_rmse", "0.0821"},
+    {"knot_h0_3_hard_rmse", "0.0847"},
+    {"knot_h0_3_soft_rmse", "0.0628"},
+    {"knot_h1_hard_rmse", "0.0683"},
+    {"knot_h0_hard_leak", "0.0083"},
+    {"knot_h0_soft_leak", "0.0084"},
 };
 
 bool known_miss(const std::string& test) {
