@@ -863,9 +863,10 @@ def accuracy_target_rows(res):
                     cells.append("–")
                     continue
                 good = ok(x)
-                cells.append(fmt(x) + ("" if good else " **missed**"))
+                digits = 4 if name == "area" else 3  # enough to show which side of 5 %
+                cells.append(fmt(x, digits) + ("" if good else " **missed**"))
                 if not good:
-                    misses.append(f"{sc} {sh}: {name} {fmt(x)}")
+                    misses.append(f"{sc} {sh}: {name} {fmt(x, digits)}")
             rows.append([sc, sh] + cells)
     return rows, misses
 
