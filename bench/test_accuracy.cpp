@@ -5,12 +5,10 @@
 //   lit    lit ground within 2 % of the truth's colour;
 //   rmse   shadow-region RMSE ≤ 0.05;
 //   leak   no ground pixel at the contact the truth shadows lit by penumbra (knot_h0, the
-//          knot touching the ground; the spheres touch it too, but out of the camera's sight);
-//   time   forward time ≤ 1.5× the paper model's at equal settings: the fastest of kTimedFrames
-//          frames of each, interleaved, so that other load on the machine counts less, summed
-//          over the scenes (one test per mode, AccurateModel.all_<mode>_time; the ratio of
-//          each scene is printed).
-// Each other target of each scene and mode is one test, AccurateModel.<scene>_<mode>_<target>. A
+//          knot touching the ground; the spheres touch it too, but out of the camera's sight).
+// The time target (forward ≤ 1.5× the paper model's) is a speed target: it lives in the
+// benchmark suite's report (docs/benchmarks.md), not in a timed test.
+// Each target of each scene and mode is one test, AccurateModel.<scene>_<mode>_<target>. A
 // target the model is known to miss is listed in kKnownMisses with what it measured: its test
 // is registered DISABLED_ (still built, run by --gtest_also_run_disabled_tests) until the model
 // meets it; the target itself is never loosened.
@@ -27,9 +25,7 @@
 namespace penumbra::bench {
 namespace {
 
-constexpr int kTimedFrames = 10;
 constexpr const char* kContactScene = "knot_h0";
-constexpr const char* kAllScenes = "all";  // the time target: one test per mode, every scene
 
 struct KnownMiss {
   const char* test;  // <scene>_<mode>_<target>
@@ -73,46 +69,8 @@ const AccuracyMetrics& metrics(const std::string& scene, Shadows shadows) {
   return cache.at(key);
 }
 
-// Fastest forward times of the accurate model and of the paper model, same settings, seconds.
-std::pair<double, double> fastest_times(const std::string& scene, Shadows shadows) {
-  AccuracyCase paper = accurate(scene, shadows);
-  paper.model = ShadowModel::Paper;
-  const Scene a = accuracy_scene(accurate(scene, shadows)), p = accuracy_scene(paper);
-  Renderer& r = renderer(a);
-  r.render(a), r.render(p);  // build the programs
-  double ta = 1e300, tp = 1e300;
-  for (int i = 0; i < kTimedFrames; ++i) {
-    auto t0 = Clock::now();
-    r.render(a);
-    ta = std::min(ta, seconds_since(t0));
-    t0 = Clock::now();
-    r.render(p);
-    tp = std::min(tp, seconds_since(t0));
-  }
-  return {ta, tp};
-}
-
-// The accurate model's forward time over the paper model's, summed over every scene: on a
-// shared 2-core machine one scene's ratio moved between 0.95 and 2.1 from run to run, the sum
-// over five scenes far less.
-double time_ratio(Shadows shadows) {
-  double ta = 0, tp = 0;
-  for (const std::string& scene : accuracy_scene_names()) {
-    const auto [a, p] = fastest_times(scene, shadows);
-    std::printf("%s: accurate / paper forward time %.3g\n", scene.c_str(), a / p);
-    ta += a, tp += p;
-  }
-  return ta / tp;
-}
-
 void check(const std::string& scene, Shadows shadows, const std::string& target) {
   using T = AccuracyTargets;
-  if (target == "time") {
-    const double ratio = time_ratio(shadows);
-    std::printf("all scenes: accurate / paper forward time %.3g\n", ratio);
-    EXPECT_LE(ratio, T::time_ratio);
-    return;
-  }
   const AccuracyMetrics& m = metrics(scene, shadows);
   std::printf("area ratio %.4g, lit error %.4g, shadow RMSE %.4g, leak %s\n", m.area_ratio,
               m.lit_error, m.rmse_shadow, m.leak ? std::to_string(*m.leak).c_str() : "–");
@@ -159,7 +117,6 @@ void register_targets() {
       for (const char* target : {"area", "lit", "rmse"}) add_test(scene, shadows, target);
       if (scene == kContactScene) add_test(scene, shadows, "leak");
     }
-    add_test(kAllScenes, shadows, "time");
   }
 }
 
