@@ -275,6 +275,14 @@ Precision parse_precision(const std::string& name) {
 std::string data_dir() {
   if (const char* env = std::getenv("PENUMBRA_DATA_DIR"); env != nullptr && *env != '\0')
     return env;
+#ifdef PENUMBRA_BIN_TO_DATA_DIR
+  {  // an installed tool: <prefix>/bin/penumbra and <prefix>/share/penumbra
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    const fs::path installed = exe.parent_path() / PENUMBRA_BIN_TO_DATA_DIR;
+    if (!ec && fs::is_directory(installed / "scenes", ec)) return installed.lexically_normal();
+  }
+#endif
 #ifdef PENUMBRA_SOURCE_DIR
   {
     const std::string compiled = std::string(PENUMBRA_SOURCE_DIR) + "/data";

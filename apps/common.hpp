@@ -82,7 +82,8 @@ Shadows parse_shadows(const std::string& word);
 void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value);
 Precision parse_precision(const std::string& name);
 
-// The data folder: $PENUMBRA_DATA_DIR, else <source tree>/data when it exists, else ./data.
+// The data folder: $PENUMBRA_DATA_DIR, else share/penumbra next to an installed tool, else
+// <source tree>/data when it exists, else ./data.
 std::string data_dir();
 std::string default_scene_path();
 // Loads (and validates) the scene named by `source`.

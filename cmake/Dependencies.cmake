@@ -11,8 +11,9 @@ endmacro()
 
 find_package(OpenCL QUIET)
 penumbra_require(OpenCL_FOUND "ocl-icd-opencl-dev opencl-headers")
-find_file(PENUMBRA_OPENCL_HPP CL/opencl.hpp)
-penumbra_require(PENUMBRA_OPENCL_HPP "opencl-clhpp-headers")
+find_package(OpenCLHeaders QUIET)  # OpenCLHeadersCpp needs it found first
+find_package(OpenCLHeadersCpp QUIET)
+penumbra_require(OpenCLHeadersCpp_FOUND "opencl-clhpp-headers")
 find_package(CLBlast QUIET)
 penumbra_require(CLBlast_FOUND "libclblast-dev")
 find_package(glm QUIET)

@@ -37,6 +37,6 @@ endif()
 # Adds the default sanitizer runtime options to every executable that links `target`.
 function(penumbra_sanitizer_defaults target)
   if(PENUMBRA_SANITIZE)
-    target_sources(${target} INTERFACE ${CMAKE_SOURCE_DIR}/cmake/sanitizer_defaults.cpp)
+    target_sources(${target} INTERFACE $<BUILD_INTERFACE:${CMAKE_SOURCE_DIR}/cmake/sanitizer_defaults.cpp>)
   endif()
 endfunction()

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fresh machine to green tests: installs the packages, builds, runs the whole test suite.
+# Fresh machine to green tests: installs the packages, builds, runs the whole test suite (ctest,
+# then scripts/install_check.sh: the library installed and used by examples/cpp).
 # In CI (CI=true, as .ci/run sets it), with PENUMBRA_HARDENING=1 or with the argument `all`
 # it then runs the hardening checks too (README, "Hardening"):
 #   asan  the library, the tool and the whole test suite built with ASan+UBSan (preset `asan`,
@@ -13,6 +14,7 @@ suite() {
   ./scripts/setup.sh
   ./scripts/build.sh
   ctest --preset default
+  ./scripts/install_check.sh
 }
 
 # ASan+UBSan over the whole suite, with GCC's runtimes. PoCL compiles and runs the kernels

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Installs a built penumbra into a temporary prefix and uses it the way another project would,
+# from outside the source tree:
+#   1. cmake --install of build/ (or $PENUMBRA_BUILD_DIR) into a scratch prefix;
+#   2. examples/cpp, copied out of the tree, configured with find_package(penumbra) against that
+#      prefix, built and run: it renders the installed bundled scene and runs one backward;
+#   3. the same source built with pkg-config's flags for penumbra.pc, and run;
+#   4. the installed tool renders the installed bundled scene.
+# Fails if the library or the headers mention the source tree, or if any step fails.
+# Usage: scripts/install_check.sh   (after scripts/build.sh)
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+src=$(pwd)
+build=${PENUMBRA_BUILD_DIR:-build}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+prefix=$tmp/prefix
+
+cmake --install "$build" --prefix "$prefix" >"$tmp/install.log"
+echo "install_check: installed $(wc -l <"$build/install_manifest.txt") files into a scratch prefix"
+if grep -rlF "$src" "$prefix/lib" "$prefix/include" "$prefix/share"; then
+  echo "install_check: the installed files above name the source tree $src" >&2
+  exit 1
+fi
+
+cp -r examples/cpp "$tmp/example"
+cmake -S "$tmp/example" -B "$tmp/example-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$prefix" >"$tmp/configure.log"
+cmake --build "$tmp/example-build" >"$tmp/build.log"
+(cd "$tmp" && ./example-build/render_and_backward)
+test -s "$tmp/render.png"
+
+libdir=$(dirname "$(find "$prefix" -name penumbra.pc)")
+# shellcheck disable=SC2046  # pkg-config's flags are separate words
+g++ -std=c++17 -O1 -o "$tmp/example-pc" examples/cpp/render_and_backward.cpp \
+  -DSCENE="\"$prefix/share/penumbra/scenes/turnaround.json\"" \
+  $(PKG_CONFIG_PATH="$libdir" pkg-config --cflags --libs penumbra) -Wl,-rpath,"$(dirname "$libdir")"
+(cd "$tmp" && ./example-pc >/dev/null)
+
+(cd "$tmp" && "$prefix/bin/penumbra" render -o "$tmp/cli.png" --width 64 --height 64)
+echo "install_check: passed (find_package, pkg-config and the installed tool)"
