@@ -1,0 +1,26 @@
+"""penumbra: a differentiable soft rasterizer with hard and soft shadows, on OpenCL.
+
+The C++ library for Python: scenes, devices, and a Renderer whose render() gives colour,
+silhouette and depth per camera as NumPy arrays and whose backward() gives the gradients of a
+loss with respect to vertices, albedo, lights and ambient light. penumbra.torch wraps both in a
+torch.autograd.Function. Errors raise penumbra.Error with the library's one-line message (the
+same one the penumbra tool prints). docs/api.md documents it all.
+"""
+from pathlib import Path
+
+from ._penumbra import (  # noqa: F401
+    AlbedoMode, Camera, Context, DeviceInfo, Error, Light, LightFrustum, LightType, Mesh,
+    Precision, Projection, RenderParams, Renderer, Sampling, Scene, Shadows, fit_light_frusta,
+    framed_scene, list_devices, load_obj, load_scene, parse_scene, save_png, validate)
+
+__all__ = [name for name in dir() if not name.startswith("_")] + ["data_dir", "bundled_scene"]
+
+
+def data_dir() -> Path:
+    """The bundled data installed with the module: scenes/turnaround.json and meshes/."""
+    return Path(__file__).resolve().parent / "data"
+
+
+def bundled_scene() -> Scene:
+    """The bundled scene: a unit sphere on a ground plane, one point light, hard shadows."""
+    return load_scene(str(data_dir() / "scenes" / "turnaround.json"))
