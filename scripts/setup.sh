@@ -8,12 +8,14 @@ set -euo pipefail
 # clang-15 (with libclang-common-15-dev: libFuzzer and the ASan/UBSan runtimes) builds the
 # fuzzers of scripts/fuzz.sh; PoCL depends on it already, so listing it costs nothing. The
 # sanitizer build of the test suite uses g++'s own runtimes (libasan, libubsan). Embree 3
-# (libembree-dev) ray-traces the ground truth of the accuracy benchmarks and their test.
+# (libembree-dev) ray-traces the ground truth of the accuracy benchmarks and their test. The
+# Python module (scripts/python.sh) builds against python3-dev in a python3-venv environment
+# that sees Debian's python3-numpy, python3-torch and python3-pytest.
 PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
   libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev
   libcli11-dev nlohmann-json3-dev libembree-dev cmake ninja-build g++ pkg-config clinfo clang-15
-  python3
+  python3 python3-dev python3-venv python3-numpy python3-torch python3-pytest
 )
 
 if [[ "${1:-}" == "--list" ]]; then

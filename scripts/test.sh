@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Fresh machine to green tests: installs the packages, builds, runs the whole test suite (ctest,
-# then scripts/install_check.sh: the library installed and used by examples/cpp).
+# Fresh machine to green tests: installs the packages, builds, runs the whole test suite: ctest,
+# scripts/install_check.sh (the library installed and used by examples/cpp), then the Python
+# module built into .venv/ (scripts/python.sh) and its tests (pytest, tests/python/).
 # In CI (CI=true, as .ci/run sets it), with PENUMBRA_HARDENING=1 or with the argument `all`
 # it then runs the hardening checks too (README, "Hardening"):
 #   asan  the library, the tool and the whole test suite built with ASan+UBSan (preset `asan`,
@@ -15,6 +16,8 @@ suite() {
   ./scripts/build.sh
   ctest --preset default
   ./scripts/install_check.sh
+  ./scripts/python.sh
+  PENUMBRA_CLI=build/penumbra .venv/bin/python -m pytest -q tests/python
 }
 
 # ASan+UBSan over the whole suite, with GCC's runtimes. PoCL compiles and runs the kernels

@@ -1,0 +1,120 @@
+"""The Python module against the penumbra tool: same pictures, same gradients, same errors."""
+import subprocess
+
+import numpy as np
+import pytest
+
+import penumbra
+
+SIZE = ["--width", "64", "--height", "64"]
+
+
+def run_cli(cli, *args):
+    return subprocess.run([str(cli), *args], capture_output=True, text=True)
+
+
+def bundled(shadows, size=64):
+    scene = penumbra.bundled_scene()
+    scene.params.shadows = getattr(penumbra.Shadows, shadows)
+    cameras = scene.cameras
+    for c in cameras:
+        c.width = c.height = size
+    scene.cameras = cameras
+    return scene
+
+
+@pytest.mark.parametrize("shadows,precision", [("none", "float"), ("hard", "float"),
+                                               ("soft", "float"), ("hard", "double")])
+def test_render_equals_cli_bit_for_bit(cli, context, tmp_path, shadows, precision):
+    raw = tmp_path / "raw"
+    r = run_cli(cli, "render", "-o", str(tmp_path / "x.png"), "--raw", str(raw),
+                "--shadows", shadows, "--precision", precision, *SIZE)
+    assert r.returncode == 0, r.stderr
+    renderer = penumbra.Renderer(context, getattr(penumbra.Precision, precision))
+    (view,) = renderer.render(bundled(shadows))
+    for name in ("color", "silhouette", "depth"):
+        expected = np.load(raw / f"{name}.npy")  # float32, as the tool writes it
+        assert view[name].dtype == np.float64 and view[name].shape == expected.shape
+        assert np.array_equal(view[name].astype(np.float32), expected), name
+        if precision == "float":  # a float render is exact in float64
+            assert np.array_equal(view[name], expected.astype(np.float64)), name
+    if shadows != "none":
+        (smap,) = renderer.shadow_maps()
+        assert np.array_equal(smap.astype(np.float32), np.load(raw / "shadow_map_0.npy"))
+    if shadows == "soft":
+        (pmap,) = renderer.penumbra_maps()
+        assert np.array_equal(pmap.astype(np.float32), np.load(raw / "penumbra_map_0.npy"))
+
+
+def test_backward_equals_cli_bit_for_bit(cli, context, tmp_path):
+    rng = np.random.default_rng(3)
+    grads = {"color": rng.normal(size=(64, 64, 3)), "silhouette": rng.normal(size=(64, 64)),
+             "depth": rng.normal(size=(64, 64))}
+    (tmp_path / "g").mkdir()
+    for name, g in grads.items():
+        np.save(tmp_path / "g" / f"{name}.npy", g)
+    r = run_cli(cli, "backward", "--grad-in", str(tmp_path / "g"), "-o", str(tmp_path / "out"),
+                "--shadows", "hard", *SIZE)
+    assert r.returncode == 0, r.stderr
+    renderer = penumbra.Renderer(context)
+    scene = bundled("hard")
+    renderer.render(scene)
+    g = renderer.backward(scene, [grads])
+    for mesh, dv, da in zip(scene.meshes, g["vertices"], g["albedo"]):
+        assert np.array_equal(dv, np.load(tmp_path / "out" / f"vertices_{mesh.name}.npy"))
+        assert np.array_equal(da, np.load(tmp_path / "out" / f"albedo_{mesh.name}.npy"))
+    lights = np.concatenate([g["light_position"], g["light_color"]], axis=1)
+    assert np.array_equal(lights, np.load(tmp_path / "out" / "lights.npy"))
+    assert np.array_equal(g["ambient"][None], np.load(tmp_path / "out" / "ambient.npy"))
+    assert np.abs(lights).max() > 0
+
+
+def cli_error(cli, *args):
+    r = run_cli(cli, *args)
+    assert r.returncode == 1
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith("penumbra: error: ")
+    return line[len("penumbra: error: "):]
+
+
+def test_errors_have_the_cli_messages(cli, context, tmp_path):
+    missing = str(tmp_path / "missing.json")
+    with pytest.raises(penumbra.Error) as e:
+        penumbra.load_scene(missing)
+    assert str(e.value) == cli_error(cli, "render", missing, "-o", str(tmp_path / "x.png"))
+
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"meshes": [], "cameras": [{"eye": [0, 0, 1], "width": 0}]}')
+    with pytest.raises(penumbra.Error) as e:
+        penumbra.load_scene(str(bad))
+    assert str(e.value) == cli_error(cli, "render", str(bad), "-o", str(tmp_path / "x.png"))
+
+    with pytest.raises(penumbra.Error) as e:
+        penumbra.Context("no-such-device")
+    assert str(e.value) == cli_error(cli, "render", "--device", "no-such-device",
+                                     "-o", str(tmp_path / "x.png"))
+    assert isinstance(e.value, RuntimeError)
+
+
+def test_parameters_round_trip_and_shape_errors():
+    scene = penumbra.bundled_scene()
+    p = scene.parameters()
+    assert p["vertices"].shape == (sum(len(m.vertices) for m in scene.meshes), 3)
+    assert p["lights"].shape == (1, 6) and np.allclose(p["lights"][0, :3], (3, 6, 2.5))
+    moved = p["vertices"] + 0.5
+    scene.set_parameters(moved, p["albedo"], p["lights"], p["ambient"])
+    assert np.array_equal(scene.parameters()["vertices"], moved)
+    assert np.array_equal(scene.meshes[1].vertices, moved[len(scene.meshes[0].vertices):])
+    with pytest.raises(penumbra.Error, match=r"vertices has shape \(3, 3\); the scene needs"):
+        scene.set_parameters(moved[:3], p["albedo"], p["lights"], p["ambient"])
+    with pytest.raises(penumbra.Error, match=r"lights has shape \(1, 3\); the scene needs \(1, 6\)"):
+        scene.set_parameters(moved, p["albedo"], p["lights"][:, :3], p["ambient"])
+
+
+def test_outputs_are_moved_not_copied(context):
+    renderer = penumbra.Renderer(context)
+    (view,) = renderer.render(bundled("none", 16))
+    color = view["color"]
+    # The array does not own its memory: it is the C++ image's buffer, kept alive by a capsule.
+    assert not color.flags.owndata and color.flags.c_contiguous and color.flags.writeable
+    assert color.shape == (16, 16, 3) and 0 < color.mean() <= 1

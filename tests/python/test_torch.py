@@ -1,0 +1,54 @@
+"""penumbra.torch: the autograd Function against finite differences and against the module."""
+import numpy as np
+import pytest
+import torch
+
+import penumbra
+import penumbra.torch as pt
+from conftest import small_scene
+
+
+@pytest.mark.parametrize("shadows", ["none", "hard", "soft"])
+def test_gradcheck_double(context, shadows):
+    render = pt.SceneRenderer(small_scene(shadows), context)
+    p = render.parameters(torch.float64)
+    inputs = [p[k].clone().requires_grad_() for k in ("vertices", "albedo", "lights", "ambient")]
+    colour, silhouette, depth = render(*inputs)
+    assert colour.shape == (1, 10, 10, 3) and depth.shape == silhouette.shape == (1, 10, 10)
+    # Every input reaches the outputs (through the shadows too, when they are on).
+    grads = torch.autograd.grad(colour.sum() + depth.sum(), inputs)
+    assert all(g.abs().max() > 0 for g in grads)
+    assert torch.autograd.gradcheck(render, inputs, eps=1e-6, atol=1e-6, rtol=1e-4)
+
+
+def test_float_inputs_render_in_float(context):
+    scene = small_scene("hard", 16)
+    render = pt.SceneRenderer(scene, context)
+    p = render.parameters(torch.float32)
+    colour, _, _ = render(p["vertices"], p["albedo"], p["lights"], p["ambient"])
+    assert colour.dtype == torch.float32
+    (expected,) = penumbra.Renderer(context).render(render.scene)
+    assert np.array_equal(colour[0].numpy(), expected["color"].astype(np.float32))
+
+
+def test_backward_after_other_renders(context):
+    """backward re-renders its own scene when other renders came in between."""
+    render = pt.SceneRenderer(small_scene("hard"), context)
+    p = render.parameters()
+    v = p["vertices"].clone().requires_grad_()
+    first = render(v, p["albedo"], p["lights"], p["ambient"])[0].sum()
+    (expected,) = torch.autograd.grad(first, v)
+    v2 = v.detach() + 0.05
+    first = render(v, p["albedo"], p["lights"], p["ambient"])[0].sum()
+    render(v2, p["albedo"], p["lights"], p["ambient"])  # a render of another scene
+    (again,) = torch.autograd.grad(first, v)
+    assert torch.equal(again, expected)
+
+
+def test_errors(context):
+    render = pt.SceneRenderer(small_scene(), context)
+    p = render.parameters()
+    with pytest.raises(penumbra.Error, match=r"vertices has shape \(3, 3\); the scene needs"):
+        render(p["vertices"][:3], p["albedo"], p["lights"], p["ambient"])
+    with pytest.raises(penumbra.Error, match="float32 or float64"):
+        render(p["vertices"].int(), p["albedo"], p["lights"], p["ambient"])
