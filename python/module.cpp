@@ -194,6 +194,9 @@ void set_parameters(Scene& scene, const Flat& vertices, const Flat& albedo, cons
 
 NB_MODULE(_penumbra, m) {
   m.doc() = "penumbra: differentiable soft rasterizer with shadows (C++ core)";
+  // torch keeps autograd graphs (and the renderers their nodes hold) alive until after this
+  // module is torn down at interpreter exit; nanobind would report them as leaks.
+  nb::set_leak_warnings(false);
   nb::exception<Error>(m, "Error", PyExc_RuntimeError);
 
   // Enumerations: the words of the scene format and the tool (Shadows.hard, Sampling.exact).
