@@ -7,7 +7,8 @@
 #   3. the same source built with pkg-config's flags for penumbra.pc, and run;
 #   4. the installed tool renders the installed bundled scene.
 # Fails if the library or the headers mention the source tree, or if any step fails.
-# Usage: scripts/install_check.sh   (after scripts/build.sh)
+# Usage: scripts/install_check.sh   (after scripts/build.sh; PENUMBRA_BUILD_DIR=build-static for a
+#        build configured with -DBUILD_SHARED_LIBS=OFF)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 src=$(pwd)
@@ -30,11 +31,14 @@ cmake --build "$tmp/example-build" >"$tmp/build.log"
 (cd "$tmp" && ./example-build/render_and_backward)
 test -s "$tmp/render.png"
 
-libdir=$(dirname "$(find "$prefix" -name penumbra.pc)")
+pcdir=$(dirname "$(find "$prefix" -name penumbra.pc)")
+static=()  # a static libpenumbra needs its private dependencies: pkg-config --static
+[[ -n "$(find "$prefix" -name 'libpenumbra.so*')" ]] || static=(--static)
 # shellcheck disable=SC2046  # pkg-config's flags are separate words
 g++ -std=c++17 -O1 -o "$tmp/example-pc" examples/cpp/render_and_backward.cpp \
-  -DSCENE="\"$prefix/share/penumbra/scenes/turnaround.json\"" \
-  $(PKG_CONFIG_PATH="$libdir" pkg-config --cflags --libs penumbra) -Wl,-rpath,"$(dirname "$libdir")"
+  -DSCENE="\"$(PKG_CONFIG_PATH="$pcdir" pkg-config --variable=datadir penumbra)/scenes/turnaround.json\"" \
+  $(PKG_CONFIG_PATH="$pcdir" pkg-config "${static[@]}" --cflags --libs penumbra) \
+  -Wl,-rpath,"$(dirname "$pcdir")"
 (cd "$tmp" && ./example-pc >/dev/null)
 
 (cd "$tmp" && "$prefix/bin/penumbra" render -o "$tmp/cli.png" --width 64 --height 64)
