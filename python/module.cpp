@@ -103,10 +103,14 @@ Array<double> image_out(Image&& image) {
   return adopt(std::move(image.data), {h, w, c});
 }
 // An array of shape (H, W) or (H, W, C) into an image (copied: Image owns its buffer).
-Image image_in(const nb::handle& obj, const char* what) {
-  auto a = nb::cast<nb::ndarray<const double, nb::c_contig, nb::device::cpu>>(obj);
+Image image_in(const nb::handle& obj, const std::string& what) {
+  nb::ndarray<const double, nb::c_contig, nb::device::cpu> a;
+  if (!nb::try_cast(obj, a)) {
+    throw Error(what + " must be an array of numbers, not " +
+                nb::cast<std::string>(nb::str(obj.type().attr("__name__"))));
+  }
   if (a.ndim() != 2 && a.ndim() != 3) {
-    throw Error(std::string(what) + " must be an array of shape (H, W) or (H, W, C), not " +
+    throw Error(what + " must be an array of shape (H, W) or (H, W, C), not " +
                 std::to_string(a.ndim()) + "-dimensional");
   }
   Image image(int(a.shape(1)), int(a.shape(0)), a.ndim() == 3 ? int(a.shape(2)) : 1);
@@ -194,6 +198,7 @@ void set_parameters(Scene& scene, const Flat& vertices, const Flat& albedo, cons
 
 NB_MODULE(_penumbra, m) {
   m.doc() = "penumbra: differentiable soft rasterizer with shadows (C++ core)";
+  m.attr("__version__") = PENUMBRA_VERSION;
   // torch keeps autograd graphs (and the renderers their nodes hold) alive until after this
   // module is torn down at interpreter exit; nanobind would report them as leaks.
   nb::set_leak_warnings(false);
@@ -373,9 +378,12 @@ NB_MODULE(_penumbra, m) {
             for (size_t i = 0; i < dL.size(); ++i) {
               nb::handle g = grads[i];
               if (g.is_none()) continue;
-              auto d = nb::cast<nb::dict>(g);
-              for (auto [key, value] : d) {
-                const std::string name = nb::cast<std::string>(key);
+              const std::string camera = "camera " + std::to_string(i);
+              if (!nb::isinstance<nb::dict>(g)) {
+                throw Error("the gradients of " + camera + " must be a dict or None");
+              }
+              for (auto [key, value] : nb::borrow<nb::dict>(g)) {
+                const std::string name = nb::cast<std::string>(nb::str(key));
                 Image* image = name == "color"        ? &dL[i].color
                                : name == "silhouette" ? &dL[i].silhouette
                                : name == "depth"      ? &dL[i].depth
@@ -384,7 +392,7 @@ NB_MODULE(_penumbra, m) {
                   throw Error("unknown output '" + name +
                               "' in the gradients (color, silhouette, depth)");
                 }
-                if (!value.is_none()) *image = image_in(value, name.c_str());
+                if (!value.is_none()) *image = image_in(value, name + " of " + camera);
               }
             }
             SceneGrads g;

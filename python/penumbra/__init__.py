@@ -9,7 +9,7 @@ same one the penumbra tool prints). docs/api.md documents it all.
 from pathlib import Path
 
 from ._penumbra import (  # noqa: F401
-    AlbedoMode, Camera, Context, DeviceInfo, Error, Light, LightFrustum, LightType, Mesh,
+    __version__, AlbedoMode, Camera, Context, DeviceInfo, Error, Light, LightFrustum, LightType, Mesh,
     Precision, Projection, RenderParams, Renderer, Sampling, Scene, Shadows, fit_light_frusta,
     framed_scene, list_devices, load_obj, load_scene, parse_scene, save_png, validate)
 

@@ -118,3 +118,29 @@ def test_outputs_are_moved_not_copied(context):
     # The array does not own its memory: it is the C++ image's buffer, kept alive by a capsule.
     assert not color.flags.owndata and color.flags.c_contiguous and color.flags.writeable
     assert color.shape == (16, 16, 3) and 0 < color.mean() <= 1
+
+
+def test_backward_input_errors(context):
+    renderer = penumbra.Renderer(context)
+    scene = bundled("none", 16)
+    renderer.render(scene)
+    cases = [([{"color": np.zeros((3, 3, 3))}],
+              "gradient of color for camera 0 is 3x3x3, expected 16x16x3"),
+             ([{"colour": np.zeros((16, 16, 3))}], "unknown output 'colour'"),
+             ([{"depth": "deep"}], "depth of camera 0 must be an array of numbers, not str"),
+             ([{"depth": np.zeros(16)}], r"must be an array of shape \(H, W\) or \(H, W, C\)"),
+             (["x"], "the gradients of camera 0 must be a dict or None"),
+             ([None, None], "got gradients for 2 camera")]
+    for grads, message in cases:
+        with pytest.raises(penumbra.Error, match=message):
+            renderer.backward(scene, grads)
+    # Missing keys and None are zero gradients.
+    g = renderer.backward(scene, [{"color": None}])
+    assert not g["vertices"][0].any() and not g["ambient"].any()
+
+
+def test_version_is_the_projects():
+    import re
+    from conftest import ROOT
+    cmake = (ROOT / "CMakeLists.txt").read_text()
+    assert penumbra.__version__ == re.search(r"project\(penumbra VERSION ([0-9.]+)", cmake)[1]
