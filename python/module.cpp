@@ -78,22 +78,18 @@ Array<T> adopt(std::vector<T>&& data, std::initializer_list<size_t> shape) {
   return adopt<T, T>(std::move(data), shape);
 }
 
-// (N, 3) arrays out of and into vectors of glm vectors.
-template <typename Vec, typename T>
-Array<T> rows_out(const std::vector<Vec>& v) {
-  std::vector<T> flat(v.size() * 3);
-  if (!v.empty()) std::memcpy(flat.data(), v.data(), flat.size() * sizeof(T));
-  return adopt(std::move(flat), {v.size(), 3});
+// (N, 3) arrays out of and into vectors of glm vectors. rows_out takes its vector by value:
+// a copy of a scene's, or moved from a result without a copy.
+template <typename T, typename Vec>
+Array<T> rows_out(std::vector<Vec> v) {
+  const size_t n = v.size();
+  return adopt<T>(std::move(v), {n, 3});
 }
 template <typename Vec, typename T>
 std::vector<Vec> rows_in(const Rows3<T>& a) {
   std::vector<Vec> v(a.shape(0));
   if (!v.empty()) std::memcpy(static_cast<void*>(v.data()), a.data(), v.size() * sizeof(Vec));
   return v;
-}
-Array<double> rows_out_moved(std::vector<glm::dvec3>&& v) {
-  const size_t n = v.size();
-  return adopt<double>(std::move(v), {n, 3});
 }
 
 // An image as (H, W) or (H, W, C), moved out.
@@ -118,7 +114,7 @@ Image image_in(const nb::handle& obj, const std::string& what) {
   return image;
 }
 
-nb::dict views_out(std::vector<RenderOutput>::value_type&& v) {
+nb::dict views_out(RenderOutput&& v) {
   nb::dict d;
   d["color"] = image_out(std::move(v.color));
   d["silhouette"] = image_out(std::move(v.silhouette));
@@ -230,17 +226,17 @@ NB_MODULE(_penumbra, m) {
       .def(nb::init<>())
       .def_rw("name", &Mesh::name)
       .def_prop_rw(
-          "vertices", [](const Mesh& mesh) { return rows_out<glm::dvec3, double>(mesh.vertices); },
+          "vertices", [](const Mesh& mesh) { return rows_out<double>(mesh.vertices); },
           [](Mesh& mesh, const Rows3<double>& a) { mesh.vertices = rows_in<glm::dvec3>(a); },
           nb::for_getter(nb::rv_policy::automatic),
           "(N, 3) float64 vertex positions (a copy; assign to change)")
       .def_prop_rw(
-          "faces", [](const Mesh& mesh) { return rows_out<glm::ivec3, int>(mesh.faces); },
+          "faces", [](const Mesh& mesh) { return rows_out<int>(mesh.faces); },
           [](Mesh& mesh, const Rows3<int>& a) { mesh.faces = rows_in<glm::ivec3>(a); },
           nb::for_getter(nb::rv_policy::automatic),
           "(F, 3) int32 vertex indices, counter-clockwise (a copy; assign to change)")
       .def_prop_rw(
-          "albedo", [](const Mesh& mesh) { return rows_out<glm::dvec3, double>(mesh.albedo); },
+          "albedo", [](const Mesh& mesh) { return rows_out<double>(mesh.albedo); },
           [](Mesh& mesh, const Rows3<double>& a) { mesh.albedo = rows_in<glm::dvec3>(a); },
           nb::for_getter(nb::rv_policy::automatic),
           "(A, 3) float64 albedo, one row per vertex or per face (a copy; assign to change)")
@@ -402,12 +398,12 @@ NB_MODULE(_penumbra, m) {
             }
             nb::dict out;
             nb::list vertices, albedo;
-            for (auto& v : g.vertices) vertices.append(rows_out_moved(std::move(v)));
-            for (auto& a : g.albedo) albedo.append(rows_out_moved(std::move(a)));
+            for (auto& v : g.vertices) vertices.append(rows_out<double>(std::move(v)));
+            for (auto& a : g.albedo) albedo.append(rows_out<double>(std::move(a)));
             out["vertices"] = vertices;
             out["albedo"] = albedo;
-            out["light_position"] = rows_out_moved(std::move(g.light_position));
-            out["light_color"] = rows_out_moved(std::move(g.light_color));
+            out["light_position"] = rows_out<double>(std::move(g.light_position));
+            out["light_color"] = rows_out<double>(std::move(g.light_color));
             const size_t lights = g.light_size.size();
             out["light_size"] = adopt(std::move(g.light_size), {lights});
             out["ambient"] = adopt(std::vector<double>{g.ambient.x, g.ambient.y, g.ambient.z}, {3});
