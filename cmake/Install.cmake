@@ -11,6 +11,7 @@ install(TARGETS penumbra_core EXPORT penumbraTargets COMPONENT dev
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/host/include/penumbra
+                  ${CMAKE_BINARY_DIR}/generated/include/penumbra
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
 install(EXPORT penumbraTargets NAMESPACE penumbra:: DESTINATION ${PENUMBRA_CMAKE_DIR}
         COMPONENT dev)

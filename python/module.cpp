@@ -19,6 +19,7 @@
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
+#include "penumbra/version.hpp"
 
 namespace nb = nanobind;
 using namespace nb::literals;
