@@ -124,9 +124,9 @@ nb::dict views_out(RenderOutput&& v) {
 }
 
 // The differentiable parameters of a scene as four flat arrays, the layout of penumbra.torch:
-// vertices (V, 3) and albedo (A, 3), every mesh's rows one after the other; lights (L, 6), the
-// position (direction for a directional light) then the colour, as the tool's lights.npy;
-// ambient (3,).
+// vertices (V, 3) and albedo (A, 3), every mesh's rows one after the other; lights (L, 7), the
+// position (direction for a directional light), the colour and the size D_L, as the tool's
+// lights.npy; ambient (3,).
 size_t total_rows(const Scene& scene, bool albedo) {
   size_t n = 0;
   for (const Mesh& mesh : scene.meshes) n += albedo ? mesh.albedo.size() : mesh.vertices.size();
@@ -141,13 +141,14 @@ nb::dict get_parameters(const Scene& scene) {
   }
   for (const Light& light : scene.lights) {
     const glm::dvec3& p = light.type == LightType::Directional ? light.direction : light.position;
-    lights.insert(lights.end(), {p.x, p.y, p.z, light.color.x, light.color.y, light.color.z});
+    lights.insert(lights.end(),
+                  {p.x, p.y, p.z, light.color.x, light.color.y, light.color.z, light.size});
   }
   nb::dict d;
   const size_t nv = vertices.size() / 3, na = albedo.size() / 3, nl = scene.lights.size();
   d["vertices"] = adopt(std::move(vertices), {nv, 3});
   d["albedo"] = adopt(std::move(albedo), {na, 3});
-  d["lights"] = adopt(std::move(lights), {nl, 6});
+  d["lights"] = adopt(std::move(lights), {nl, 7});
   d["ambient"] = adopt(std::vector<double>{scene.ambient.x, scene.ambient.y, scene.ambient.z}, {3});
   return d;
 }
@@ -171,7 +172,7 @@ void set_parameters(Scene& scene, const Flat& vertices, const Flat& albedo, cons
                     const Flat& ambient) {
   check_shape(vertices, "vertices", total_rows(scene, false), 3);
   check_shape(albedo, "albedo", total_rows(scene, true), 3);
-  check_shape(lights, "lights", scene.lights.size(), 6);
+  check_shape(lights, "lights", scene.lights.size(), 7);
   check_shape(ambient, "ambient", 3, 0);
   const double* v = vertices.data();
   const double* a = albedo.data();
@@ -186,9 +187,18 @@ void set_parameters(Scene& scene, const Flat& vertices, const Flat& albedo, cons
     glm::dvec3& p = light.type == LightType::Directional ? light.direction : light.position;
     p = {l[0], l[1], l[2]};
     light.color = {l[3], l[4], l[5]};
-    l += 6;
+    light.size = l[6];
+    l += 7;
   }
   scene.ambient = {ambient.data()[0], ambient.data()[1], ambient.data()[2]};
+}
+
+// An enumeration whose words the library keeps in one table (enum_words: the scene format's
+// and the tool's words), bound with those words.
+template <class E>
+void bind_words(nb::module_& m, const char* name) {
+  nb::enum_<E> e(m, name);
+  for (const auto& [value, word] : enum_words<E>()) e.value(word.c_str(), value);
 }
 
 }  // namespace
@@ -211,14 +221,9 @@ NB_MODULE(_penumbra, m) {
   nb::enum_<LightType>(m, "LightType")
       .value("point", LightType::Point)
       .value("directional", LightType::Directional);
-  nb::enum_<Shadows>(m, "Shadows")
-      .value("none", Shadows::None)
-      .value("hard", Shadows::Hard)
-      .value("soft", Shadows::Soft);
-  nb::enum_<Sampling>(m, "Sampling")
-      .value("truncated", Sampling::Truncated)
-      .value("exact", Sampling::Exact)
-      .value("gemm", Sampling::Gemm);
+  bind_words<Shadows>(m, "Shadows");
+  bind_words<Sampling>(m, "Sampling");
+  bind_words<ShadowModel>(m, "ShadowModel");
   nb::enum_<Precision>(m, "Precision")
       .value("float", Precision::Float)
       .value("double", Precision::Double);
@@ -259,13 +264,15 @@ NB_MODULE(_penumbra, m) {
   nb::class_<LightFrustum>(m, "LightFrustum")
       .def(nb::init<>())
       .def_rw("fitted", &LightFrustum::fitted)
+      .def_rw("automatic", &LightFrustum::automatic)
       .def_rw("target", &LightFrustum::target)
       .def_rw("up", &LightFrustum::up)
       .def_rw("fov_deg", &LightFrustum::fov_deg)
       .def_rw("half_size", &LightFrustum::half_size)
       .def_rw("distance", &LightFrustum::distance)
       .def_rw("near", &LightFrustum::near)
-      .def_rw("far", &LightFrustum::far);
+      .def_rw("far", &LightFrustum::far)
+      .def_rw("search_sigma", &LightFrustum::search_sigma);
 
   nb::class_<Light>(m, "Light")
       .def(nb::init<>())
@@ -290,6 +297,7 @@ NB_MODULE(_penumbra, m) {
       .def_rw("cull_backfaces", &RenderParams::cull_backfaces)
       .def_rw("shadows", &RenderParams::shadows)
       .def_rw("sampling", &RenderParams::sampling)
+      .def_rw("shadow_model", &RenderParams::shadow_model)
       .def_rw("shadow_map_size", &RenderParams::shadow_map_size)
       .def_rw("light_sigma", &RenderParams::light_sigma)
       .def_rw("light_gamma", &RenderParams::light_gamma)
@@ -310,8 +318,8 @@ NB_MODULE(_penumbra, m) {
       .def_rw("params", &Scene::params)
       .def("parameters", &get_parameters,
            "The differentiable parameters as a dict of float64 arrays: vertices (V, 3) and "
-           "albedo (A, 3), the rows of every mesh in turn; lights (L, 6), position (direction "
-           "for a directional light) then colour; ambient (3,).")
+           "albedo (A, 3), the rows of every mesh in turn; lights (L, 7), position (direction "
+           "for a directional light), colour and size; ambient (3,).")
       .def("set_parameters", &set_parameters, "vertices"_a, "albedo"_a, "lights"_a, "ambient"_a,
            "Sets the parameters from arrays laid out as parameters() returns them.");
 
@@ -322,6 +330,9 @@ NB_MODULE(_penumbra, m) {
         "Raises penumbra.Error naming the first problem of the scene.");
   m.def("fit_light_frusta", &fit_light_frusta, "scene"_a,
         "Fits the shadow-map frustum of every light not fitted yet, in place.");
+  m.def("refit_light_frusta", &refit_light_frusta, "scene"_a,
+        "Fits again every frustum that was fitted rather than given, in place: after changing "
+        "the shadow settings (the fit depends on them), as the tool does after its options.");
   m.def("framed_scene", &framed_scene, "mesh"_a, "width"_a = 256, "height"_a = 256);
   m.def(
       "save_png", [](nb::handle image, const std::string& path) {

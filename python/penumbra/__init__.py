@@ -6,18 +6,16 @@ loss with respect to vertices, albedo, lights and ambient light. penumbra.torch 
 torch.autograd.Function. Errors raise penumbra.Error with the library's one-line message (the
 same one the penumbra tool prints). docs/api.md documents it all.
 """
-from pathlib import Path
-
-from ._penumbra import (  # noqa: F401
-    __version__, AlbedoMode, Camera, Context, DeviceInfo, Error, Light, LightFrustum, LightType, Mesh,
-    Precision, Projection, RenderParams, Renderer, Sampling, Scene, Shadows, fit_light_frusta,
-    framed_scene, list_devices, load_obj, load_scene, parse_scene, save_png, validate)
+from ._penumbra import *  # noqa: F401,F403  every class and function of the C++ module
+from ._penumbra import __version__, Scene, load_scene
 
 __all__ = [name for name in dir() if not name.startswith("_")] + ["data_dir", "bundled_scene"]
 
 
-def data_dir() -> Path:
-    """The bundled data installed with the module: scenes/turnaround.json and meshes/."""
+def data_dir():
+    """The bundled data installed with the module (a pathlib.Path): scenes/turnaround.json and
+    meshes/."""
+    from pathlib import Path
     return Path(__file__).resolve().parent / "data"
 
 

@@ -8,8 +8,8 @@
     loss.backward()                                # calls penumbra's backward
 
 The parameters are laid out as Scene.parameters(): vertices (V, 3) and albedo (A, 3) with the
-rows of every mesh in turn, lights (L, 6) (position, or direction for a directional light, then
-colour), ambient (3,). The outputs stack every camera: colour (C, H, W, 3), silhouette and
+rows of every mesh in turn, lights (L, 7) (position, or direction for a directional light,
+colour, size D_L: the tool's lights.npy), ambient (3,). The outputs stack every camera: colour (C, H, W, 3), silhouette and
 depth (C, H, W). float64 inputs render in double precision, float32 ones in float (the tool's
 default); the outputs have the inputs' dtype. Tensors live on the CPU; penumbra's own device
 (any OpenCL device) is chosen by the Context.
@@ -25,14 +25,15 @@ __all__ = ["Render", "SceneRenderer", "render"]
 class SceneRenderer:
     """Renders one scene whose geometry and lights come from tensors.
 
-    The scene is copied; the shadow-map frustum of every light is fitted once, here, to the
-    scene as given, and then stays fixed (as in the tool and its gradient check), so that the
-    rendered function of the parameters is the one whose derivative backward computes.
+    The scene is copied; the shadow-map frustum of every light that is not given is fitted
+    once, here, to the scene and its shadow settings as they are, and then stays fixed (as in
+    the tool and its gradient check), so that the rendered function of the parameters is the
+    one whose derivative backward computes.
     """
 
     def __init__(self, scene, context=None, device=""):
         self.scene = penumbra.Scene(scene)
-        penumbra.fit_light_frusta(self.scene)
+        penumbra.refit_light_frusta(self.scene)
         self.context = context if context is not None else penumbra.Context(device)
         self._renderers = {}
         self._last = {}  # precision -> the scene its renderer rendered last
@@ -100,7 +101,8 @@ class Render(torch.autograd.Function):
         g = ctx.renderer.backward(ctx.scene, ctx.precision, grads)
         d_vertices = np.concatenate(g["vertices"]) if g["vertices"] else np.zeros((0, 3))
         d_albedo = np.concatenate(g["albedo"]) if g["albedo"] else np.zeros((0, 3))
-        d_lights = np.concatenate([g["light_position"], g["light_color"]], axis=1)
+        d_lights = np.concatenate([g["light_position"], g["light_color"],
+                                   g["light_size"][:, None]], axis=1)
         out = [torch.from_numpy(a).to(t)
                for a, t in zip((d_vertices, d_albedo, d_lights, g["ambient"]), ctx.dtypes)]
         return (*out, None)

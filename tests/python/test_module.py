@@ -13,37 +13,41 @@ def run_cli(cli, *args):
     return subprocess.run([str(cli), *args], capture_output=True, text=True)
 
 
-def bundled(shadows, size=64):
+def bundled(shadows, size=64, model="accurate"):
     scene = penumbra.bundled_scene()
     scene.params.shadows = getattr(penumbra.Shadows, shadows)
+    scene.params.shadow_model = getattr(penumbra.ShadowModel, model)
     cameras = scene.cameras
     for c in cameras:
         c.width = c.height = size
     scene.cameras = cameras
+    penumbra.refit_light_frusta(scene)  # as the tool does after its options
     return scene
 
 
-@pytest.mark.parametrize("shadows,precision", [("none", "float"), ("hard", "float"),
-                                               ("soft", "float"), ("hard", "double")])
-def test_render_equals_cli_bit_for_bit(cli, context, tmp_path, shadows, precision):
+@pytest.mark.parametrize("shadows,precision,model", [
+    ("none", "float", "accurate"), ("hard", "float", "accurate"), ("soft", "float", "accurate"),
+    ("hard", "double", "accurate"), ("hard", "float", "paper"), ("soft", "float", "paper")])
+def test_render_equals_cli_bit_for_bit(cli, context, tmp_path, shadows, precision, model):
     raw = tmp_path / "raw"
     r = run_cli(cli, "render", "-o", str(tmp_path / "x.png"), "--raw", str(raw),
-                "--shadows", shadows, "--precision", precision, *SIZE)
+                "--shadows", shadows, "--precision", precision, "--shadow-model", model, *SIZE)
     assert r.returncode == 0, r.stderr
     renderer = penumbra.Renderer(context, getattr(penumbra.Precision, precision))
-    (view,) = renderer.render(bundled(shadows))
+    (view,) = renderer.render(bundled(shadows, model=model))
     for name in ("color", "silhouette", "depth"):
         expected = np.load(raw / f"{name}.npy")  # float32, as the tool writes it
         assert view[name].dtype == np.float64 and view[name].shape == expected.shape
         assert np.array_equal(view[name].astype(np.float32), expected), name
         if precision == "float":  # a float render is exact in float64
             assert np.array_equal(view[name], expected.astype(np.float64)), name
-    if shadows != "none":
-        (smap,) = renderer.shadow_maps()
-        assert np.array_equal(smap.astype(np.float32), np.load(raw / "shadow_map_0.npy"))
-    if shadows == "soft":
-        (pmap,) = renderer.penumbra_maps()
-        assert np.array_equal(pmap.astype(np.float32), np.load(raw / "penumbra_map_0.npy"))
+    for kind, maps in (("shadow_map", renderer.shadow_maps()),
+                       ("penumbra_map", renderer.penumbra_maps())):
+        files = sorted(raw.glob(f"{kind}_*.npy"))
+        assert len(maps) == len(files)
+        for m, f in zip(maps, files):
+            assert np.array_equal(m.astype(np.float32), np.load(f)), f.name
+    assert len(renderer.shadow_maps()) == (shadows != "none")
 
 
 def test_backward_equals_cli_bit_for_bit(cli, context, tmp_path):
@@ -63,7 +67,8 @@ def test_backward_equals_cli_bit_for_bit(cli, context, tmp_path):
     for mesh, dv, da in zip(scene.meshes, g["vertices"], g["albedo"]):
         assert np.array_equal(dv, np.load(tmp_path / "out" / f"vertices_{mesh.name}.npy"))
         assert np.array_equal(da, np.load(tmp_path / "out" / f"albedo_{mesh.name}.npy"))
-    lights = np.concatenate([g["light_position"], g["light_color"]], axis=1)
+    lights = np.concatenate([g["light_position"], g["light_color"], g["light_size"][:, None]],
+                            axis=1)
     assert np.array_equal(lights, np.load(tmp_path / "out" / "lights.npy"))
     assert np.array_equal(g["ambient"][None], np.load(tmp_path / "out" / "ambient.npy"))
     assert np.abs(lights).max() > 0
@@ -100,14 +105,14 @@ def test_parameters_round_trip_and_shape_errors():
     scene = penumbra.bundled_scene()
     p = scene.parameters()
     assert p["vertices"].shape == (sum(len(m.vertices) for m in scene.meshes), 3)
-    assert p["lights"].shape == (1, 6) and np.allclose(p["lights"][0, :3], (3, 6, 2.5))
+    assert p["lights"].shape == (1, 7) and np.allclose(p["lights"][0], (3, 6, 2.5, 1, 1, 1, 0.5))
     moved = p["vertices"] + 0.5
     scene.set_parameters(moved, p["albedo"], p["lights"], p["ambient"])
     assert np.array_equal(scene.parameters()["vertices"], moved)
     assert np.array_equal(scene.meshes[1].vertices, moved[len(scene.meshes[0].vertices):])
     with pytest.raises(penumbra.Error, match=r"vertices has shape \(3, 3\); the scene needs"):
         scene.set_parameters(moved[:3], p["albedo"], p["lights"], p["ambient"])
-    with pytest.raises(penumbra.Error, match=r"lights has shape \(1, 3\); the scene needs \(1, 6\)"):
+    with pytest.raises(penumbra.Error, match=r"lights has shape \(1, 3\); the scene needs \(1, 7\)"):
         scene.set_parameters(moved, p["albedo"], p["lights"][:, :3], p["ambient"])
 
 

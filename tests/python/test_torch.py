@@ -8,9 +8,12 @@ import penumbra.torch as pt
 from conftest import small_scene
 
 
+@pytest.mark.parametrize("model", ["accurate", "paper"])
 @pytest.mark.parametrize("shadows", ["none", "hard", "soft"])
-def test_gradcheck_double(context, shadows):
-    render = pt.SceneRenderer(small_scene(shadows), context)
+def test_gradcheck_double(context, shadows, model):
+    scene = small_scene(shadows)
+    scene.params.shadow_model = getattr(penumbra.ShadowModel, model)
+    render = pt.SceneRenderer(scene, context)
     p = render.parameters(torch.float64)
     inputs = [p[k].clone().requires_grad_() for k in ("vertices", "albedo", "lights", "ambient")]
     colour, silhouette, depth = render(*inputs)
