@@ -7,6 +7,7 @@
 // a copy: their buffers are moved into the NumPy arrays that own them.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 
@@ -301,7 +302,8 @@ NB_MODULE(_penumbra, m) {
       .def_rw("shadow_map_size", &RenderParams::shadow_map_size)
       .def_rw("light_sigma", &RenderParams::light_sigma)
       .def_rw("light_gamma", &RenderParams::light_gamma)
-      .def_rw("weight_eps", &RenderParams::weight_eps);
+      .def_rw("weight_eps", &RenderParams::weight_eps)
+      .def_rw("depth_unit", &RenderParams::depth_unit);
 
   // meshes, cameras and lights are lists of copies: assign the whole list to change them
   // (scene.meshes = meshes). params is a reference: scene.params.sigma = 1e-4 changes the scene.
