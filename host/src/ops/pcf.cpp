@@ -16,11 +16,14 @@ constexpr double kSearchEps = 0.05;  // PCF_SEARCH_EPS of pcf.cl
 // bucket's rounding.
 int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const ViewState& v,
                  int light) {
-  auto rec = download_reals(k.ctx(), k.precision(), v.rec_light2, v.nrec * v.nlights * 4);
-  double sigma = shadow_sigma_s(p);
-  for (size_t r = 0; r < v.nrec; ++r) sigma = std::max(sigma, rec[(r * v.nlights + light) * 4 + 2]);
-  double r2 = 2 * sigma * std::log(1 / p.lambda_eps);
-  if (p.shadows == Shadows::Soft) r2 = std::max(r2, 2 * search_sigma * std::log(1 / kSearchEps));
+  double sigma = shadow_sigma_s(p), r2 = 0;  // hard shadows: every filter has σ_s
+  if (p.shadows == Shadows::Soft) {  // the widest filter the forward chose (rec_light2.z)
+    auto rec = download_reals(k.ctx(), k.precision(), v.rec_light2, v.nrec * v.nlights * 4);
+    for (size_t r = 0; r < v.nrec; ++r)
+      sigma = std::max(sigma, rec[(r * v.nlights + light) * 4 + 2]);
+    r2 = 2 * search_sigma * std::log(1 / kSearchEps);
+  }
+  r2 = std::max(r2, 2 * sigma * std::log(1 / p.lambda_eps));
   return int(std::ceil(std::sqrt(r2))) + 1;
 }
 
