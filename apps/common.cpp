@@ -35,7 +35,8 @@ namespace {
 
 bool given(const CLI::Option* option) { return option != nullptr && option->count() > 0; }
 
-// A CLI11 check that the value is one of `words`, with a message that lists them.
+}  // namespace
+
 CLI::Validator one_of(const std::vector<std::string>& words) {
   std::string list;
   for (size_t i = 0; i < words.size(); ++i)
@@ -50,24 +51,6 @@ CLI::Validator one_of(const std::vector<std::string>& words) {
       },
       names);
 }
-
-template <class E>
-E parse_word(const std::string& option, const std::string& w) {
-  E value{};
-  if (!from_word(w, &value))
-    throw Error(option + " must be " + word_choices<E>() + " (got '" + w + "')");
-  return value;
-}
-
-// The same for the words of an enum (scene.hpp's enum_words).
-template <class E>
-CLI::Validator one_of() {
-  std::vector<std::string> words;
-  for (const auto& [value, w] : enum_words<E>()) words.push_back(w);
-  return one_of(words);
-}
-
-}  // namespace
 
 void add_render_options(CLI::App& cmd, RenderOptions& o) {
   const std::string group = "Render parameters (override the values of the scene)";
@@ -97,7 +80,7 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
           ->group(shadow_group);
   o.o_light_sigma = cmd.add_option("--light-sigma", o.light_sigma,
                                    "coverage sharpness σ_L of the light pass, in [0, 1) "
-                                   "(0: σ/10)")
+                                   "(0: σ/32 with the accurate shadow model, σ/10 with the paper's)")
                         ->group(shadow_group);
   o.o_light_gamma = cmd.add_option("--light-gamma", o.light_gamma,
                                    "aggregation sharpness γ_L of the light pass, in [0, 1) "

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "penumbra/context.hpp"
+#include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
@@ -74,6 +75,24 @@ void limit_memory(const RenderOptions& options, Context& context);
 // A size in bytes: a number, optionally followed by B, KiB, MiB, GiB, TiB (powers of 1024) or
 // kB, MB, GB, TB (powers of 1000); throws penumbra::Error naming `option` otherwise.
 size_t parse_bytes(const std::string& text, const std::string& option);
+
+// A CLI11 check that the value is one of `words`, with a message that lists them.
+CLI::Validator one_of(const std::vector<std::string>& words);
+// The same for the words of an enum (scene.hpp's enum_words).
+template <class E>
+CLI::Validator one_of() {
+  std::vector<std::string> words;
+  for (const auto& [value, w] : enum_words<E>()) words.push_back(w);
+  return one_of(words);
+}
+// The value of `w`, a word of enum E; throws penumbra::Error naming `option` otherwise.
+template <class E>
+E parse_word(const std::string& option, const std::string& w) {
+  E value{};
+  if (!from_word(w, &value))
+    throw Error(option + " must be " + word_choices<E>() + " (got '" + w + "')");
+  return value;
+}
 
 // The shadow mode of a --shadows word (the words of every enum: penumbra::word, scene.hpp).
 Shadows parse_shadows(const std::string& word);

@@ -255,7 +255,8 @@ Bounds bounds(const Scene& scene) {
 }
 
 double light_pass_sigma(const RenderParams& p) {
-  return p.light_sigma > 0 ? p.light_sigma : 0.1 * p.sigma;
+  if (p.light_sigma > 0) return p.light_sigma;
+  return p.shadow_model == ShadowModel::Accurate ? p.sigma / 32 : p.sigma / 10;
 }
 double light_pass_gamma(const RenderParams& p) {
   return p.light_gamma > 0 ? p.light_gamma : p.gamma;

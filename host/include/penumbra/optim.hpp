@@ -314,7 +314,8 @@ struct ShadowProblem {
   // Shadow mode (Hard or Soft), sampling, γ_L, σ_s, γ_s, β, γ_P of the fit; σ_L and the map
   // size come from the stages.
   RenderParams params = default_shadow_fit_params();
-  static RenderParams default_shadow_fit_params();
+  // The shadow parameters of the fit for `model` (hard shadows, truncated sampling).
+  static RenderParams default_shadow_fit_params(ShadowModel model = ShadowModel::Accurate);
 };
 
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
