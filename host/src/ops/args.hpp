@@ -103,6 +103,22 @@ inline void set(cl::Kernel& k, cl_uint i, Real r, Precision p) {
     k.setArg(i, float(r.value));
 }
 
+// Sets `kernel`'s arguments to those of `a`, after checking them against it when `check`.
+template <class A>
+void apply(cl::Kernel& kernel, const A& a, Precision p, bool check) {
+  const auto values = flatten(a);
+  if (check) {
+    const auto buffer = buffers(values);
+    args::check(kernel, A::file, a.kernel, buffer.data(), buffer.size());
+  }
+  cl_uint i = 0;  // the argument being set, should one fail
+  try {
+    std::apply([&](const auto&... v) { ((set(kernel, i, v, p), ++i), ...); }, values);
+  } catch (const cl::Error& err) {
+    set_failed(err, A::file, a.kernel, i);
+  }
+}
+
 }  // namespace args
 
 // Sets the kernel A names (A::file, a.kernel; built with `variant`, see Kernels) to the
@@ -111,20 +127,16 @@ inline void set(cl::Kernel& k, cl_uint i, Real r, Precision p) {
 template <class A>
 cl::Kernel& bind_args(Kernels& k, const A& a, const std::string& variant = "") {
   Kernels::Entry& e = k.get(A::file, a.kernel, variant);
-  const auto values = args::flatten(a);
-  if (!e.checked) {
-    const auto buffer = args::buffers(values);
-    args::check(e.kernel, A::file, a.kernel, buffer.data(), buffer.size());
-    e.checked = true;
-  }
-  cl_uint i = 0;  // the argument being set, should one fail
-  try {
-    std::apply([&](const auto&... v) { ((args::set(e.kernel, i, v, k.precision()), ++i), ...); },
-               values);
-  } catch (const cl::Error& err) {
-    args::set_failed(err, A::file, a.kernel, i);
-  }
+  args::apply(e.kernel, a, k.precision(), !e.checked);
+  e.checked = true;
   return e.kernel;
+}
+
+// The same for a kernel of a program built outside Kernels (the benchmarks' own), checked on
+// every call.
+template <class A>
+void bind_args(cl::Kernel& kernel, const A& a, Precision p) {
+  args::apply(kernel, a, p, true);
 }
 
 }  // namespace penumbra::detail
