@@ -7,6 +7,7 @@
 #include <string>
 
 #include "common.hpp"
+#include "ops/args.hpp"
 #include "suite.hpp"
 
 namespace penumbra::bench {
@@ -63,6 +64,24 @@ __kernel void native_exp_peak(__global float16* out, int iters) {
 }
 )CLC";
 
+// The kernels' arguments, bound as the library binds its own (ops/args.hpp).
+struct FmaPeakArgs {
+  static constexpr const char* file = "bench_ceiling.cpp";
+  static constexpr const char* kernel = "fma_peak";
+  const cl::Buffer& out;
+  cl_int iters;
+  detail::Real a, b;
+  auto fields() const { return std::tie(out, iters, a, b); }
+};
+
+struct ExpPeakArgs {  // exp_peak and native_exp_peak
+  static constexpr const char* file = "bench_ceiling.cpp";
+  const char* kernel;
+  const cl::Buffer& out;
+  cl_int iters;
+  auto fields() const { return std::tie(out, iters); }
+};
+
 // Built by each case (outside its timing), so no OpenCL object outlives main().
 cl::Program build_program() {
   cl::Program prog(context().cl_context(), std::string(kSource));
@@ -81,12 +100,10 @@ void run_ceiling(benchmark::State& state, const char* kernel, int iters, double 
     program = build_program();
     k = cl::Kernel(program, kernel);
     out = cl::Buffer(ctx.cl_context(), CL_MEM_WRITE_ONLY, sizeof(float) * 16 * kItems);
-    k.setArg(0, out);
-    k.setArg(1, iters);
-    if (std::string(kernel) == "fma_peak") {
-      k.setArg(2, 0.9999999f);
-      k.setArg(3, 1e-7f);
-    }
+    if (std::string(kernel) == "fma_peak")
+      detail::bind_args(k, FmaPeakArgs{out, iters, 0.9999999f, 1e-7f}, Precision::Float);
+    else
+      detail::bind_args(k, ExpPeakArgs{kernel, out, iters}, Precision::Float);
     ctx.queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(kItems), cl::NDRange(1));
     ctx.queue().finish();  // warm-up
   } catch (const std::exception& e) {

@@ -1,7 +1,8 @@
 // Errors: every failure reaches the caller as one penumbra::Error with a one-line message that
 // names the problem.
 //
-//   ErrorsKernel.*    a kernel that fails to build carries the compiler's message
+//   ErrorsKernel.*    a kernel that fails to build carries the compiler's message; kernel
+//                     arguments that do not fit the kernel are refused before it runs
 //   ErrorsDevice.*    unknown device names and indices; double precision without cl_khr_fp64
 //   ErrorsBackward.*  gradient images of the wrong size or count, backward before render
 //   ErrorsFuzz.*      inputs found by the fuzzers (tests/fuzz) — each once a memory error,
@@ -19,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "ops/args.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
@@ -153,6 +155,82 @@ TEST(ErrorsKernel, MissingKernelDirectoryFile) {
   const Scene scene = small_scene();
   const std::string msg = error_of([&] { renderer.render(scene); });
   EXPECT_CONTAINS(msg, "not found in PENUMBRA_KERNEL_DIR");
+}
+
+// A kernel of three arguments in a kernel directory of its own, built through the Context as
+// the renderer's are, and argument structs that fit it or do not.
+struct TinyKernel {
+  static constexpr const char* kSource =
+      "__kernel void tiny(__global float* out, int n, float scale) {\n"
+      "  int i = get_global_id(0);\n"
+      "  if (i < n) out[i] = scale * i;\n"
+      "}\n";
+  TinyKernel() : env("PENUMBRA_KERNEL_DIR", dir().string()), kernels(ctx, Precision::Float, {}) {}
+  static fs::path dir() {
+    const fs::path d = fs::path(::testing::TempDir()) / "penumbra_errors_tiny_kernel";
+    fs::create_directories(d);
+    std::ofstream(d / "tiny.cl", std::ios::trunc) << kSource;
+    return d;
+  }
+  ScopedEnv env;
+  Context ctx;  // its own program cache, reading the directory above
+  penumbra::detail::Kernels kernels;
+};
+
+struct TinyArgs {
+  static constexpr const char* file = "tiny.cl";
+  static constexpr const char* kernel = "tiny";
+  const cl::Buffer& out;
+  cl_int n;
+  penumbra::detail::Real scale;
+  auto fields() const { return std::tie(out, n, scale); }
+};
+
+struct TinyArgsShort {  // scale left out
+  static constexpr const char* file = "tiny.cl";
+  static constexpr const char* kernel = "tiny";
+  const cl::Buffer& out;
+  cl_int n;
+  auto fields() const { return std::tie(out, n); }
+};
+
+struct TinyArgsSwapped {  // n and out swapped
+  static constexpr const char* file = "tiny.cl";
+  static constexpr const char* kernel = "tiny";
+  cl_int n;
+  const cl::Buffer& out;
+  penumbra::detail::Real scale;
+  auto fields() const { return std::tie(n, out, scale); }
+};
+
+TEST(ErrorsKernel, FittingArgumentsRun) {
+  TinyKernel t;
+  cl::Buffer out = penumbra::detail::alloc_reals(t.ctx, Precision::Float, 8);
+  auto& k = penumbra::detail::bind_args(t.kernels, TinyArgs{out, 8, 0.5});
+  penumbra::detail::launch_1d(t.ctx, k, 8);
+  const auto v = penumbra::detail::download_reals(t.ctx, Precision::Float, out, 8);
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(v[i], 0.5 * i);
+}
+
+// The count is checked on every device: the message names the kernel, its file and both counts.
+TEST(ErrorsKernel, ArgumentCountMismatch) {
+  TinyKernel t;
+  cl::Buffer out = penumbra::detail::alloc_reals(t.ctx, Precision::Float, 8);
+  const std::string msg =
+      error_of([&] { penumbra::detail::bind_args(t.kernels, TinyArgsShort{out, 8}); });
+  EXPECT_CONTAINS(msg, "kernel 'tiny' of tiny.cl");
+  EXPECT_CONTAINS(msg, "the host binds 2 arguments, the kernel takes 3");
+}
+
+// A buffer where the kernel takes a number: refused by the kind check where the device reports
+// address qualifiers, else by clSetKernelArg (a pointer's size is not an int's).
+TEST(ErrorsKernel, ArgumentKindMismatch) {
+  TinyKernel t;
+  cl::Buffer out = penumbra::detail::alloc_reals(t.ctx, Precision::Float, 8);
+  const std::string msg =
+      error_of([&] { penumbra::detail::bind_args(t.kernels, TinyArgsSwapped{8, out, 0.5}); });
+  EXPECT_CONTAINS(msg, "kernel 'tiny' of tiny.cl");
+  EXPECT_CONTAINS(msg, "argument 0");
 }
 
 // ---- devices --------------------------------------------------------------------------------

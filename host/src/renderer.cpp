@@ -28,14 +28,14 @@ std::string Kernels::options(const std::string& file) const {
   return o;
 }
 
-cl::Kernel& Kernels::get(const std::string& file, const std::string& name,
-                         const std::string& variant) {
+Kernels::Entry& Kernels::get(const std::string& file, const std::string& name,
+                             const std::string& variant) {
   const std::string opts = options(file) + " " + variant;
   auto key = file + ":" + name + ":" + opts;
   auto it = kernels_.find(key);
   if (it != kernels_.end()) return it->second;
   cl::Program& program = ctx_.program(file, opts);
-  return kernels_.emplace(key, cl::Kernel(program, name.c_str())).first->second;
+  return kernels_.emplace(key, Entry{cl::Kernel(program, name.c_str())}).first->second;
 }
 
 }  // namespace detail

@@ -1,6 +1,6 @@
 #pragma once
 // Small helpers around opencl.hpp: buffers of `real` (float or double on the device, double on
-// the host), kernel arguments in one call, launches with padded global sizes.
+// the host), launches with padded global sizes.
 #include <CL/opencl.hpp>
 #include <cstddef>
 #include <vector>
@@ -35,12 +35,6 @@ std::string gib(size_t bytes);
 // Zero-filled buffer of `count` reals (for accumulators, and for products that must never read
 // NaN from old memory).
 cl::Buffer zero_reals(Context& ctx, Precision p, size_t count);
-
-template <class... Args>
-void set_args(cl::Kernel& k, const Args&... args) {
-  cl_uint i = 0;
-  (k.setArg(i++, args), ...);
-}
 
 // Enqueues `k` with global sizes rounded up to multiples of the local sizes.
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local);

@@ -1,7 +1,38 @@
 // Host side of kernels/bin.cl: count, exact-size allocation, fill, sort.
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 
 namespace penumbra::detail {
+
+namespace {
+
+struct BinCountArgs {
+  static constexpr const char* file = "bin.cl";
+  static constexpr const char* kernel = "bin_count";
+  const cl::Buffer& boxes;
+  cl_int n, tiles_x;
+  const cl::Buffer& counts;
+  auto fields() const { return std::tie(boxes, n, tiles_x, counts); }
+};
+
+struct BinFillArgs {
+  static constexpr const char* file = "bin.cl";
+  static constexpr const char* kernel = "bin_fill";
+  const cl::Buffer& boxes;
+  cl_int n, tiles_x;
+  const cl::Buffer &offsets, &cursor, &items;
+  auto fields() const { return std::tie(boxes, n, tiles_x, offsets, cursor, items); }
+};
+
+struct BinSortArgs {
+  static constexpr const char* file = "bin.cl";
+  static constexpr const char* kernel = "bin_sort";
+  const cl::Buffer &offsets, &counts;
+  cl_int ntiles;
+  const cl::Buffer& items;
+  auto fields() const { return std::tie(offsets, counts, ntiles, items); }
+};
+
+}  // namespace
 
 Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int tile) {
   Context& ctx = k.ctx();
@@ -12,8 +43,7 @@ Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int til
   b.tiles_y = (H + tile - 1) / tile;
   const int ntiles = b.tiles_x * b.tiles_y;
   b.counts = upload_ints(ctx, std::vector<int>(ntiles, 0));
-  auto& count = k.get("bin.cl", "bin_count", variant);
-  set_args(count, boxes, n, b.tiles_x, b.counts);
+  auto& count = bind_args(k, BinCountArgs{boxes, n, b.tiles_x, b.counts}, variant);
   launch_1d(ctx, count, n);
 
   // The exact list sizes are known before anything is written: no list can overflow.
@@ -28,11 +58,9 @@ Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int til
   b.offsets = upload_ints(ctx, offsets);
   b.items = alloc_ints(ctx, total);
   cl::Buffer cursor = upload_ints(ctx, std::vector<int>(ntiles, 0));
-  auto& fill = k.get("bin.cl", "bin_fill", variant);
-  set_args(fill, boxes, n, b.tiles_x, b.offsets, cursor, b.items);
+  auto& fill = bind_args(k, BinFillArgs{boxes, n, b.tiles_x, b.offsets, cursor, b.items}, variant);
   launch_1d(ctx, fill, n);
-  auto& sort = k.get("bin.cl", "bin_sort", variant);
-  set_args(sort, b.offsets, b.counts, ntiles, b.items);
+  auto& sort = bind_args(k, BinSortArgs{b.offsets, b.counts, ntiles, b.items}, variant);
   launch_1d(ctx, sort, ntiles, 16);
   return b;
 }

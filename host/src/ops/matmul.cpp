@@ -7,7 +7,7 @@
 #include <tuple>
 #include <unordered_map>
 
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra::detail {
@@ -95,17 +95,27 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
     throw Error("CLBlast GEMM failed (" + status_name(status) + ")");
 }
 
+// matmul_nt and matmul_tn take the same arguments; `kernel` says which.
+struct MatmulArgs {
+  static constexpr const char* file = "matmul.cl";
+  const char* kernel;
+  cl_int M, N, K;
+  const cl::Buffer& A;
+  cl_int lda;
+  const cl::Buffer& B;
+  cl_int ldb;
+  Real beta;
+  const cl::Buffer& C;
+  cl_int ldc;
+  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, beta, C, ldc); }
+};
+
 void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const cl::Buffer& A,
             size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc,
             size_t cols_per_item) {
-  auto& mm = k.get("matmul.cl", name);  // MM_VW and MM_RB come from the tuning
-  set_args(mm, int(m), int(n), int(kk), A, int(lda), B, int(ldb));
-  if (k.precision() == Precision::Double)
-    mm.setArg(7, beta);
-  else
-    mm.setArg(7, float(beta));
-  mm.setArg(8, C);
-  mm.setArg(9, int(ldc));
+  // MM_VW and MM_RB come from the tuning
+  auto& mm = bind_args(
+      k, MatmulArgs{name, int(m), int(n), int(kk), A, int(lda), B, int(ldb), beta, C, int(ldc)});
   const size_t rows_per_item = size_t(k.tuning().exact.row_block);
   launch(k.ctx(), mm,
          cl::NDRange((n + cols_per_item - 1) / cols_per_item,

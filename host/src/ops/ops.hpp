@@ -14,12 +14,16 @@ namespace penumbra::detail {
 
 // Kernel objects of one precision, built on first use for the current tuning. This is the one
 // place that decides the -D options of every program; `variant` adds stage-specific ones
-// (-DEXACT=1).
+// (-DEXACT=1). Kernels are bound and fetched by bind_args() (ops/args.hpp).
 class Kernels {
  public:
+  // A kernel object, and whether bind_args() has checked its arguments (once per object).
+  struct Entry {
+    cl::Kernel kernel;
+    bool checked = false;
+  };
   Kernels(Context& ctx, Precision precision, const Tuning& tuning);
-  cl::Kernel& get(const std::string& file, const std::string& name,
-                  const std::string& variant = "");
+  Entry& get(const std::string& file, const std::string& name, const std::string& variant = "");
   Context& ctx() { return ctx_; }
   Precision precision() const { return precision_; }
   const Tuning& tuning() const { return tuning_; }
@@ -30,7 +34,7 @@ class Kernels {
   Context& ctx_;
   Precision precision_;
   Tuning tuning_;
-  std::map<std::string, cl::Kernel> kernels_;
+  std::map<std::string, Entry> kernels_;
 };
 
 // Mesh data of a whole scene on the device (all meshes concatenated).

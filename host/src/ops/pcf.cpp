@@ -3,13 +3,42 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 
 namespace penumbra::detail {
 
 namespace {
 
 constexpr double kSearchEps = 0.05;  // PCF_SEARCH_EPS of pcf.cl
+
+struct PcfSampleArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_sample";
+  MapLookup at;
+  const cl::Buffer &S, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, rec_light, rec_light2); }
+};
+
+struct PcfSampleBwdArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_sample_bwd";
+  MapLookup at;
+  const cl::Buffer &S, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  auto fields() const { return std::tie(at, S, rec_light, rec_light2, rec_lgrad, rec_lgrad2); }
+};
+
+struct PcfGatherArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_gather";
+  MapLookup at;
+  cl_int reach;
+  const cl::Buffer &S, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  BinLists buckets;
+  const cl::Buffer& gS;
+  auto fields() const {
+    return std::tie(at, reach, S, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets, gS);
+  }
+};
 
 // Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
 // ε_λ) or search window (σ_b cut at PCF_SEARCH_EPS) can hold a texel, plus one for the
@@ -32,8 +61,9 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
 void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv) {
   const int n = int(v.nrec);
   if (n == 0) return;
-  auto& s = k.get("pcf.cl", "pcf_sample", exact_define(sampling));
-  set_args(s, v.P, n, light, v.nlights, lv.W, lv.H, lv.depth, v.rec_light, v.rec_light2);
+  const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
+  auto& s =
+      bind_args(k, PcfSampleArgs{at, lv.depth, v.rec_light, v.rec_light2}, exact_define(sampling));
   launch_1d(k.ctx(), s, n);
 }
 
@@ -45,9 +75,10 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
   g.S = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
   if (n == 0) return g;
   const char* variant = exact_define(p.sampling);
-  auto& sb = k.get("pcf.cl", "pcf_sample_bwd", variant);
-  set_args(sb, v.P, n, light, nl, Wm, Hm, lv.depth, v.rec_light, v.rec_light2, v.rec_lgrad,
-           v.rec_lgrad2);
+  const MapLookup at{v.P, n, light, nl, Wm, Hm};
+  auto& sb = bind_args(
+      k, PcfSampleBwdArgs{at, lv.depth, v.rec_light, v.rec_light2, v.rec_lgrad, v.rec_lgrad2},
+      variant);
   launch_1d(ctx, sb, n);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
   if (p.sampling == Sampling::Truncated)
@@ -55,9 +86,10 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
   else
     bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
   const int reach = gather_reach(k, p, search_sigma, v, light);
-  auto& ga = k.get("pcf.cl", "pcf_gather", variant);
-  set_args(ga, v.P, n, light, nl, Wm, Hm, reach, lv.depth, v.rec_light, v.rec_light2,
-           v.rec_lgrad, v.rec_lgrad2, bins.offsets, bins.counts, bins.items, g.S);
+  auto& ga = bind_args(k,
+                       PcfGatherArgs{at, reach, lv.depth, v.rec_light, v.rec_light2, v.rec_lgrad,
+                                     v.rec_lgrad2, bins, g.S},
+                       variant);
   const int row = shadow_row_width(ctx.info());  // texels per item
   launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order

@@ -1,23 +1,79 @@
 // Host side of kernels/penumbra.cl: the penumbra map of a light's view, and its backward.
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 
 namespace penumbra::detail {
+
+namespace {
+
+struct PenumbraBoxesArgs {
+  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* kernel = "penumbra_boxes";
+  const cl::Buffer &vscreen, &faces, &fnormal, &P;
+  cl_int nf, W, H;
+  const cl::Buffer& boxes;
+  auto fields() const { return std::tie(vscreen, faces, fnormal, P, nf, W, H, boxes); }
+};
+
+// The texels' inputs: a light view, its shadow map and the faces binned by their boxes.
+struct TexelFaces {
+  const cl::Buffer &vscreen, &faces, &fnormal, &boxes, &P;
+  cl_int W, H;
+  const cl::Buffer& S;
+  cl_int tile, tiles_x;
+  BinLists tiles;  // with tile and tiles_x: TEXEL_FACES
+  auto fields() const {
+    return std::tie(vscreen, faces, fnormal, boxes, P, W, H, S, tile, tiles_x, tiles);
+  }
+};
+
+TexelFaces texel_faces(const DeviceGeometry& g, const ViewState& lv) {
+  const Bins& b = lv.pen_bins;
+  return {lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, lv.W, lv.H, lv.depth, b.tile,
+          b.tiles_x, b};
+}
+
+struct PenumbraFwdArgs {
+  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* kernel = "penumbra_fwd";
+  TexelFaces in;
+  const cl::Buffer &Pmap, &pen_sums;
+  auto fields() const { return std::tie(in, Pmap, pen_sums); }
+};
+
+struct PenumbraBwdTexelArgs {
+  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* kernel = "penumbra_bwd_texel";
+  TexelFaces in;
+  const cl::Buffer &Pmap, &pen_sums, &gP, &gS, &gDL;
+  auto fields() const { return std::tie(in, Pmap, pen_sums, gP, gS, gDL); }
+};
+
+struct PenumbraBwdFaceArgs {
+  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* kernel = "penumbra_bwd_face";
+  const cl::Buffer &vscreen, &faces, &fnormal, &boxes, &P;
+  cl_int nf, W, H;
+  const cl::Buffer &S, &Pmap, &pen_sums, &gP, &gface_screen;
+  auto fields() const {
+    return std::tie(vscreen, faces, fnormal, boxes, P, nf, W, H, S, Pmap, pen_sums, gP,
+                    gface_screen);
+  }
+};
+
+}  // namespace
 
 void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv) {
   Context& ctx = k.ctx();
   const int kTile = k.tuning().penumbra.tile;
   const size_t ntex = size_t(lv.W) * lv.H;
   lv.pen_boxes = alloc_ints(ctx, size_t(g.nf) * 4);
-  auto& bx = k.get("penumbra.cl", "penumbra_boxes");
-  set_args(bx, lv.vscreen, g.faces, lv.fnormal, lv.P, g.nf, lv.W, lv.H, lv.pen_boxes);
+  auto& bx = bind_args(
+      k, PenumbraBoxesArgs{lv.vscreen, g.faces, lv.fnormal, lv.P, g.nf, lv.W, lv.H, lv.pen_boxes});
   launch_1d(ctx, bx, g.nf);
   lv.pen_bins = bin_boxes(k, lv.pen_boxes, g.nf, lv.W, lv.H, kTile);
   lv.pen_map = alloc_reals(ctx, k.precision(), ntex);
   lv.pen_sums = alloc_reals(ctx, k.precision(), ntex * 2);
-  auto& pf = k.get("penumbra.cl", "penumbra_fwd");
-  const Bins& b = lv.pen_bins;
-  set_args(pf, lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, lv.W, lv.H, lv.depth, kTile,
-           b.tiles_x, b.offsets, b.counts, b.items, lv.pen_map, lv.pen_sums);
+  auto& pf = bind_args(k, PenumbraFwdArgs{texel_faces(g, lv), lv.pen_map, lv.pen_sums});
   const int lanes = penumbra_lanes(k.ctx().info(), k.tuning());
   launch(ctx, pf, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
          cl::NDRange(std::max(1, 8 / lanes), 8));
@@ -26,13 +82,10 @@ void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv) {
 cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewState& lv,
                                     const cl::Buffer& gP, double* gsize) {
   Context& ctx = k.ctx();
-  const int kTile = lv.pen_bins.tile;
   const size_t ntex = size_t(lv.W) * lv.H;
   cl::Buffer gS = alloc_reals(ctx, k.precision(), ntex), gDL = alloc_reals(ctx, k.precision(), ntex);
-  auto& pb = k.get("penumbra.cl", "penumbra_bwd_texel");
-  const Bins& b = lv.pen_bins;
-  set_args(pb, lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, lv.W, lv.H, lv.depth, kTile,
-           b.tiles_x, b.offsets, b.counts, b.items, lv.pen_map, lv.pen_sums, gP, gS, gDL);
+  auto& pb =
+      bind_args(k, PenumbraBwdTexelArgs{texel_faces(g, lv), lv.pen_map, lv.pen_sums, gP, gS, gDL});
   const int lanes = penumbra_lanes(ctx.info(), k.tuning());
   launch(ctx, pb, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
          cl::NDRange(std::max(1, 8 / lanes), 8));
@@ -42,9 +95,9 @@ cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewSta
 
 void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, ViewState& lv,
                              const cl::Buffer& gP, FaceGrads& fg) {
-  auto& pb = k.get("penumbra.cl", "penumbra_bwd_face");
-  set_args(pb, lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, g.nf, lv.W, lv.H, lv.depth,
-           lv.pen_map, lv.pen_sums, gP, fg.screen);
+  auto& pb = bind_args(
+      k, PenumbraBwdFaceArgs{lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, g.nf, lv.W, lv.H,
+                             lv.depth, lv.pen_map, lv.pen_sums, gP, fg.screen});
   launch_1d(k.ctx(), pb, g.nf, 16);
 }
 

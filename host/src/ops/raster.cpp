@@ -1,10 +1,79 @@
 // Host side of kernels/raster.cl.
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra::detail {
 
 namespace {
+
+struct RasterCountArgs {
+  static constexpr const char* file = "raster.cl";
+  static constexpr const char* kernel = "raster_count";
+  const cl::Buffer &vscreen, &faces, &fbbox, &fnormal, &P;
+  cl_int W, H, nf, tiles_x;
+  BinLists tiles;  // with tiles_x: TILE_ARGS
+  const cl::Buffer &aux, &pix_count, &run_hits;
+  auto fields() const {
+    return std::tie(vscreen, faces, fbbox, fnormal, P, W, H, nf, tiles_x, tiles, aux, pix_count,
+                    run_hits);
+  }
+};
+
+struct RasterFragmentsArgs {
+  static constexpr const char* file = "raster.cl";
+  static constexpr const char* kernel = "raster_fragments";
+  const cl::Buffer &vscreen, &vworld, &faces, &fbbox, &fnormal, &albedo, &P;
+  cl_int W, H, nf, tiles_x;
+  BinLists tiles;
+  const cl::Buffer &aux, &pix_count, &run_hits, &pix_offset, &pix_n;
+  const cl::Buffer &rec_face, &rec_frag, &rec_shade, &rec_light, &rec_light2;
+  auto fields() const {
+    return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, tiles_x, tiles,
+                    aux, pix_count, run_hits, pix_offset, pix_n, rec_face, rec_frag, rec_shade,
+                    rec_light, rec_light2);
+  }
+};
+
+struct RasterResolveArgs {
+  static constexpr const char* file = "raster.cl";
+  static constexpr const char* kernel = "raster_resolve";
+  const cl::Buffer& P;
+  cl_int W, H;
+  const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux, &depth;
+  auto fields() const {
+    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux,
+                    depth);
+  }
+};
+
+struct RasterResolveBwdArgs {
+  static constexpr const char* file = "raster.cl";
+  static constexpr const char* kernel = "raster_resolve_bwd";
+  const cl::Buffer& P;
+  cl_int W, H;
+  const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux;
+  const cl::Buffer &gimage, &gdepth, &rec_wg, &rec_lgrad;
+  auto fields() const {
+    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux,
+                    gimage, gdepth, rec_wg, rec_lgrad);
+  }
+};
+
+struct RasterBwdArgs {
+  static constexpr const char* file = "raster.cl";
+  static constexpr const char* kernel = "raster_bwd";
+  const cl::Buffer &vscreen, &vworld, &faces, &fbbox, &fnormal, &albedo, &P;
+  cl_int W, H, nf;
+  const cl::Buffer &aux, &gimage, &gdepth, &pix_offset, &pix_n;
+  const cl::Buffer &rec_face, &rec_light, &rec_wg, &rec_lgrad, &rec_lgrad2;
+  const cl::Buffer &gface_screen, &gface_world, &gface_albedo, &gface_light;
+  auto fields() const {
+    return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, aux, gimage,
+                    gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad,
+                    rec_lgrad2, gface_screen, gface_world, gface_albedo, gface_light);
+  }
+};
+
 // Global and local sizes of the tiled passes (count, fragments).
 void launch_tiled(Kernels& k, cl::Kernel& kernel, const ViewState& v) {
   const auto& t = k.tuning().raster;
@@ -29,9 +98,9 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   v.pix_count = alloc_ints(ctx, npix);
   const int ppw = k.tuning().raster.pixels_per_item;
   const cl::Buffer run_hits = alloc_ints(ctx, size_t(v.H) * ((v.W + ppw - 1) / ppw) * 2);  // ulong
-  auto& count = k.get("raster.cl", "raster_count");
-  set_args(count, v.vscreen, g.faces, v.fbbox, v.fnormal, v.P, v.W, v.H, g.nf, v.bins.tiles_x,
-           v.bins.offsets, v.bins.counts, v.bins.items, v.aux, v.pix_count, run_hits);
+  auto& count =
+      bind_args(k, RasterCountArgs{v.vscreen, g.faces, v.fbbox, v.fnormal, v.P, v.W, v.H, g.nf,
+                                   v.bins.tiles_x, v.bins, v.aux, v.pix_count, run_hits});
   launch_tiled(k, count, v);
 
   // Fragment storage of exactly the counted size.
@@ -57,11 +126,11 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   v.rec_shade = alloc_reals(ctx, p, total * 4 * (1 + v.nlights));
   v.rec_light = alloc_reals(ctx, p, total * 4 * v.nlights);
   v.rec_light2 = alloc_reals(ctx, p, total * 4 * v.nlights);
-  auto& frag = k.get("raster.cl", "raster_fragments");
-  set_args(frag, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
-           g.nf, v.bins.tiles_x, v.bins.offsets, v.bins.counts, v.bins.items, v.aux,
-           v.pix_count, run_hits, v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
-           v.rec_light, v.rec_light2);
+  auto& frag = bind_args(
+      k, RasterFragmentsArgs{v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W,
+                             v.H, g.nf, v.bins.tiles_x, v.bins, v.aux, v.pix_count, run_hits,
+                             v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
+                             v.rec_light, v.rec_light2});
   launch_tiled(k, frag, v);
 }
 
@@ -69,9 +138,8 @@ void raster_resolve(Kernels& k, ViewState& v) {
   const size_t npix = size_t(v.W) * v.H;
   v.image = alloc_reals(k.ctx(), k.precision(), npix * 4);
   v.depth = alloc_reals(k.ctx(), k.precision(), npix);
-  auto& res = k.get("raster.cl", "raster_resolve");
-  set_args(res, v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade, v.rec_light,
-           v.image, v.aux, v.depth);
+  auto& res = bind_args(k, RasterResolveArgs{v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag,
+                                             v.rec_shade, v.rec_light, v.image, v.aux, v.depth});
   launch_1d(k.ctx(), res, npix);
 }
 
@@ -80,9 +148,9 @@ void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
   v.rec_wg = alloc_reals(k.ctx(), k.precision(), v.nrec * 4);
   v.rec_lgrad = alloc_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
   v.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
-  auto& rb = k.get("raster.cl", "raster_resolve_bwd");
-  set_args(rb, v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade, v.rec_light,
-           v.image, v.aux, gimage, gdepth, v.rec_wg, v.rec_lgrad);
+  auto& rb = bind_args(
+      k, RasterResolveBwdArgs{v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade,
+                              v.rec_light, v.image, v.aux, gimage, gdepth, v.rec_wg, v.rec_lgrad});
   launch_1d(k.ctx(), rb, size_t(v.W) * v.H);
 }
 
@@ -94,10 +162,11 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& 
   fg.world = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.albedo = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.light = alloc_reals(ctx, k.precision(), size_t(g.nf) * (6 * v.nlights + 1) * 4);
-  auto& rb = k.get("raster.cl", "raster_bwd");
-  set_args(rb, v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H, g.nf,
-           v.aux, gimage, gdepth, v.pix_offset, v.pix_n, v.rec_face, v.rec_light, v.rec_wg,
-           v.rec_lgrad, v.rec_lgrad2, fg.screen, fg.world, fg.albedo, fg.light);
+  auto& rb = bind_args(
+      k, RasterBwdArgs{v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
+                       g.nf, v.aux, gimage, gdepth, v.pix_offset, v.pix_n, v.rec_face,
+                       v.rec_light, v.rec_wg, v.rec_lgrad, v.rec_lgrad2, fg.screen, fg.world,
+                       fg.albedo, fg.light});
   launch_1d(ctx, rb, g.nf, 16);
   return fg;
 }

@@ -3,12 +3,110 @@
 // computed by matmul.cl or by CLBlast). Soft shadows: truncated or exact, direct sums.
 #include <algorithm>
 
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra::detail {
 
 namespace {
+
+struct ShadowBoxesArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "shadow_boxes";
+  MapLookup at;
+  const cl::Buffer &rec_light, &boxes;
+  auto fields() const { return std::tie(at, rec_light, boxes); }
+};
+
+struct ShadowSampleArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "shadow_sample";
+  MapLookup at;
+  const cl::Buffer &S, &rec_light;
+  auto fields() const { return std::tie(at, S, rec_light); }
+};
+
+struct ShadowSampleBwdArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "shadow_sample_bwd";
+  MapLookup at;
+  const cl::Buffer &S, &rec_light, &rec_lgrad;
+  auto fields() const { return std::tie(at, S, rec_light, rec_lgrad); }
+};
+
+struct ShadowGatherArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "shadow_gather";
+  MapLookup at;
+  const cl::Buffer &rec_light, &rec_lgrad;
+  BinLists buckets;
+  const cl::Buffer& gS;
+  auto fields() const { return std::tie(at, rec_light, rec_lgrad, buckets, gS); }
+};
+
+struct SoftSampleArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "soft_sample";
+  MapLookup at;
+  const cl::Buffer &S, &Pmap, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, Pmap, rec_light, rec_light2); }
+};
+
+struct SoftSampleBwdArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "soft_sample_bwd";
+  MapLookup at;
+  const cl::Buffer &S, &Pmap, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  auto fields() const {
+    return std::tie(at, S, Pmap, rec_light, rec_light2, rec_lgrad, rec_lgrad2);
+  }
+};
+
+struct SoftGatherArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "soft_gather";
+  MapLookup at;
+  const cl::Buffer &S, &Pmap, &rec_light, &rec_light2, &rec_lgrad;
+  BinLists buckets;
+  const cl::Buffer &gS, &gPmap;
+  auto fields() const {
+    return std::tie(at, S, Pmap, rec_light, rec_light2, rec_lgrad, buckets, gS, gPmap);
+  }
+};
+
+// The exact path's kernels take a batch of m fragments from r0 instead of a MapLookup.
+struct ExactWeightsArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "exact_weights";
+  const cl::Buffer& P;
+  cl_int r0, m, light, nl, Wm, Hm;
+  const cl::Buffer &rec_light, &Gx, &Gxd;
+  cl_int with_derivative;
+  const cl::Buffer &Gy, &norm;
+  auto fields() const {
+    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, norm);
+  }
+};
+
+struct ExactFinishArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "exact_finish";
+  const cl::Buffer& P;
+  cl_int r0, m, light, nl, Hm;
+  const cl::Buffer &T, &Gy, &norm, &rec_light;
+  auto fields() const { return std::tie(P, r0, m, light, nl, Hm, T, Gy, norm, rec_light); }
+};
+
+struct ExactFinishBwdArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "exact_finish_bwd";
+  const cl::Buffer& P;
+  cl_int r0, m, light, nl, Wm, Hm;
+  const cl::Buffer &T, &Td, &Gx, &Gy, &norm, &rec_light, &rec_lgrad;
+  auto fields() const {
+    return std::tie(P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm, rec_light, rec_lgrad);
+  }
+};
 
 // Fragments per batch of the exact path: its weight and product matrices stay under ~96 MiB.
 size_t exact_batch(Kernels& k, int Wm, int Hm) {
@@ -16,7 +114,86 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
   return std::max<size_t>(1, (size_t(96) << 20) / per);
 }
 
+// The gathers run a row of texels per work-item.
+void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
+  const int row = shadow_row_width(k.ctx().info());  // texels per item
+  launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
+}
 
+void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
+                   const ViewState& lv) {
+  Context& ctx = k.ctx();
+  const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
+  const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
+  const Precision p = k.precision();
+  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
+             T = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
+  for (int r0 = 0; r0 < n; r0 += int(batch)) {
+    const int m = std::min(int(batch), n - r0);
+    auto& wts = bind_args(
+        k, ExactWeightsArgs{v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gx, 0, Gy, norm});
+    launch_1d(ctx, wts, m);
+    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lv.depth, Wm, 0.0, T, Hm);  // T = Gx·Sᵀ
+    auto& fin = bind_args(k, ExactFinishArgs{v.P, r0, m, light, nl, Hm, T, Gy, norm, v.rec_light});
+    launch_1d(ctx, fin, m);
+  }
+}
+
+MapGrads soft_backward(Kernels& k, Sampling sampling, ViewState& v, const MapLookup& at,
+                       const ViewState& lv, MapGrads g) {
+  const char* variant = exact_define(sampling);
+  auto& sb = bind_args(k,
+                       SoftSampleBwdArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
+                                         v.rec_lgrad, v.rec_lgrad2},
+                       variant);
+  launch_1d(k.ctx(), sb, at.nrec);
+  Bins bins;  // the exact gather visits every fragment and needs no buckets
+  if (sampling == Sampling::Truncated)
+    bins = texel_buckets(k, v, at.light, at.Wm, at.Hm);
+  else
+    bins.offsets = bins.counts = bins.items = alloc_ints(k.ctx(), 1);
+  g.P = zero_reals(k.ctx(), k.precision(), size_t(at.Wm) * at.Hm);
+  auto& ga = bind_args(k,
+                       SoftGatherArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
+                                      v.rec_lgrad, bins, g.S, g.P},
+                       variant);
+  launch_gather(k, ga, at.Wm, at.Hm);
+  return g;
+}
+
+MapGrads truncated_backward(Kernels& k, ViewState& v, const MapLookup& at, const ViewState& lv,
+                            MapGrads g) {
+  auto& sb = bind_args(k, ShadowSampleBwdArgs{at, lv.depth, v.rec_light, v.rec_lgrad});
+  launch_1d(k.ctx(), sb, at.nrec);
+  Bins bins = texel_buckets(k, v, at.light, at.Wm, at.Hm);  // texels gather from nearby fragments
+  auto& ga = bind_args(k, ShadowGatherArgs{at, v.rec_light, v.rec_lgrad, bins, g.S});
+  launch_gather(k, ga, at.Wm, at.Hm);
+  return g;
+}
+
+MapGrads exact_backward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
+                        const ViewState& lv, MapGrads g) {
+  Context& ctx = k.ctx();
+  const Precision p = k.precision();
+  const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
+  const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
+  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gxd = zero_reals(ctx, p, batch * Wm),
+             Gy = zero_reals(ctx, p, batch * Hm), T = zero_reals(ctx, p, batch * Hm),
+             Td = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
+  for (int r0 = 0; r0 < n; r0 += int(batch)) {
+    const int m = std::min(int(batch), n - r0);
+    auto& wts = bind_args(
+        k, ExactWeightsArgs{v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gxd, 1, Gy, norm});
+    launch_1d(ctx, wts, m);
+    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lv.depth, Wm, 0.0, T, Hm);    // Gx·Sᵀ
+    matmul_nt(k, clblast, m, Hm, Wm, Gxd, Wm, lv.depth, Wm, 0.0, Td, Hm);  // Gxd·Sᵀ
+    auto& fin = bind_args(k, ExactFinishBwdArgs{v.P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm,
+                                                v.rec_light, v.rec_lgrad});
+    launch_1d(ctx, fin, m);
+    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
+  }
+  return g;
+}
 
 }  // namespace
 
@@ -24,108 +201,41 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
 Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
   const int n = int(v.nrec);
   cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
-  auto& bx = k.get("shadow.cl", "shadow_boxes");
-  set_args(bx, v.P, n, light, v.nlights, Wm, Hm, v.rec_light, boxes);
+  auto& bx = bind_args(k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, v.rec_light, boxes});
   launch_1d(k.ctx(), bx, n);
   return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
 
 void shadow_forward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
                     const ViewState& lv) {
-  Context& ctx = k.ctx();
-  const int Wm = lv.W, Hm = lv.H;
-  const int n = int(v.nrec), nl = v.nlights;
+  const int n = int(v.nrec);
   if (n == 0) return;
+  const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
   if (mode == Shadows::Soft) {
     if (sampling == Sampling::Gemm)
       throw Error("soft shadows sample with 'truncated' or 'exact'; their sum does not factor "
                   "into matrix products ('gemm')");
-    auto& s = k.get("shadow.cl", "soft_sample", exact_define(sampling));
-    set_args(s, v.P, n, light, nl, Wm, Hm, lv.depth, lv.pen_map, v.rec_light, v.rec_light2);
-    launch_1d(ctx, s, n);
-    return;
-  }
-  if (sampling == Sampling::Truncated) {
-    auto& s = k.get("shadow.cl", "shadow_sample");
-    set_args(s, v.P, n, light, nl, Wm, Hm, lv.depth, v.rec_light);
-    launch_1d(ctx, s, n);
-    return;
-  }
-  const bool clblast = sampling == Sampling::Gemm || k.tuning().exact.clblast;
-  const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
-  const Precision p = k.precision();
-  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
-             T = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
-  auto& wts = k.get("shadow.cl", "exact_weights");
-  auto& fin = k.get("shadow.cl", "exact_finish");
-  for (int r0 = 0; r0 < n; r0 += int(batch)) {
-    const int m = std::min(int(batch), n - r0);
-    set_args(wts, v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gx, 0, Gy, norm);
-    launch_1d(ctx, wts, m);
-    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lv.depth, Wm, 0.0, T, Hm);  // T = Gx·Sᵀ
-    set_args(fin, v.P, r0, m, light, nl, Hm, T, Gy, norm, v.rec_light);
-    launch_1d(ctx, fin, m);
+    auto& s = bind_args(k, SoftSampleArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2},
+                        exact_define(sampling));
+    launch_1d(k.ctx(), s, n);
+  } else if (sampling == Sampling::Truncated) {
+    auto& s = bind_args(k, ShadowSampleArgs{at, lv.depth, v.rec_light});
+    launch_1d(k.ctx(), s, n);
+  } else {
+    exact_forward(k, sampling == Sampling::Gemm || k.tuning().exact.clblast, v, at, lv);
   }
 }
 
 MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
                          const ViewState& lv) {
-  Context& ctx = k.ctx();
-  const Precision p = k.precision();
-  const int Wm = lv.W, Hm = lv.H;
-  const int n = int(v.nrec), nl = v.nlights;
   MapGrads g;
-  g.S = zero_reals(ctx, p, size_t(Wm) * Hm);
+  g.S = zero_reals(k.ctx(), k.precision(), size_t(lv.W) * lv.H);
+  const int n = int(v.nrec);
   if (n == 0) return g;
-  if (mode == Shadows::Soft) {
-    const char* variant = exact_define(sampling);
-    auto& sb = k.get("shadow.cl", "soft_sample_bwd", variant);
-    set_args(sb, v.P, n, light, nl, Wm, Hm, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
-             v.rec_lgrad, v.rec_lgrad2);
-    launch_1d(ctx, sb, n);
-    Bins bins;  // the exact gather visits every fragment and needs no buckets
-    if (sampling == Sampling::Truncated)
-      bins = texel_buckets(k, v, light, Wm, Hm);
-    else
-      bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
-    g.P = zero_reals(ctx, p, size_t(Wm) * Hm);
-    auto& ga = k.get("shadow.cl", "soft_gather", variant);
-    set_args(ga, v.P, n, light, nl, Wm, Hm, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
-             v.rec_lgrad, bins.offsets, bins.counts, bins.items, g.S, g.P);
-    const int row = shadow_row_width(k.ctx().info());  // texels per item
-    launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
-    return g;
-  }
-  if (sampling == Sampling::Truncated) {
-    auto& sb = k.get("shadow.cl", "shadow_sample_bwd");
-    set_args(sb, v.P, n, light, nl, Wm, Hm, lv.depth, v.rec_light, v.rec_lgrad);
-    launch_1d(ctx, sb, n);
-    Bins bins = texel_buckets(k, v, light, Wm, Hm);  // texels gather from nearby fragments
-    auto& ga = k.get("shadow.cl", "shadow_gather");
-    set_args(ga, v.P, n, light, nl, Wm, Hm, v.rec_light, v.rec_lgrad, bins.offsets, bins.counts,
-             bins.items, g.S);
-    const int row = shadow_row_width(k.ctx().info());  // texels per item
-    launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
-    return g;
-  }
-  const bool clblast = sampling == Sampling::Gemm || k.tuning().exact.clblast;
-  const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
-  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gxd = zero_reals(ctx, p, batch * Wm),
-             Gy = zero_reals(ctx, p, batch * Hm), T = zero_reals(ctx, p, batch * Hm),
-             Td = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
-  auto& wts = k.get("shadow.cl", "exact_weights");
-  auto& fin = k.get("shadow.cl", "exact_finish_bwd");
-  for (int r0 = 0; r0 < n; r0 += int(batch)) {
-    const int m = std::min(int(batch), n - r0);
-    set_args(wts, v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gxd, 1, Gy, norm);
-    launch_1d(ctx, wts, m);
-    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lv.depth, Wm, 0.0, T, Hm);    // Gx·Sᵀ
-    matmul_nt(k, clblast, m, Hm, Wm, Gxd, Wm, lv.depth, Wm, 0.0, Td, Hm);  // Gxd·Sᵀ
-    set_args(fin, v.P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm, v.rec_light, v.rec_lgrad);
-    launch_1d(ctx, fin, m);
-    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
-  }
-  return g;
+  const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
+  if (mode == Shadows::Soft) return soft_backward(k, sampling, v, at, lv, g);
+  if (sampling == Sampling::Truncated) return truncated_backward(k, v, at, lv, g);
+  return exact_backward(k, sampling == Sampling::Gemm || k.tuning().exact.clblast, v, at, lv, g);
 }
 
 }  // namespace penumbra::detail

@@ -1,18 +1,51 @@
 // Host side of kernels/transform.cl.
-#include "ops/ops.hpp"
+#include "ops/args.hpp"
 
 namespace penumbra::detail {
+
+namespace {
+
+struct TransformFwdArgs {
+  static constexpr const char* file = "transform.cl";
+  static constexpr const char* kernel = "transform_fwd";
+  const cl::Buffer &vworld, &P;
+  cl_int nv;
+  const cl::Buffer& vscreen;
+  auto fields() const { return std::tie(vworld, P, nv, vscreen); }
+};
+
+struct FaceSetupArgs {
+  static constexpr const char* file = "transform.cl";
+  static constexpr const char* kernel = "face_setup";
+  const cl::Buffer &vworld, &vscreen, &faces, &P;
+  cl_int nf, W, H;
+  const cl::Buffer &fbbox, &fnormal;
+  auto fields() const { return std::tie(vworld, vscreen, faces, P, nf, W, H, fbbox, fnormal); }
+};
+
+struct TransformBwdArgs {
+  static constexpr const char* file = "transform.cl";
+  static constexpr const char* kernel = "transform_bwd";
+  const cl::Buffer &vworld, &vscreen, &P;
+  cl_int nv;
+  const cl::Buffer &adj_offsets, &adj, &gface_screen, &gface_world, &gvworld, &gframe;
+  auto fields() const {
+    return std::tie(vworld, vscreen, P, nv, adj_offsets, adj, gface_screen, gface_world,
+                    gvworld, gframe);
+  }
+};
+
+}  // namespace
 
 void transform_forward(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   Context& ctx = k.ctx();
   v.vscreen = alloc_reals(ctx, k.precision(), size_t(g.nv) * 4);
   v.fbbox = alloc_ints(ctx, size_t(g.nf) * 4);
   v.fnormal = alloc_reals(ctx, k.precision(), size_t(g.nf) * 4);
-  auto& tf = k.get("transform.cl", "transform_fwd");
-  set_args(tf, g.vworld, v.P, g.nv, v.vscreen);
+  auto& tf = bind_args(k, TransformFwdArgs{g.vworld, v.P, g.nv, v.vscreen});
   launch_1d(ctx, tf, g.nv);
-  auto& fs = k.get("transform.cl", "face_setup");
-  set_args(fs, g.vworld, v.vscreen, g.faces, v.P, g.nf, v.W, v.H, v.fbbox, v.fnormal);
+  auto& fs = bind_args(
+      k, FaceSetupArgs{g.vworld, v.vscreen, g.faces, v.P, g.nf, v.W, v.H, v.fbbox, v.fnormal});
   launch_1d(ctx, fs, g.nf);
 }
 
@@ -20,9 +53,8 @@ void transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
                         const FaceGrads& fg, cl::Buffer& gvertices, cl::Buffer& gframe) {
   gvertices = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 4);
   gframe = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 16);
-  auto& tb = k.get("transform.cl", "transform_bwd");
-  set_args(tb, g.vworld, v.vscreen, v.P, g.nv, g.adj_offsets, g.adj, fg.screen, fg.world,
-           gvertices, gframe);
+  auto& tb = bind_args(k, TransformBwdArgs{g.vworld, v.vscreen, v.P, g.nv, g.adj_offsets, g.adj,
+                                           fg.screen, fg.world, gvertices, gframe});
   launch_1d(k.ctx(), tb, g.nv);
 }
 
