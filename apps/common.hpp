@@ -34,6 +34,7 @@ Command add_fit_silhouette_command(CLI::App& root);
 Command add_fit_shadows_command(CLI::App& root);
 Command add_shadow_art_command(CLI::App& root);
 Command add_tune_command(CLI::App& root);
+Command add_kernels_command(CLI::App& root);
 
 // The camera turned by `angle` radians about the vertical (+y) axis through its target.
 Camera orbit(const Camera& camera, double angle);

@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
     commands.push_back(add_fit_shadows_command(app));
     commands.push_back(add_shadow_art_command(app));
     commands.push_back(add_tune_command(app));
+    commands.push_back(add_kernels_command(app));
   } catch (const std::exception& e) {
     return fail(e.what());
   }
@@ -59,8 +60,7 @@ int main(int argc, char** argv) {
     if (!known) {
       return fail(std::string("unknown command '") + argv[1] +
                       "' (commands: devices, render, backward, gradcheck, turnaround, figures, tune, "
-                      "fit-silhouette, fit-shadows, shadow-art; see penumbra "
-                      "--help)",
+                      "kernels, fit-silhouette, fit-shadows, shadow-art; see penumbra --help)",
                   2);
     }
   }

@@ -27,10 +27,10 @@
 #ifndef EXACT
 #define EXACT 0
 #endif
-#define PCF_KAPPA R(1e-3)
+#define PCF_KAPPA RL(1e-3)
 // The blocker search cuts its Gaussian at this fraction of its peak (radius 2.45 standard
 // deviations): it only estimates a mean depth, at less than half the texels of a cut at ε_λ.
-#define PCF_SEARCH_EPS R(0.05)
+#define PCF_SEARCH_EPS RL(0.05)
 
 typedef struct {
   real2 mu;    // texel coordinates of the fragment in the map
@@ -42,7 +42,7 @@ typedef struct {
 // that angle: |∇_μ d| is at most the texel's lateral size over tan(PCF_GRAZING) (texel size:
 // depth / k for a point light, 1 / k for a directional one). An edge-on face has no usable plane
 // (∇_μ d → ∞, and its rounding with it); it gets no direct light there either.
-#define PCF_GRAZING_TAN R(0.017455)  // tan(1°)
+#define PCF_GRAZING_TAN RL(0.017455)  // tan(1°)
 
 inline real slope_limit(__global const real* P, int light, real d, real* dd) {
   int at = P_LIGHTS + light * P_LIGHT_STRIDE + L_FRAME;

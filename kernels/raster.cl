@@ -76,7 +76,7 @@ inline int depth_in_range(real z, __global const real* P) {
 
 // The faces a work-item visits: its tile's list, or every face.
 #if BRUTE_FORCE
-#define FACE_LIST_BEGIN(px0, py) int list_begin = 0, list_count = nf;
+#define FACE_LIST_BEGIN(px0, py) int list_count = nf;
 #define FACE_AT(i) (i)
 #else
 #define FACE_LIST_BEGIN(px0, py)                              \

@@ -91,8 +91,8 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
   real2 mu = rec_light[r * nl + light].xy;
   int4 box = (int4)(1, 1, 0, 0);
   if (inside_map(mu, Wm, Hm)) {
-    int bx = clamp((int)floor(mu.x + R(0.5)), 0, Wm - 1);
-    int by = clamp((int)floor(mu.y + R(0.5)), 0, Hm - 1);
+    int bx = clamp((int)floor(mu.x + RL(0.5)), 0, Wm - 1);
+    int by = clamp((int)floor(mu.y + RL(0.5)), 0, Hm - 1);
     box = (int4)(bx, by, bx, by);
   }
   boxes[r] = box;

@@ -6,7 +6,8 @@
 set -euo pipefail
 
 # clang-15 (with libclang-common-15-dev: libFuzzer and the ASan/UBSan runtimes) builds the
-# fuzzers of scripts/fuzz.sh; PoCL depends on it already, so listing it costs nothing. The
+# fuzzers of scripts/fuzz.sh and compiles every kernel variant for SPIR (scripts/spir_check.sh,
+# a ctest test); PoCL depends on it already, so listing it costs nothing. The
 # sanitizer build of the test suite uses g++'s own runtimes (libasan, libubsan). Embree 3
 # (libembree-dev) ray-traces the ground truth of the accuracy benchmarks and their test. The
 # Python module (scripts/python.sh) builds against python3-dev in a python3-venv environment

@@ -11,7 +11,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -409,4 +411,160 @@ TEST(Cli, SceneTooLargeForTheDeviceFailsUpFront) {
                                   " --width 16384 --height 16384 --map-size 8192",
                               "huge");
   expect_clean_error(r, "GiB of device memory, more than the ");
+}
+
+// ---------------------------------------------------------------------------------------------
+// README.md against --help.
+
+namespace {
+
+// The subcommands `penumbra --help` lists.
+std::vector<std::string> subcommands() {
+  const RunResult r = run_cli("--help", "help_commands");
+  std::vector<std::string> out;
+  bool in_list = false;
+  for (const std::string& line : lines(r.out)) {
+    if (line.rfind("Subcommands:", 0) == 0) in_list = true;
+    std::smatch m;
+    if (in_list && std::regex_search(line, m, std::regex("^  ([a-z][-a-z]*)\\s"))) out.push_back(m[1]);
+  }
+  return out;
+}
+
+// Every option name (`-o` and `--output` alike) that `penumbra <command> --help` lists.
+std::set<std::string> help_options(const std::string& command) {
+  const RunResult r = run_cli(command + " --help", "help_" + command);
+  EXPECT_EQ(r.exit_code, 0) << show(r);
+  std::set<std::string> out;
+  for (const std::string& line : lines(r.out)) {
+    std::smatch m;
+    if (!std::regex_search(line, m, std::regex("^  (-[^ ]+)"))) continue;
+    std::stringstream names(m[1].str());
+    for (std::string name; std::getline(names, name, ',');) out.insert(name);
+  }
+  return out;
+}
+
+// The `...` spans of a piece of Markdown.
+std::vector<std::string> code_spans(const std::string& text) {
+  std::vector<std::string> out;
+  const std::regex span("`([^`]*)`");
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), span); it != std::sregex_iterator(); ++it)
+    out.push_back((*it)[1]);
+  return out;
+}
+
+// The cells of a Markdown table row (`\|` inside a cell is no separator).
+std::vector<std::string> cells(const std::string& row) {
+  std::vector<std::string> out;
+  std::string cell;
+  for (size_t i = 1; i < row.size(); ++i) {
+    if (row[i] == '|' && row[i - 1] != '\\') {
+      out.push_back(cell);
+      cell.clear();
+    } else {
+      cell += row[i];
+    }
+  }
+  return out;
+}
+
+// README.md's option tables, per subcommand. A table belongs to the commands of the `###
+// `penumbra X`` heading it is under, or, when the paragraph before it says "shared by", to the
+// commands named after those words; a "commands" column narrows a row to the commands it
+// names ("all": every command of the table). The options of a row are the code spans of its
+// first cell that start with "-" (their first word).
+struct ReadmeOptions {
+  std::map<std::string, std::set<std::string>> options;
+  std::set<std::string> sections;  // commands with a `### `penumbra X`` heading
+};
+
+ReadmeOptions readme_options() {
+  ReadmeOptions doc;
+  const std::string text = read_text(std::string(PENUMBRA_DATA_DIR) + "/../README.md");
+  EXPECT_FALSE(text.empty()) << "README.md not found";
+  std::vector<std::string> section, table;
+  std::string paragraph;
+  int commands_column = -1;
+  bool header = false, fenced = false, ended = false;
+  for (const std::string& line : lines(text)) {
+    if (line.rfind("```", 0) == 0) fenced = !fenced;
+    if (fenced) continue;
+    if (line.rfind("#", 0) == 0) {
+      section.clear();
+      if (line.rfind("### ", 0) == 0) {
+        const std::regex name("`penumbra ([a-z][-a-z]*)`");
+        for (auto it = std::sregex_iterator(line.begin(), line.end(), name);
+             it != std::sregex_iterator(); ++it) {
+          section.push_back((*it)[1]);
+          doc.sections.insert((*it)[1]);
+        }
+      }
+      paragraph.clear();
+      continue;
+    }
+    if (line.rfind("|", 0) != 0) {  // text: the paragraph before the next table
+      table.clear();
+      if (line.empty())
+        ended = true;
+      else
+        paragraph = (ended ? "" : paragraph + " ") + line, ended = false;
+      continue;
+    }
+    if (table.empty() && !header) {  // the header row: whose table, which columns
+      const size_t shared = paragraph.find("shared by");
+      table = shared == std::string::npos ? section : code_spans(paragraph.substr(shared));
+      const auto names = cells(line);
+      commands_column = -1;
+      for (size_t i = 0; i < names.size(); ++i)
+        if (names[i].find("commands") != std::string::npos) commands_column = int(i);
+      header = true;
+      if (table.empty()) table.push_back("");  // a table of no command (environment variables)
+      continue;
+    }
+    header = false;
+    if (line.rfind("|---", 0) == 0) continue;
+    const auto row = cells(line);
+    if (row.empty()) continue;
+    std::vector<std::string> to = table;
+    if (commands_column >= 0 && commands_column < int(row.size()) &&
+        row[commands_column].find("all") == std::string::npos)
+      to = code_spans(row[commands_column]);
+    for (const std::string& span : code_spans(row[0])) {
+      if (span.empty() || span[0] != '-') continue;
+      const std::string option = span.substr(0, span.find(' '));
+      for (const std::string& command : to)
+        if (!command.empty()) doc.options[command].insert(option);
+    }
+  }
+  return doc;
+}
+
+}  // namespace
+
+// Every option of every subcommand's --help is in README's option tables, and every option
+// README documents for a command is one its --help lists.
+TEST(Cli, ReadmeAndHelpNameTheSameOptions) {
+  const ReadmeOptions doc = readme_options();
+  // -h/--help: CLI11 gives every command one; README says so once, above the sections.
+  const std::set<std::string> exempt = {"-h", "--help"};
+  const std::vector<std::string> commands = subcommands();
+  EXPECT_GE(commands.size(), 11u);
+  for (const std::string& command : commands) {
+    EXPECT_TRUE(doc.sections.count(command)) << "README has no section `penumbra " << command << "`";
+    const std::set<std::string> help = help_options(command);
+    EXPECT_TRUE(help.count("--help")) << command;
+    const std::set<std::string>& documented =
+        doc.options.count(command) ? doc.options.at(command) : std::set<std::string>{};
+    for (const std::string& option : help)
+      EXPECT_TRUE(exempt.count(option) || documented.count(option))
+          << "`penumbra " << command << " " << option << "` is not in README's option tables";
+    for (const std::string& option : documented)
+      EXPECT_TRUE(help.count(option))
+          << "README documents " << option << " for `penumbra " << command
+          << "`, which its --help does not list";
+  }
+  for (const std::string& section : doc.sections)
+    EXPECT_NE(std::find(commands.begin(), commands.end(), section), commands.end())
+        << "README has a section for `penumbra " << section << "`, which is no command";
 }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
@@ -57,6 +58,45 @@ void expect_identical(const std::vector<RenderOutput>& a, const std::vector<Rend
 }
 
 }  // namespace
+
+// kernel_variants (what scripts/spir_check.sh compiles offline) lists every program a renderer
+// builds: both shadow models, every shadow mode and sampling, both precisions, brute force.
+TEST(Tuning, KernelVariantsListEveryProgramTheRendererBuilds) {
+  Context ctx;  // its own: only the programs of this test
+  auto run = [](Renderer& r, const Scene& s) {
+    const auto out = r.render(s);
+    std::vector<OutputGrads> grads(out.size());
+    for (size_t v = 0; v < out.size(); ++v)
+      grads[v].color = Image(out[v].color.width, out[v].color.height, 3, 1.0);
+    r.backward(s, grads);
+  };
+  for (Precision p : {Precision::Float, Precision::Double}) {
+    if (p == Precision::Double && !ctx.info().fp64) continue;
+    Renderer renderer(ctx, p);
+    for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
+      for (Shadows shadows : {Shadows::None, Shadows::Hard, Shadows::Soft})
+        for (Sampling sampling : {Sampling::Truncated, Sampling::Exact, Sampling::Gemm}) {
+          if (sampling == Sampling::Gemm && (shadows != Shadows::Hard || model != ShadowModel::Paper))
+            continue;
+          Scene s = small_scene(shadows, sampling);
+          s.params.shadow_model = model;
+          refit_light_frusta(s);
+          run(renderer, s);
+        }
+  }
+  Tuning brute;
+  brute.raster.brute_force = true;
+  Renderer renderer(ctx, Precision::Float, brute);
+  run(renderer, small_scene(Shadows::Soft, Sampling::Truncated));
+
+  std::set<std::pair<std::string, std::string>> listed;
+  for (const KernelVariant& v : kernel_variants(ctx.info())) listed.insert({v.file, v.options});
+  const auto built = ctx.programs();
+  EXPECT_GE(built.size(), 7u);
+  for (const auto& program : built)
+    EXPECT_TRUE(listed.count(program)) << program.first << " built with '" << program.second
+                                       << "' is not in kernel_variants";
+}
 
 TEST(Tuning, EveryRasterCandidateIsBitIdenticalWithShadows) {
   for (Shadows shadows : {Shadows::Hard, Shadows::Soft}) {

@@ -3,34 +3,55 @@
 #include "penumbra/renderer.hpp"
 
 #include <cmath>
+#include <set>
 
 #include "common/layout.h"
 #include "ops/ops.hpp"
 #include "penumbra/error.hpp"
+#include "tuning/stages.hpp"
 
 namespace penumbra {
 namespace detail {
 
+const std::map<std::string, std::string>& embedded_kernels();
+
 Kernels::Kernels(Context& ctx, Precision precision, const Tuning& tuning)
     : ctx_(ctx), precision_(precision), tuning_(tuning) {}
 
-std::string Kernels::options(const std::string& file) const {
-  std::string o = precision_define(precision_);
-  const RasterTuning& r = tuning_.raster;
+std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
+                            const DeviceInfo& device, const std::string& variant) {
+  std::string o = precision_define(precision);
+  const RasterTuning& r = tuning.raster;
   if (file == "raster.cl")
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
-  if (file == "shadow.cl" || file == "pcf.cl") o += " -DROW=" + std::to_string(detail::shadow_row_width(ctx_.info()));
-  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(ctx_.info(), tuning_));
+  if (file == "shadow.cl" || file == "pcf.cl")
+    o += " -DROW=" + std::to_string(shadow_row_width(device));
+  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "matmul.cl")
-    o += " -DMM_VW=" + std::to_string(tuning_.exact.vector_width) +
-         " -DMM_RB=" + std::to_string(tuning_.exact.row_block);
-  return o;
+    o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
+         " -DMM_RB=" + std::to_string(tuning.exact.row_block);
+  return o + " " + variant;
+}
+
+std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning) {
+  if (file == "bin.cl") {  // the raster's bins (unless brute force), the penumbra map's, texels
+    std::vector<std::string> v = {bin_define(tuning.penumbra.tile), bin_define(1)};
+    if (!tuning.raster.brute_force) v.push_back(bin_define(tuning.raster.tile));
+    return v;
+  }
+  if (file == "shadow.cl" || file == "pcf.cl") {  // shadow.cl's hard-shadow kernels take none
+    std::vector<std::string> v;
+    if (file == "shadow.cl") v.push_back("");
+    for (const auto& [sampling, word] : enum_words<Sampling>()) v.push_back(exact_define(sampling));
+    return v;
+  }
+  return {""};
 }
 
 Kernels::Entry& Kernels::get(const std::string& file, const std::string& name,
                              const std::string& variant) {
-  const std::string opts = options(file) + " " + variant;
+  const std::string opts = program_options(file, precision_, tuning_, ctx_.info(), variant);
   auto key = file + ":" + name + ":" + opts;
   auto it = kernels_.find(key);
   if (it != kernels_.end()) return it->second;
@@ -277,6 +298,12 @@ struct Renderer::Impl {
 };
 
 namespace {
+// A fixed tuning as the renderer uses it: pixels_per_item 0 becomes the device's default.
+Tuning for_device(Tuning t, const DeviceInfo& device) {
+  if (t.raster.pixels_per_item == 0) t.raster.pixels_per_item = device.is_gpu ? 1 : 8;
+  return t;
+}
+
 void check_precision(const Context& context, Precision precision) {
   if (precision == Precision::Double && !context.info().fp64)
     throw Error("device '" + context.info().name + "' has no double precision (cl_khr_fp64)");
@@ -290,8 +317,7 @@ Renderer::Renderer(Context& context, Precision precision) {
 
 Renderer::Renderer(Context& context, Precision precision, const Tuning& tuning) {
   check_precision(context, precision);
-  Tuning t = tuning;
-  if (t.raster.pixels_per_item == 0) t.raster.pixels_per_item = context.info().is_gpu ? 1 : 8;
+  Tuning t = for_device(tuning, context.info());
   validate(t, context.info());
   impl_ = std::make_unique<Impl>(context, precision, false, t);
 }
@@ -512,6 +538,48 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     out.light_size.push_back(gsize[l]);
   }
   out.ambient = vec(glight, size_t(8 * nl));
+  return out;
+}
+
+std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
+  // The tunings a renderer can run with: the database's pick (or the heuristic's), a fixed
+  // default Tuning, and every candidate the tuner tries from either; each raster tuning also
+  // with brute_force.
+  std::vector<Tuning> tunings;
+  for (const Tuning& start : {TuningDatabase::load_default().lookup(device, WorkloadStats{}),
+                              for_device(Tuning{}, device)}) {
+    tunings.push_back(start);
+    for (const detail::TuneStage& stage : detail::tune_stages(device, start, false))
+      tunings.insert(tunings.end(), stage.candidates.begin(), stage.candidates.end());
+  }
+  for (size_t i = 0, n = tunings.size(); i < n; ++i) {
+    Tuning t = tunings[i];
+    t.raster.brute_force = !t.raster.brute_force;
+    tunings.push_back(t);
+  }
+  std::vector<std::string> files;
+  for (const auto& [name, text] : detail::embedded_kernels())
+    if (name.find('/') == std::string::npos && name.size() > 3 &&
+        name.compare(name.size() - 3, 3, ".cl") == 0)
+      files.push_back(name);
+  std::vector<Precision> precisions = {Precision::Float};
+  if (device.fp64) precisions.push_back(Precision::Double);
+  std::set<std::pair<std::string, std::string>> seen;
+  std::vector<KernelVariant> out;
+  for (const std::string& file : files)
+    for (Precision precision : precisions)
+      for (const Tuning& tuning : tunings) {
+        try {
+          validate(tuning, device);
+        } catch (const Error&) {  // not legal on this device: never built there
+          continue;
+        }
+        for (const std::string& variant : detail::program_variants(file, tuning)) {
+          const std::string options = Context::build_options(
+              detail::program_options(file, precision, tuning, device, variant));
+          if (seen.insert({file, options}).second) out.push_back({file, options});
+        }
+      }
   return out;
 }
 

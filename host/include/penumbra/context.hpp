@@ -4,6 +4,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace penumbra {
@@ -36,6 +37,10 @@ class Context {
 
   // Source of kernels/<file> with includes expanded (for tests and diagnostics).
   static std::string kernel_source(const std::string& file);
+  // What program() gives the OpenCL compiler for `options`: them and -cl-std=CL1.2.
+  static std::string build_options(const std::string& options);
+  // The (file, build_options) of every program built so far, in file order.
+  std::vector<std::pair<std::string, std::string>> programs() const;
 
   // The device memory a call may use: `bytes`, named `by` in messages ("--max-memory"), or
   // (0, the default) all the device reports. A render or backward that needs more, estimated

@@ -1,6 +1,7 @@
 #pragma once
 // The differentiable renderer: forward (render) and backward (gradients) on an OpenCL device.
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "penumbra/context.hpp"
@@ -29,6 +30,18 @@ struct SceneGrads {
 // again), the penumbra maps and the exact filter's buffers. render() and backward() refuse a scene whose estimate exceeds
 // Context::memory_limit().
 size_t estimate_device_memory(const Scene& scene, Precision precision, bool backward = false);
+
+// A program a Renderer builds: kernels/<file>, its includes expanded
+// (Context::kernel_source), compiled with `options` exactly as given to the OpenCL compiler.
+struct KernelVariant {
+  std::string file, options;
+};
+// Every program a Renderer can build on a device like `device` (its type, cl_khr_fp64 and
+// work-group limit decide): float and, with fp64, double; every sampling's variant; the launch
+// parameters of the database's pick, of a default Tuning and of every candidate the tuner tries
+// (penumbra tune), each raster tuning also with brute_force. In file order, no duplicates. For
+// compiling every variant offline (`penumbra kernels`, scripts/spir_check.sh).
+std::vector<KernelVariant> kernel_variants(const DeviceInfo& device);
 
 class Renderer {
  public:

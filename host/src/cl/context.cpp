@@ -158,6 +158,19 @@ std::string Context::kernel_source(const std::string& file) {
   return out;
 }
 
+std::string Context::build_options(const std::string& options) {
+  return options + " -cl-std=CL1.2";
+}
+
+std::vector<std::pair<std::string, std::string>> Context::programs() const {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& [key, program] : programs_) {
+    const size_t cut = key.find('\n');
+    out.push_back({key.substr(0, cut), build_options(key.substr(cut + 1))});
+  }
+  return out;
+}
+
 cl::Program& Context::program(const std::string& file, const std::string& options) {
   std::string key = file + "\n" + options;
   auto it = programs_.find(key);
@@ -166,7 +179,7 @@ cl::Program& Context::program(const std::string& file, const std::string& option
     throw Error("device '" + info_.name + "' has no double precision (cl_khr_fp64)");
   cl::Program program(context_, kernel_source(file));
   try {
-    program.build({info_.device}, (options + " -cl-std=CL1.2").c_str());
+    program.build({info_.device}, build_options(options).c_str());
   } catch (const cl::BuildError& e) {
     std::string log;
     for (auto& l : e.getBuildLog()) log += l.second;

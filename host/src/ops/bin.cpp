@@ -36,7 +36,7 @@ struct BinSortArgs {
 
 Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int tile) {
   Context& ctx = k.ctx();
-  const std::string variant = "-DTILE=" + std::to_string(tile);
+  const std::string variant = bin_define(tile);
   Bins b;
   b.tile = tile;
   b.tiles_x = (W + tile - 1) / tile;

@@ -6,15 +6,23 @@
 #include <algorithm>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "cl/device.hpp"
 #include "penumbra/renderer.hpp"
 
 namespace penumbra::detail {
 
-// Kernel objects of one precision, built on first use for the current tuning. This is the one
-// place that decides the -D options of every program; `variant` adds stage-specific ones
-// (-DEXACT=1). Kernels are bound and fetched by bind_args() (ops/args.hpp).
+// The options kernels/<file> is built with for this precision, tuning and device, then
+// `variant` (a stage's own: -DEXACT=1, bin.cl's -DTILE): the one place that decides the -D
+// options of every program.
+std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
+                            const DeviceInfo& device, const std::string& variant = "");
+// Every `variant` the stages build kernels/<file> with under `tuning`.
+std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning);
+
+// Kernel objects of one precision, built on first use for the current tuning, with the options
+// of program_options. They are bound and fetched by bind_args() (ops/args.hpp).
 class Kernels {
  public:
   // A kernel object, and whether bind_args() has checked its arguments (once per object).
@@ -30,7 +38,6 @@ class Kernels {
   void set_tuning(const Tuning& tuning) { tuning_ = tuning; }
 
  private:
-  std::string options(const std::string& file) const;
   Context& ctx_;
   Precision precision_;
   Tuning tuning_;
@@ -60,6 +67,9 @@ struct Bins {
 inline int penumbra_lanes(const DeviceInfo& d, const Tuning& t) {
   return std::min(d.is_gpu ? 1 : 8, t.penumbra.tile);
 }
+
+// bin.cl's tile edge in pixels (1: the texel buckets of the shadow gathers).
+inline std::string bin_define(int tile) { return "-DTILE=" + std::to_string(tile); }
 
 // The build variant of the shadow lookups that sums over the whole map (-DEXACT=1).
 inline const char* exact_define(Sampling s) {

@@ -8,6 +8,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/tuning.hpp"
+#include "tuning/stages.hpp"
 
 namespace penumbra {
 
@@ -90,6 +91,69 @@ std::vector<XgemmParameters> xgemm_candidates(bool quick) {
   return all;
 }
 
+namespace detail {
+
+std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start, bool quick) {
+  // One stage at a time, each on the workload it dominates. `tolerance` 0 means the
+  // candidates must agree bit for bit (same summation order).
+  using Stage = TuneStage;
+  std::vector<Stage> stages;
+  Stage raster{"raster", Shadows::None, Sampling::Truncated, 0.0, {}};
+  const std::vector<int> tiles = quick ? std::vector<int>{8, 16} : std::vector<int>{8, 16, 32};
+  const std::vector<int> ppws = quick ? std::vector<int>{1, 8} : std::vector<int>{1, 2, 4, 8, 16};
+  for (int tile : tiles)
+    for (int ppw : ppws) {
+      Tuning t = start;
+      t.raster.tile = tile;
+      t.raster.pixels_per_item = ppw;
+      try {
+        validate(t, device);
+        raster.candidates.push_back(t);
+      } catch (const Error&) {  // not legal on this device
+      }
+    }
+  stages.push_back(raster);
+  // Exact-sum products: their order of summation differs, so outputs agree to rounding.
+  Stage exact{"exact", Shadows::Hard, Sampling::Exact, 1e-4, {}};
+  std::vector<std::pair<int, int>> shapes =
+      quick ? std::vector<std::pair<int, int>>{{8, 4}}
+            : std::vector<std::pair<int, int>>{{4, 4}, {8, 2}, {8, 4}, {16, 2}, {16, 4}};
+  for (auto [vw, rb] : shapes) {
+    Tuning t = start;
+    t.exact.clblast = false;
+    t.exact.vector_width = vw;
+    t.exact.row_block = rb;
+    exact.candidates.push_back(t);
+  }
+  // CLBlast with its own parameters, then with each Xgemm candidate, forced to its Xgemm
+  // kernel (below m·n·k = 896³ it would run its direct kernel, where they do nothing).
+  Tuning blas = start;
+  blas.exact.clblast = true;
+  blas.exact.xgemm.reset();
+  blas.exact.min_indirect_size = 0;
+  exact.candidates.push_back(blas);
+  for (const XgemmParameters& x : xgemm_candidates(quick)) {
+    blas.exact.xgemm = x;
+    blas.exact.min_indirect_size = 1;
+    try {
+      validate(blas, device);
+      exact.candidates.push_back(blas);
+    } catch (const Error&) {  // not legal on this device
+    }
+  }
+  stages.push_back(exact);
+  Stage pen{"penumbra", Shadows::Soft, Sampling::Truncated, 0.0, {}};
+  for (int tile : quick ? std::vector<int>{16} : std::vector<int>{8, 16, 32}) {
+    Tuning t = start;
+    t.penumbra.tile = tile;
+    pen.candidates.push_back(t);
+  }
+  stages.push_back(pen);
+  return stages;
+}
+
+}  // namespace detail
+
 TuneReport tune(Context& context, const Scene& base, const TuneOptions& options) {
   const DeviceInfo& device = context.info();
   const int runs = std::max(1, options.quick ? std::min(options.runs, 3) : options.runs);
@@ -97,71 +161,7 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
   // Start from what the database would pick today for this scene.
   Tuning best = TuningDatabase::load_default().lookup(device, workload_stats(base));
 
-  // One stage at a time, each on the workload it dominates. `tolerance` 0 means the
-  // candidates must agree bit for bit (same summation order).
-  struct Stage {
-    std::string name;
-    Shadows shadows;
-    Sampling sampling;
-    double tolerance;
-    std::vector<Tuning> candidates;
-  };
-  std::vector<Stage> stages;
-  {
-    Stage raster{"raster", Shadows::None, Sampling::Truncated, 0.0, {}};
-    const std::vector<int> tiles = options.quick ? std::vector<int>{8, 16} : std::vector<int>{8, 16, 32};
-    const std::vector<int> ppws = options.quick ? std::vector<int>{1, 8} : std::vector<int>{1, 2, 4, 8, 16};
-    for (int tile : tiles)
-      for (int ppw : ppws) {
-        Tuning t = best;
-        t.raster.tile = tile;
-        t.raster.pixels_per_item = ppw;
-        try {
-          validate(t, device);
-          raster.candidates.push_back(t);
-        } catch (const Error&) {  // not legal on this device
-        }
-      }
-    stages.push_back(raster);
-    // Exact-sum products: their order of summation differs, so outputs agree to rounding.
-    Stage exact{"exact", Shadows::Hard, Sampling::Exact, 1e-4, {}};
-    std::vector<std::pair<int, int>> shapes =
-        options.quick ? std::vector<std::pair<int, int>>{{8, 4}}
-                      : std::vector<std::pair<int, int>>{{4, 4}, {8, 2}, {8, 4}, {16, 2}, {16, 4}};
-    for (auto [vw, rb] : shapes) {
-      Tuning t = best;
-      t.exact.clblast = false;
-      t.exact.vector_width = vw;
-      t.exact.row_block = rb;
-      exact.candidates.push_back(t);
-    }
-    // CLBlast with its own parameters, then with each Xgemm candidate, forced to its Xgemm
-    // kernel (below m·n·k = 896³ it would run its direct kernel, where they do nothing).
-    Tuning blas = best;
-    blas.exact.clblast = true;
-    blas.exact.xgemm.reset();
-    blas.exact.min_indirect_size = 0;
-    exact.candidates.push_back(blas);
-    for (const XgemmParameters& x : xgemm_candidates(options.quick)) {
-      blas.exact.xgemm = x;
-      blas.exact.min_indirect_size = 1;
-      try {
-        validate(blas, device);
-        exact.candidates.push_back(blas);
-      } catch (const Error&) {  // not legal on this device
-      }
-    }
-    stages.push_back(exact);
-    Stage pen{"penumbra", Shadows::Soft, Sampling::Truncated, 0.0, {}};
-    for (int tile : options.quick ? std::vector<int>{16} : std::vector<int>{8, 16, 32}) {
-      Tuning t = best;
-      t.penumbra.tile = tile;
-      pen.candidates.push_back(t);
-    }
-    stages.push_back(pen);
-  }
-
-  for (Stage& stage : stages) {
+  for (detail::TuneStage& stage : detail::tune_stages(device, best, options.quick)) {
     Scene scene = base;
     scene.params.shadows = stage.shadows;
     scene.params.sampling = stage.sampling;

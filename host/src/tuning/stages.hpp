@@ -1,0 +1,27 @@
+#pragma once
+// The tuner's stages and their candidates, shared by the tuner (tuner.cpp) and by
+// kernel_variants (renderer.cpp), which builds every program a candidate can ask for.
+#include <string>
+#include <vector>
+
+#include "penumbra/scene.hpp"
+#include "penumbra/tuning.hpp"
+
+namespace penumbra::detail {
+
+// One stage of the tuner: the workload it times (shadow mode and sampling), how far a
+// candidate's output may differ from the starting configuration's (0: bit for bit), and the
+// candidates, each `start` with this stage's parameters changed.
+struct TuneStage {
+  std::string name;  // raster, exact, penumbra
+  Shadows shadows;
+  Sampling sampling;
+  double tolerance;
+  std::vector<Tuning> candidates;
+};
+
+// The stages in the order the tuner runs them, with the candidates legal on `device`
+// (`quick`: fewer).
+std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start, bool quick);
+
+}  // namespace penumbra::detail
