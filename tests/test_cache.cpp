@@ -139,6 +139,24 @@ TEST(ProgramCache, DamagedEntryIsRebuiltAndReplaced) {
   }
 }
 
+// An edited kernel under PENUMBRA_KERNEL_DIR is a different source, hence a different entry:
+// never the binary of the source before the edit.
+TEST(ProgramCache, EditedKernelSourceGetsItsOwnEntry) {
+  const fs::path dir = fresh_dir("edited"), kernels = dir / "kernels";
+  fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", kernels,
+           fs::copy_options::recursive);
+  ScopedEnv env("PENUMBRA_CACHE_DIR", (dir / "cache").c_str()),
+      source("PENUMBRA_KERNEL_DIR", kernels.c_str());
+  { penumbra::Context().program("bin.cl", ""); }
+  ASSERT_EQ(entries(dir / "cache").size(), 1u);
+  write_text((kernels / "bin.cl").string(),
+             read_text((kernels / "bin.cl").string()) + "\n// edited\n");
+  { penumbra::Context().program("bin.cl", ""); }
+  EXPECT_EQ(entries(dir / "cache").size(), 2u);
+  { penumbra::Context().program("bin.cl", "-DTILE=8"); }  // other options: another entry
+  EXPECT_EQ(entries(dir / "cache").size(), 3u);
+}
+
 // The same render in two processes, the first building every program from source into an
 // empty cache, the second loading them all (not rewriting them): the raw arrays must be
 // identical byte for byte.
