@@ -4,6 +4,7 @@
   bench/report.py --json out/bench/bench.json [--machine out/bench/machine.json]
                   [--doc docs/benchmarks.md] [--images docs/images]
                   [--accuracy-images out/bench/images] [--accuracy-only]
+                  [--first-call out/bench/first_call.json]
   bench/report.py --smoke --bench build/penumbra_bench [--out-dir DIR]
 
 The first form writes the report of a finished run. --smoke runs penumbra_bench on two tiny
@@ -410,7 +411,7 @@ def case_label(r):
 
 
 def write_report(context, records, machine, doc_path, image_dir, accuracy_images, smoke=False,
-                 profiles=None):
+                 profiles=None, first_call=None):
     res = Results(records)
     profiles = profiles or {}
     plt = get_plt()
@@ -674,6 +675,9 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
 
     # Accuracy.
     L.extend(accuracy_section(res, plots.get("tradeoff"), rel_images, accuracy_images, image_dir))
+
+    if first_call:  # bench/first_call.py's section, from its own runs
+        L.extend(first_call)
 
     # Large and failed.
     large = [r for r in res.records if r["large"]]
@@ -990,6 +994,8 @@ def files_section():
         "  icosphere generator), timing and counters; `bench/main.cpp` the default filter.",
         "- `bench/report.py` this page and the plots; `scripts/bench.sh` the whole pipeline",
         "  (`--accuracy`: the accuracy group alone, which rewrites only its section and this one).",
+        "- `bench/first_call.py` the first render in new processes, kernel caches cold and warm",
+        "  (its section; `--doc docs/benchmarks.md` rewrites that section alone).",
         "- Case names: `[large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L`,",
         "  accuracy cases `accuracy/fwd/...` with `/model:<accurate|paper>/scene:<name>` after them,",
         "  so `--benchmark_filter` selects by any of them, e.g. `build/penumbra_bench",
@@ -1045,6 +1051,7 @@ def main():
     ap.add_argument("--accuracy-only", action="store_true",
                     help="rewrite only the accuracy section of --doc from a run of the accuracy "
                          "group (--benchmark_filter=^accuracy/), keeping the rest of the page")
+    ap.add_argument("--first-call", help="JSON of bench/first_call.py: adds its section")
     ap.add_argument("--smoke", action="store_true", help="tiny run + report check (CI)")
     ap.add_argument("--bench", help="penumbra_bench executable (with --smoke)")
     ap.add_argument("--out-dir", help="where --smoke writes (default: a temporary folder)")
@@ -1071,8 +1078,13 @@ def main():
     if a.accuracy_only:
         write_accuracy_only(context, records, machine, a.doc, a.images, a.accuracy_images)
         return
+    first_call = None
+    if a.first_call and os.path.exists(a.first_call):
+        import first_call as fc  # bench/first_call.py, next to this script
+        with open(a.first_call) as f:
+            first_call = fc.section(json.load(f))
     write_report(context, records, machine, a.doc, a.images, a.accuracy_images,
-                 profiles=load_profiles(a.profiles))
+                 profiles=load_profiles(a.profiles), first_call=first_call)
 
 
 if __name__ == "__main__":

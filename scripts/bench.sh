@@ -6,7 +6,9 @@
 #   3. runs the default suite (a few minutes on two cores) with JSON output in out/bench/,
 #   4. profiles one forward frame per shadow mode with PoCL's command-queue profiler
 #      (POCL_TRACING=cq: device time per kernel) into out/bench/profile_*.txt,
-#   5. runs bench/report.py, which writes docs/benchmarks.md and docs/images/bench_*.png.
+#   5. times the first render of new processes with the kernel caches cold and warm
+#      (bench/first_call.py) into out/bench/first_call.json,
+#   6. runs bench/report.py, which writes docs/benchmarks.md and docs/images/bench_*.png.
 #
 #   scripts/bench.sh                 the default suite
 #   scripts/bench.sh --large         also the large/ cases (much longer)
@@ -139,9 +141,14 @@ soft truncated
 MODES
 rm -f out/bench/profile.png
 
+# --- first call in a new process ------------------------------------------------------------
+if [[ $run -eq 1 ]]; then
+  "$PYTHON" bench/first_call.py --cli "$BUILD/penumbra" --runs 5 --out out/bench/first_call.json
+fi
+
 # --- report --------------------------------------------------------------------------------
 if [[ $report -eq 1 ]]; then
   "$PYTHON" bench/report.py --json out/bench/bench.json --machine out/bench/machine.json \
     --doc docs/benchmarks.md --images docs/images --accuracy-images out/bench/images \
-    --profiles out/bench
+    --profiles out/bench --first-call out/bench/first_call.json
 fi

@@ -16,6 +16,8 @@ build=${PENUMBRA_BUILD_DIR:-build}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 prefix=$tmp/prefix
+# Compiled kernels go to the scratch folder, not to the user's kernel cache (README).
+export PENUMBRA_CACHE_DIR=${PENUMBRA_CACHE_DIR:-$tmp/kernel_cache}
 
 cmake --install "$build" --prefix "$prefix" >"$tmp/install.log"
 echo "install_check: installed $(wc -l <"$build/install_manifest.txt") files into a scratch prefix"

@@ -1,5 +1,8 @@
 """Shared fixtures of the Python tests: a small scene built in code, the penumbra tool."""
+import atexit
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -8,6 +11,12 @@ import pytest
 import penumbra
 
 ROOT = Path(__file__).resolve().parents[2]
+
+# Compiled kernels go to a folder of this test run, never to the user's kernel cache (README,
+# "The kernel cache"); the tool run by the tests inherits it. A cache given by the caller wins.
+if "PENUMBRA_CACHE_DIR" not in os.environ:
+    os.environ["PENUMBRA_CACHE_DIR"] = tempfile.mkdtemp(prefix="penumbra_kernel_cache_")
+    atexit.register(shutil.rmtree, os.environ["PENUMBRA_CACHE_DIR"], ignore_errors=True)
 
 
 def small_scene(shadows="none", size=10):

@@ -32,7 +32,10 @@ class Context {
 
   // Builds (once per process) kernels/<file> with the given -D options; includes of
   // "common/..." are resolved from the embedded sources, or from $PENUMBRA_KERNEL_DIR when set.
-  // A build failure throws penumbra::Error carrying the compiler log.
+  // A binary compiled by an earlier process is reused from the kernel cache
+  // ($PENUMBRA_CACHE_DIR, README "Environment variables") when the device, driver, expanded
+  // source and options all match. A build failure throws penumbra::Error carrying the
+  // compiler log.
   cl::Program& program(const std::string& file, const std::string& options);
 
   // Source of kernels/<file> with includes expanded (for tests and diagnostics).
@@ -50,6 +53,8 @@ class Context {
   const std::string& memory_limit_by() const { return memory_limit_by_; }
 
  private:
+  cl::Program build_from_source(const std::string& file, const std::string& source,
+                                const std::string& options);
   size_t memory_limit_ = 0;
   std::string memory_limit_by_;
   DeviceInfo info_;

@@ -1,12 +1,16 @@
-// Device selection, queue and program cache.
+// Device selection, queue and program cache (in memory, and on disk through program_cache).
 #include "penumbra/context.hpp"
 
 #include <algorithm>
 #include <cctype>
+#include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
+#include "cl/program_cache.hpp"
 #include "penumbra/error.hpp"
 
 namespace penumbra {
@@ -158,8 +162,46 @@ std::string Context::kernel_source(const std::string& file) {
   return out;
 }
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// A program from a cached binary, or nothing when the driver rejects the binary (a damaged or
+// foreign entry): the caller then builds from source and replaces the entry.
+std::optional<cl::Program> build_from_binary(cl::Context& context, const cl::Device& device,
+                                             const std::string& binary, const std::string& flags) {
+  try {
+    cl::Program::Binaries binaries{std::vector<unsigned char>(binary.begin(), binary.end())};
+    cl::Program program(context, {device}, binaries);
+    program.build({device}, flags.c_str());
+    return program;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// The device binary of a built program; "" when the driver gives none (then nothing is cached).
+std::string program_binary(const cl::Program& program) {
+  try {
+    auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
+    if (binaries.size() != 1) return "";
+    return std::string(binaries[0].begin(), binaries[0].end());
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
+// PENUMBRA_PROFILE: one line per program, where it came from and how long it took.
+void report_build(const std::string& file, const char* how, Clock::time_point start) {
+  if (!std::getenv("PENUMBRA_PROFILE")) return;
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  std::fprintf(stderr, "penumbra profile: program %s %s in %.1f ms\n", file.c_str(), how, ms);
+}
+
+}  // namespace
+
 std::string Context::build_options(const std::string& options) {
-  return options + " -cl-std=CL1.2";
+  return options + " -cl-std=CL1.2";  // OpenCL C 1.2, whatever else the device supports
 }
 
 std::vector<std::pair<std::string, std::string>> Context::programs() const {
@@ -171,13 +213,9 @@ std::vector<std::pair<std::string, std::string>> Context::programs() const {
   return out;
 }
 
-cl::Program& Context::program(const std::string& file, const std::string& options) {
-  std::string key = file + "\n" + options;
-  auto it = programs_.find(key);
-  if (it != programs_.end()) return it->second;
-  if (options.find("PENUMBRA_DOUBLE") != std::string::npos && !info_.fp64)
-    throw Error("device '" + info_.name + "' has no double precision (cl_khr_fp64)");
-  cl::Program program(context_, kernel_source(file));
+cl::Program Context::build_from_source(const std::string& file, const std::string& source,
+                                       const std::string& options) {
+  cl::Program program(context_, source);
   try {
     program.build({info_.device}, build_options(options).c_str());
   } catch (const cl::BuildError& e) {
@@ -188,6 +226,33 @@ cl::Program& Context::program(const std::string& file, const std::string& option
     std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(info_.device);
     throw Error("kernel " + file + " failed to build with '" + options + "': " + condense(log));
   }
+  return program;
+}
+
+// Built once per process; across processes the binary comes from the program cache when it has
+// one for this device, source and options (program_cache.hpp).
+cl::Program& Context::program(const std::string& file, const std::string& options) {
+  std::string key = file + "\n" + options;
+  auto it = programs_.find(key);
+  if (it != programs_.end()) return it->second;
+  if (options.find("PENUMBRA_DOUBLE") != std::string::npos && !info_.fp64)
+    throw Error("device '" + info_.name + "' has no double precision (cl_khr_fp64)");
+  const auto start = Clock::now();
+  const std::string source = kernel_source(file), flags = build_options(options);
+  const std::string dir = detail::program_cache_dir();
+  const std::string entry =
+      dir.empty() ? "" : detail::program_cache_key(info_.device, source, flags);
+  if (!dir.empty())
+    if (auto binary = detail::load_program_binary(dir, entry))
+      if (auto program = build_from_binary(context_, info_.device, *binary, flags)) {
+        report_build(file, "loaded from the cache", start);
+        return programs_.emplace(key, std::move(*program)).first->second;
+      }
+  cl::Program program = build_from_source(file, source, options);
+  if (!dir.empty())
+    if (std::string binary = program_binary(program); !binary.empty())
+      detail::store_program_binary(dir, entry, binary);
+  report_build(file, "built from source", start);
   return programs_.emplace(key, std::move(program)).first->second;
 }
 

@@ -1,0 +1,160 @@
+#!/usr/bin/env python3
+"""The first render in a new process: how much of it is building kernels, with and without the
+caches of compiled programs (penumbra's kernel cache and PoCL's own).
+
+Each run is a new `penumbra render` process of the bundled scene (default options, 256² image)
+with PENUMBRA_PROFILE=1, which prints one line per program built (from source or loaded from
+the kernel cache) with its time. Four states:
+
+  cold             empty kernel cache (PENUMBRA_CACHE_DIR), empty PoCL cache (POCL_CACHE_DIR)
+  kernel cache     the kernel cache filled by an earlier process, PoCL's cache empty
+  both warm        both filled by an earlier process
+  PoCL cache only  PENUMBRA_CACHE_DIR=off, PoCL's cache filled (how a new process started
+                   before penumbra had its own cache)
+
+Writes JSON (every run) to --out and prints a Markdown table; with --doc, also writes the
+section "First call in a new process" of that page (bench/report.py writes the same section
+when given --first-call JSON). scripts/bench.sh runs it before the report.
+
+    python3 bench/first_call.py --cli build/penumbra --runs 5 --out out/bench/first_call.json \
+        [--doc docs/benchmarks.md]
+"""
+import argparse
+import json
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+STATES = ("cold", "kernel cache", "both warm", "PoCL cache only")
+
+
+def run_once(cli, penumbra_cache, pocl_cache, out_png):
+    env = dict(os.environ, PENUMBRA_CACHE_DIR=penumbra_cache, POCL_CACHE_DIR=pocl_cache,
+               PENUMBRA_PROFILE="1")
+    start = time.monotonic()
+    p = subprocess.run([cli, "render", "-o", out_png], env=env, capture_output=True, text=True)
+    wall = time.monotonic() - start
+    if p.returncode != 0:
+        sys.exit(f"first_call: render failed ({p.returncode}):\n{p.stderr}")
+    render_ms = float(re.search(r", ([0-9.]+) ms \(", p.stdout).group(1))
+    builds = [(m.group(2), float(m.group(3))) for m in
+              re.finditer(r"program (\S+) (built from source|loaded from the cache) in ([0-9.]+) ms",
+                          p.stderr)]
+    return {"render_ms": render_ms, "build_ms": sum(ms for _, ms in builds),
+            "from_source": sum(how == "built from source" for how, _ in builds),
+            "from_cache": sum(how != "built from source" for how, _ in builds),
+            "process_s": wall}
+
+
+def measure(cli, runs, scratch):
+    """Every state `runs` times; a fresh folder for each cache that must be empty."""
+    out_png = os.path.join(scratch, "first_call.png")
+    filled_kernels, filled_pocl = (os.path.join(scratch, d) for d in ("kernels", "pocl"))
+    run_once(cli, filled_kernels, filled_pocl, out_png)  # fills both (untimed)
+    results = {s: [] for s in STATES}
+    for i in range(runs):
+        fresh = lambda name: tempfile.mkdtemp(prefix=f"{name}{i}_", dir=scratch)
+        results["cold"].append(run_once(cli, fresh("k"), fresh("p"), out_png))
+        results["kernel cache"].append(run_once(cli, filled_kernels, fresh("p"), out_png))
+        results["both warm"].append(run_once(cli, filled_kernels, filled_pocl, out_png))
+        results["PoCL cache only"].append(run_once(cli, "off", filled_pocl, out_png))
+    return results
+
+
+def median(rows, key):
+    return statistics.median(r[key] for r in rows)
+
+
+def table(results):
+    lines = ["| state | programs from source / cache | kernel build, ms | first render, ms "
+             "| whole process, s |", "|---|---|---|---|---|"]
+    for state in STATES:
+        rows = results[state]
+        lines.append(f"| {state} | {rows[0]['from_source']} / {rows[0]['from_cache']} "
+                     f"| {median(rows, 'build_ms'):,.0f} | {median(rows, 'render_ms'):,.0f} "
+                     f"| {median(rows, 'process_s'):.2f} |")
+    return "\n".join(lines)
+
+
+TITLE = "## First call in a new process"
+
+
+def section(doc):
+    """The page's section for the JSON `doc` written by this script."""
+    r = doc["states"]
+    cold, warm = median(r["cold"], "render_ms"), median(r["both warm"], "render_ms")
+    return [
+        TITLE, "",
+        "The first `Renderer::render` of a process builds the OpenCL programs its stages use",
+        "(only those, when first needed). Each row is a new `penumbra render` process of the",
+        f"bundled scene (default options), the median of {doc['runs']} runs",
+        f"(`bench/first_call.py`, {doc['date']}, `{doc['command']}`).",
+        "*Kernel build* sums the time spent getting the programs (compiled from source or",
+        "loaded from the kernel cache), *first render* is the whole call as the tool prints it.",
+        "*cold*: empty kernel cache (`PENUMBRA_CACHE_DIR`) and empty PoCL cache",
+        "(`POCL_CACHE_DIR`); *kernel cache*: penumbra's filled by an earlier process, PoCL's",
+        "empty; *both warm*: both filled; *PoCL cache only*: `PENUMBRA_CACHE_DIR=off` and",
+        "PoCL's filled (how a new process started before penumbra had its own cache).",
+        "", table(r), "",
+        f"Load average (1, 5, 15 min) {doc['loadavg_before']} before the runs and",
+        f"{doc['loadavg_after']} after (two shared cores: above 2, other processes competed).",
+        f"From cold to both warm the first render goes from {cold:,.0f} ms to {warm:,.0f} ms.",
+        "",
+        "What the kernel cache cannot save on PoCL: the binary PoCL hands out after a build",
+        "holds the program, not the kernels compiled for a particular work-group size. PoCL",
+        "compiles those at a kernel's first launch and keeps them in its own cache",
+        "(`POCL_CACHE_DIR`, default `~/.cache/pocl`); the binary's size does not change after a",
+        "launch. With PoCL's cache empty, the first render therefore still spends most of its",
+        "time compiling (the *kernel cache* row) even though no program is compiled from source.",
+        "",
+    ]
+
+
+def write_section(doc_path, lines):
+    """Replaces the section in the page, or adds it before "## Large cases"."""
+    text = open(doc_path).read().split("\n")
+    if TITLE in text:
+        start = text.index(TITLE)
+        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")),
+                   len(text))
+    else:
+        start = end = text.index("## Large cases") if "## Large cases" in text else len(text)
+    with open(doc_path, "w") as f:
+        f.write("\n".join(text[:start] + lines + text[end:]))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cli", default="build/penumbra")
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--out", default="out/bench/first_call.json")
+    ap.add_argument("--doc", help="also write the section into this page")
+    a = ap.parse_args()
+    scratch = tempfile.mkdtemp(prefix="penumbra_first_call_")
+    try:
+        load_before = open("/proc/loadavg").read().split()[:3]
+        results = measure(a.cli, a.runs, scratch)
+        load_after = open("/proc/loadavg").read().split()[:3]
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
+    doc = {"runs": a.runs, "command": f"{a.cli} render -o PNG (PENUMBRA_PROFILE=1)",
+           "loadavg_before": " ".join(load_before), "loadavg_after": " ".join(load_after),
+           "date": time.strftime("%Y-%m-%dT%H:%M:%S+00:00", time.gmtime()),
+           "states": results}
+    with open(a.out, "w") as f:
+        json.dump(doc, f, indent=1)
+    print(table(results))
+    print(f"load average before {doc['loadavg_before']}, after {doc['loadavg_after']}")
+    if a.doc:
+        write_section(a.doc, section(doc))
+
+
+if __name__ == "__main__":
+    main()
