@@ -37,23 +37,9 @@ Scene silhouette_scene(const Mesh& mesh, const std::vector<glm::dvec3>& directio
 Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& problem,
                      const std::vector<SilhouetteStage>& stages, const FitObserver& observer,
                      const FitCheckpoints& checkpoints) {
-  check_targets(problem.targets, {});
-  if (problem.targets.size() != problem.directions.size())
-    throw Error("fit_silhouettes: " + std::to_string(problem.targets.size()) + " targets for " +
-                std::to_string(problem.directions.size()) + " views");
+  const int total = prepare_fit("fit_silhouettes", problem.targets, problem.directions.size(),
+                                "views", stages, mesh);
   const int full = problem.targets.front().width;
-  int total = 0;
-  for (const SilhouetteStage& s : stages) {
-    if (s.resolution < 1 || full % s.resolution != 0)
-      throw Error("fit_silhouettes: stage resolution " + std::to_string(s.resolution) +
-                  " must divide the target size " + std::to_string(full));
-    total += std::max(s.iterations, 0);
-  }
-  if (mesh.albedo.size() != mesh.vertices.size()) {
-    mesh.albedo.assign(mesh.vertices.size(), glm::dvec3(0.8));
-    mesh.albedo_mode = AlbedoMode::PerVertex;
-  }
-
   check_resume(checkpoints, stages.size(), total);
   int iteration = 0;
   for (size_t si = 0; si < stages.size(); ++si) {

@@ -1,9 +1,39 @@
 #pragma once
-// The stage loop shared by fit_silhouettes and fit_shadows (internal): where a (possibly
-// resumed) fit enters each stage, and its checkpoints.
+// The stage loop shared by fit_silhouettes and fit_shadows (internal): their inputs, where a
+// (possibly resumed) fit enters each stage, and its checkpoints.
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "penumbra/error.hpp"
 #include "penumbra/optim.hpp"
 
 namespace penumbra::optim {
+
+// Checks a fit's inputs (`fit` names it in messages): one target per view or light (`unit`),
+// every stage's resolution dividing the target size. Gives `mesh` per-vertex albedo when it has
+// none, and returns the iterations over all stages.
+template <class Stage>
+int prepare_fit(const char* fit, const std::vector<Image>& targets, size_t views,
+                const char* unit, const std::vector<Stage>& stages, Mesh& mesh) {
+  check_targets(targets, {});
+  if (targets.size() != views)
+    throw Error(std::string(fit) + ": " + std::to_string(targets.size()) + " targets for " +
+                std::to_string(views) + " " + unit);
+  const int full = targets.front().width;
+  int total = 0;
+  for (const Stage& s : stages) {
+    if (s.resolution < 1 || full % s.resolution != 0)
+      throw Error(std::string(fit) + ": stage resolution " + std::to_string(s.resolution) +
+                  " must divide the target size " + std::to_string(full));
+    total += std::max(s.iterations, 0);
+  }
+  if (mesh.albedo.size() != mesh.vertices.size()) {
+    mesh.albedo.assign(mesh.vertices.size(), glm::dvec3(0.8));
+    mesh.albedo_mode = AlbedoMode::PerVertex;
+  }
+  return total;
+}
 
 // Throws unless the resumed state (if any) lies within `stages` stages of `total` iterations.
 void check_resume(const FitCheckpoints& checkpoints, size_t stages, int total);

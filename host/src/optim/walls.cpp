@@ -142,22 +142,9 @@ RenderParams ShadowProblem::default_shadow_fit_params(ShadowModel model) {
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
                  const std::vector<ShadowStage>& stages, const FitObserver& observer,
                  const FitCheckpoints& checkpoints) {
-  check_targets(problem.targets, {});
-  if (problem.targets.size() != problem.directions.size())
-    throw Error("fit_shadows: " + std::to_string(problem.targets.size()) + " targets for " +
-                std::to_string(problem.directions.size()) + " lights");
+  const int total = prepare_fit("fit_shadows", problem.targets, problem.directions.size(),
+                                "lights", stages, mesh);
   const int full = problem.targets.front().width;
-  int total = 0;
-  for (const ShadowStage& s : stages) {
-    if (s.resolution < 1 || full % s.resolution != 0)
-      throw Error("fit_shadows: stage resolution " + std::to_string(s.resolution) +
-                  " must divide the target size " + std::to_string(full));
-    total += std::max(s.iterations, 0);
-  }
-  if (mesh.albedo.size() != mesh.vertices.size()) {
-    mesh.albedo.assign(mesh.vertices.size(), glm::dvec3(0.8));
-    mesh.albedo_mode = AlbedoMode::PerVertex;
-  }
   const size_t nl = problem.directions.size();
   check_resume(checkpoints, stages.size(), total);
   int iteration = 0;
