@@ -118,23 +118,29 @@ std::vector<char> dilate(const std::vector<char>& seed, const std::vector<char>&
   return out;
 }
 
-std::vector<char> ground_pixels(const GroundTruth& gt, int ground) {
-  const int W = gt.W, H = gt.H;
-  auto hit = [&](int x, int y) {
-    return x >= 0 && y >= 0 && x < W && y < H && gt.mesh[size_t(y) * W + x] == ground;
-  };
-  std::vector<char> g(size_t(W) * H, 0);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      g[size_t(y) * W + x] =
-          hit(x, y) && hit(x - 1, y) && hit(x + 1, y) && hit(x, y - 1) && hit(x, y + 1);
+// How far (px, rounded up) the soft rasterizer spreads a face beyond its outline: its coverage
+// sigmoid(−d²/σ) stays above the cut-off ε_D out to d = √(σ ln(1/ε_D − 1)) screen units, and
+// with a small γ a nearer face wins the pixel wherever it is not cut off.
+int silhouette_margin(const Scene& s) {
+  const RenderParams& p = s.params;
+  const double reach = std::sqrt(p.sigma * std::log(1.0 / p.dist_eps - 1.0));
+  return std::max(1, int(std::ceil(reach * s.cameras.front().height / 2.0)));
+}
+
+// Ground pixels whose rays, and those of every pixel within `margin` px (a square), hit the
+// ground: the pixels where the camera's soft rasterizer blends in no other surface.
+std::vector<char> ground_pixels(const GroundTruth& gt, int ground, int margin) {
+  std::vector<char> other(gt.mesh.size()), all(gt.mesh.size(), 1), g(gt.mesh.size());
+  for (size_t p = 0; p < g.size(); ++p) other[p] = gt.mesh[p] != ground;
+  const std::vector<char> near_other = dilate(other, all, gt.W, gt.H, margin);
+  for (size_t p = 0; p < g.size(); ++p) g[p] = gt.mesh[p] == ground && !near_other[p];
   return g;
 }
 
 Regions make_regions(const Scene& s, const GroundTruth& sphere) {
   Regions r;
   const size_t n = size_t(sphere.W) * sphere.H;
-  r.ground = ground_pixels(sphere, ground_mesh(s));
+  r.ground = ground_pixels(sphere, ground_mesh(s), silhouette_margin(s));
   std::vector<char> shadowed(n, 0), at_contact(n, 0);
   const std::vector<glm::dvec3> contacts = contact_points(s);
   for (size_t p = 0; p < n; ++p) {
