@@ -29,6 +29,8 @@ endif()
 penumbra_require(PKG_CONFIG_FOUND "pkg-config")
 pkg_check_modules(STB QUIET IMPORTED_TARGET stb)
 penumbra_require(STB_FOUND "libstb-dev")
+find_package(GIF QUIET)  # giflib: the animation writer
+penumbra_require(GIF_FOUND "libgif-dev")
 if(PENUMBRA_BUILD_TESTS)
   find_package(GTest QUIET)
   penumbra_require(GTest_FOUND "libgtest-dev")

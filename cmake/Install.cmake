@@ -29,8 +29,10 @@ install(FILES ${CMAKE_BINARY_DIR}/penumbraConfig.cmake ${CMAKE_BINARY_DIR}/penum
 file(RELATIVE_PATH PENUMBRA_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig
      ${CMAKE_INSTALL_PREFIX})
 set(PENUMBRA_PC_REQUIRES_PRIVATE "")
+set(PENUMBRA_PC_LIBS_PRIVATE "")
 if(NOT BUILD_SHARED_LIBS)
   set(PENUMBRA_PC_REQUIRES_PRIVATE "clblast tinyobjloader_double stb")
+  set(PENUMBRA_PC_LIBS_PRIVATE "-lgif")  # giflib has no .pc file
 endif()
 configure_file(${CMAKE_SOURCE_DIR}/cmake/penumbra.pc.in ${CMAKE_BINARY_DIR}/penumbra.pc @ONLY)
 install(FILES ${CMAKE_BINARY_DIR}/penumbra.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig

@@ -14,7 +14,7 @@ set -euo pipefail
 # that sees Debian's python3-numpy, python3-torch and python3-pytest.
 PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
-  libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev
+  libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev libgif-dev
   libcli11-dev nlohmann-json3-dev libembree-dev cmake ninja-build g++ pkg-config clinfo clang-15
   python3 python3-dev python3-venv python3-numpy python3-torch python3-pytest
 )

@@ -1,22 +1,16 @@
-// Animated GIF writer (io.hpp): GIF89a with one fixed global palette, LZW-compressed frames
-// and the NETSCAPE2.0 looping extension.
-//
-// File layout: header "GIF89a"; logical screen descriptor with a 256-entry global colour
-// table; application extension NETSCAPE2.0 (loop forever); per frame a graphic control
-// extension (delay) and an image descriptor followed by LZW data in sub-blocks of at most 255
-// bytes; trailer 0x3B.
-//
-// LZW (GIF flavour): minimum code size 8, so codes start 9 bits wide; code 256 clears the
-// table, 257 ends the data. A code is emitted at the current width; after a new table entry is
-// assigned the code 2^width, the width grows by one (at most 12 bits). When the table is full
-// (4096 codes), a clear code is emitted and the table and width start over.
+// Animated GIF writer (io.hpp): GIF89a through giflib, with one fixed global palette (the
+// frames are mapped to it here, so every frame shares it), the NETSCAPE2.0 looping extension
+// and a graphic control extension (delay) per frame. giflib writes through a callback into an
+// OutputFile, so the file appears only when complete.
 #include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <exception>
 #include <fstream>
+#include <gif_lib.h>
 #include <vector>
 
 #include "penumbra/error.hpp"
@@ -121,101 +115,6 @@ std::vector<uint8_t> quantize(const Image& frame) {
   return out;
 }
 
-// Packs variable-width codes least significant bit first into bytes.
-class BitWriter {
- public:
-  void put(int code, int width) {
-    acc_ |= uint32_t(code) << bits_;
-    bits_ += width;
-    while (bits_ >= 8) {
-      bytes_.push_back(uint8_t(acc_ & 0xFF));
-      acc_ >>= 8;
-      bits_ -= 8;
-    }
-  }
-  std::vector<uint8_t> finish() {
-    if (bits_ > 0) bytes_.push_back(uint8_t(acc_ & 0xFF));
-    acc_ = 0;
-    bits_ = 0;
-    return std::move(bytes_);
-  }
-
- private:
-  std::vector<uint8_t> bytes_;
-  uint32_t acc_ = 0;
-  int bits_ = 0;
-};
-
-constexpr int kMinCodeSize = 8;
-constexpr int kClear = 1 << kMinCodeSize;  // 256
-constexpr int kEnd = kClear + 1;          // 257
-constexpr int kMaxCodes = 4096;           // 12-bit codes
-
-// The LZW string table: child(code, byte) = the code of string(code) + byte. Entries carry the
-// generation they were written in, so that clearing the table is O(1) rather than a pass over
-// all 4096 × 256 slots.
-class LzwTable {
- public:
-  LzwTable() : code_(size_t(kMaxCodes) * 256, 0), stamp_(size_t(kMaxCodes) * 256, 0) {}
-  void clear() { ++generation_; }
-  int find(int prefix, uint8_t byte) const {
-    const size_t slot = size_t(prefix) * 256 + byte;
-    return stamp_[slot] == generation_ ? code_[slot] : -1;
-  }
-  void add(int prefix, uint8_t byte, int code) {
-    const size_t slot = size_t(prefix) * 256 + byte;
-    code_[slot] = uint16_t(code);
-    stamp_[slot] = generation_;
-  }
-
- private:
-  std::vector<uint16_t> code_;
-  std::vector<uint32_t> stamp_;
-  uint32_t generation_ = 1;
-};
-
-// LZW-compresses palette indices; returns the code stream as bytes (not yet in sub-blocks).
-std::vector<uint8_t> lzw_encode(const std::vector<uint8_t>& indices, LzwTable& table) {
-  table.clear();
-  BitWriter out;
-  int width = kMinCodeSize + 1;
-  int next = kEnd + 1;
-  out.put(kClear, width);
-  if (indices.empty()) {
-    out.put(kEnd, width);
-    return out.finish();
-  }
-  int prefix = indices[0];
-  for (size_t i = 1; i < indices.size(); ++i) {
-    const uint8_t k = indices[i];
-    const int found = table.find(prefix, k);
-    if (found >= 0) {
-      prefix = found;
-      continue;
-    }
-    out.put(prefix, width);
-    if (next < kMaxCodes) {
-      table.add(prefix, k, next);
-      if (next == (1 << width) && width < 12) ++width;
-      ++next;
-    } else {
-      out.put(kClear, width);
-      table.clear();
-      width = kMinCodeSize + 1;
-      next = kEnd + 1;
-    }
-    prefix = k;
-  }
-  out.put(prefix, width);
-  out.put(kEnd, width);
-  return out.finish();
-}
-
-void put16(std::vector<uint8_t>& out, int v) {
-  out.push_back(uint8_t(v & 0xFF));
-  out.push_back(uint8_t((v >> 8) & 0xFF));
-}
-
 std::string frame_shape(const Image& f) {
   return std::to_string(f.width) + "x" + std::to_string(f.height) + "x" +
          std::to_string(f.channels);
@@ -226,11 +125,29 @@ std::string frame_shape(const Image& f) {
 struct GifWriter::Impl {
   std::string path;
   std::unique_ptr<OutputFile> file;
+  GifFileType* gif = nullptr;
   int width = 0, height = 0, delay = 10, frames = 0;
   bool closed = false;
-  LzwTable table;
+  std::exception_ptr write_error;  // what OutputFile threw inside giflib's callback
 
-  void write(const std::vector<uint8_t>& bytes) { file->write(bytes.data(), bytes.size()); }
+  // giflib's output callback: a short count makes giflib fail; the reason is kept.
+  static int write(GifFileType* gif, const GifByteType* bytes, int n) {
+    Impl& m = *static_cast<Impl*>(gif->UserData);
+    try {
+      m.file->write(bytes, size_t(n));
+      return n;
+    } catch (...) {
+      m.write_error = std::current_exception();
+      return 0;
+    }
+  }
+  // Throws the write error behind a giflib failure, else giflib's own message.
+  void check(int status, const char* step) {
+    if (status != GIF_ERROR) return;
+    if (write_error) std::rethrow_exception(write_error);
+    throw Error("cannot write GIF " + quoted(path) + ": " + step + ": " +
+                GifErrorString(gif->Error));
+  }
 };
 
 GifWriter::GifWriter(const std::string& path, int width, int height, int delay_centiseconds)
@@ -247,23 +164,28 @@ GifWriter::GifWriter(const std::string& path, int width, int height, int delay_c
   m.height = height;
   m.delay = delay_centiseconds;
   m.file = std::make_unique<OutputFile>(path, "GIF");
-
-  std::vector<uint8_t> head = {'G', 'I', 'F', '8', '9', 'a'};
-  put16(head, width);
-  put16(head, height);
-  head.push_back(0xF7);  // global colour table, 8-bit colour resolution, 2^(7+1) entries
-  head.push_back(0);     // background colour index
-  head.push_back(0);     // pixel aspect ratio: not given
-  for (const auto& c : palette().rgb) head.insert(head.end(), c.begin(), c.end());
+  int error = 0;
+  m.gif = EGifOpen(&m, &Impl::write, &error);
+  if (!m.gif) throw Error("cannot write GIF " + quoted(path) + ": " + GifErrorString(error));
+  EGifSetGifVersion(m.gif, true);
+  std::array<GifColorType, 256> colours;
+  for (size_t i = 0; i < colours.size(); ++i)
+    colours[i] = {palette().rgb[i][0], palette().rgb[i][1], palette().rgb[i][2]};
+  ColorMapObject* map = GifMakeMapObject(256, colours.data());
+  const int status = EGifPutScreenDesc(m.gif, width, height, 8, 0, map);
+  GifFreeMapObject(map);
+  m.check(status, "screen descriptor");
   // NETSCAPE2.0 application extension: loop count 0 = forever.
-  const char* app = "NETSCAPE2.0";
-  head.insert(head.end(), {0x21, 0xFF, 0x0B});
-  head.insert(head.end(), app, app + 11);
-  head.insert(head.end(), {0x03, 0x01, 0x00, 0x00, 0x00});
-  m.write(head);
+  const GifByteType loop[3] = {1, 0, 0};
+  m.check(EGifPutExtensionLeader(m.gif, APPLICATION_EXT_FUNC_CODE), "loop extension");
+  m.check(EGifPutExtensionBlock(m.gif, 11, "NETSCAPE2.0"), "loop extension");
+  m.check(EGifPutExtensionBlock(m.gif, 3, loop), "loop extension");
+  m.check(EGifPutExtensionTrailer(m.gif), "loop extension");
 }
 
-GifWriter::~GifWriter() = default;
+GifWriter::~GifWriter() {
+  if (impl_->gif) EGifCloseFile(impl_->gif, nullptr);  // frees it; the file is discarded
+}
 
 int GifWriter::frames() const { return impl_->frames; }
 
@@ -281,28 +203,15 @@ void GifWriter::add_frame(const Image& frame) {
     throw Error("cannot write GIF " + quoted(m.path) + ": frame " + std::to_string(m.frames) +
                 " has " + std::to_string(frame.data.size()) + " values, " + frame_shape(frame) +
                 " needs " + std::to_string(size_t(frame.width) * frame.height * frame.channels));
-
-  std::vector<uint8_t> out;
-  // Graphic control extension: disposal 1 (leave in place), no transparency, the delay.
-  out.insert(out.end(), {0x21, 0xF9, 0x04, 0x04});
-  put16(out, m.delay);
-  out.insert(out.end(), {0x00, 0x00});
-  // Image descriptor: the whole screen, no local colour table, not interlaced.
-  out.push_back(0x2C);
-  put16(out, 0);
-  put16(out, 0);
-  put16(out, m.width);
-  put16(out, m.height);
-  out.push_back(0x00);
-  out.push_back(uint8_t(kMinCodeSize));
-  const std::vector<uint8_t> data = lzw_encode(quantize(frame), m.table);
-  for (size_t i = 0; i < data.size(); i += 255) {
-    const size_t n = std::min<size_t>(255, data.size() - i);
-    out.push_back(uint8_t(n));
-    out.insert(out.end(), data.begin() + std::ptrdiff_t(i), data.begin() + std::ptrdiff_t(i + n));
-  }
-  out.push_back(0x00);  // block terminator
-  m.write(out);
+  // Disposal 1 (leave in place), no transparency, the delay; the whole screen, global colours.
+  GraphicsControlBlock gcb{DISPOSE_DO_NOT, false, m.delay, NO_TRANSPARENT_COLOR};
+  GifByteType ext[4];
+  const int n = int(EGifGCBToExtension(&gcb, ext));
+  m.check(EGifPutExtension(m.gif, GRAPHICS_EXT_FUNC_CODE, n, ext), "frame delay");
+  m.check(EGifPutImageDesc(m.gif, 0, 0, m.width, m.height, false, nullptr), "frame");
+  std::vector<uint8_t> indices = quantize(frame);
+  for (int y = 0; y < m.height; ++y)
+    m.check(EGifPutLine(m.gif, indices.data() + size_t(y) * m.width, m.width), "frame");
   ++m.frames;
 }
 
@@ -310,7 +219,13 @@ void GifWriter::close() {
   Impl& m = *impl_;
   if (m.closed) return;
   if (m.frames == 0) throw Error("cannot write GIF " + quoted(m.path) + ": no frames");
-  m.write({0x3B});
+  GifFileType* gif = m.gif;
+  m.gif = nullptr;  // EGifCloseFile frees it, whatever it returns
+  int error = 0;
+  if (EGifCloseFile(gif, &error) == GIF_ERROR) {
+    if (m.write_error) std::rethrow_exception(m.write_error);
+    throw Error("cannot write GIF " + quoted(m.path) + ": " + GifErrorString(error));
+  }
   m.closed = true;
   m.file->commit();
 }
