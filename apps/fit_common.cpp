@@ -9,6 +9,7 @@
 
 #include "common.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 
 namespace fs = std::filesystem;

@@ -17,6 +17,7 @@
 #include "common.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
 

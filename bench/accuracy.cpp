@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 
 namespace penumbra::bench {

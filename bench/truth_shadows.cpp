@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "truth.hpp"

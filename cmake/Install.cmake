@@ -1,12 +1,13 @@
-# cmake --install: libpenumbra (shared, with SOVERSION; static with -DBUILD_SHARED_LIBS=OFF),
-# the public headers (include/penumbra/), the CMake package (lib/cmake/penumbra: target
-# penumbra::penumbra), pkg-config's penumbra.pc, the tool and the bundled data
+# cmake --install: libpenumbra, the rendering core, and libpenumbra_app, pictures and
+# optimisers (shared, with SOVERSION; static with -DBUILD_SHARED_LIBS=OFF), the public headers
+# (include/penumbra/), the CMake package (lib/cmake/penumbra: targets penumbra::penumbra and
+# penumbra::app), pkg-config's penumbra.pc and penumbra-app.pc, the tool and the bundled data
 # (share/penumbra: scenes, meshes, targets). The kernels and the shipped tuning defaults are
 # compiled into the library, so an installed copy needs nothing from the source tree.
 include(CMakePackageConfigHelpers)
 set(PENUMBRA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/penumbra)
 
-install(TARGETS penumbra_core EXPORT penumbraTargets COMPONENT dev
+install(TARGETS penumbra_core penumbra_app EXPORT penumbraTargets COMPONENT dev
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} NAMELINK_COMPONENT dev
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
@@ -29,14 +30,17 @@ install(FILES ${CMAKE_BINARY_DIR}/penumbraConfig.cmake ${CMAKE_BINARY_DIR}/penum
 file(RELATIVE_PATH PENUMBRA_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig
      ${CMAKE_INSTALL_PREFIX})
 set(PENUMBRA_PC_REQUIRES_PRIVATE "")
-set(PENUMBRA_PC_LIBS_PRIVATE "")
+set(PENUMBRA_APP_PC_REQUIRES_PRIVATE "")
+set(PENUMBRA_APP_PC_LIBS_PRIVATE "")
 if(NOT BUILD_SHARED_LIBS)
-  set(PENUMBRA_PC_REQUIRES_PRIVATE "clblast tinyobjloader_double stb")
-  set(PENUMBRA_PC_LIBS_PRIVATE "-lgif")  # giflib has no .pc file
+  set(PENUMBRA_PC_REQUIRES_PRIVATE "clblast tinyobjloader_double")
+  set(PENUMBRA_APP_PC_REQUIRES_PRIVATE "stb")
+  set(PENUMBRA_APP_PC_LIBS_PRIVATE "-lgif")  # giflib has no .pc file
 endif()
 configure_file(${CMAKE_SOURCE_DIR}/cmake/penumbra.pc.in ${CMAKE_BINARY_DIR}/penumbra.pc @ONLY)
-install(FILES ${CMAKE_BINARY_DIR}/penumbra.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig
-        COMPONENT dev)
+configure_file(${CMAKE_SOURCE_DIR}/cmake/penumbra-app.pc.in ${CMAKE_BINARY_DIR}/penumbra-app.pc @ONLY)
+install(FILES ${CMAKE_BINARY_DIR}/penumbra.pc ${CMAKE_BINARY_DIR}/penumbra-app.pc
+        DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
 
 if(PENUMBRA_BUILD_CLI)
   install(TARGETS penumbra RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT cli)

@@ -39,7 +39,7 @@ static=()  # a static libpenumbra needs its private dependencies: pkg-config --s
 # shellcheck disable=SC2046  # pkg-config's flags are separate words
 g++ -std=c++17 -O1 -o "$tmp/example-pc" examples/cpp/render_and_backward.cpp \
   -DSCENE="\"$(PKG_CONFIG_PATH="$pcdir" pkg-config --variable=datadir penumbra)/scenes/turnaround.json\"" \
-  $(PKG_CONFIG_PATH="$pcdir" pkg-config "${static[@]}" --cflags --libs penumbra) \
+  $(PKG_CONFIG_PATH="$pcdir" pkg-config "${static[@]}" --cflags --libs penumbra-app) \
   -Wl,-rpath,"$(dirname "$pcdir")"
 (cd "$tmp" && ./example-pc >/dev/null)
 

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "penumbra/image.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "cli_run.hpp"
 

@@ -24,6 +24,7 @@
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"

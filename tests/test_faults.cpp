@@ -29,6 +29,7 @@
 #include "cli_run.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"

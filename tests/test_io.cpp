@@ -11,6 +11,7 @@
 #include <string>
 
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/scene.hpp"
 

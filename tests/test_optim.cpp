@@ -22,6 +22,7 @@
 
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"

@@ -30,6 +30,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "cli_run.hpp"
 

@@ -1,6 +1,7 @@
 // Renders penumbra's bundled scene, then takes the gradient of the mean brightness of the image
 // with respect to every vertex, albedo entry, light and the ambient light.
 #include <penumbra/error.hpp>
+#include <penumbra/image_io.hpp>
 #include <penumbra/io.hpp>
 #include <penumbra/renderer.hpp>
 #include <penumbra/version.hpp>

@@ -7,6 +7,7 @@
 #include <cstdint>
 
 #include "fuzz_common.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 
 namespace {

@@ -19,11 +19,10 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
+#include "text.hpp"
 
 namespace penumbra {
 namespace {
-
-std::string quoted(const std::string& path) { return "'" + path + "'"; }
 
 // Joins tinyobjloader's multi-line messages into one line.
 std::string one_line(const std::string& text) {
@@ -106,7 +105,7 @@ size_t prescan(const std::string& text, const std::string& path) {
     ++line_no;
     std::vector<std::string> tok = split_ws(line);
     if (tok.empty()) continue;
-    const std::string where = "file " + quoted(path) + " line " + std::to_string(line_no) + ": ";
+    const std::string where = "file " + quoted_path(path) + " line " + std::to_string(line_no) + ": ";
     if (tok[0] == "v") {
       // x y z, x y z w, or x y z r g b (vertex colours).
       if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)
@@ -148,12 +147,12 @@ size_t prescan(const std::string& text, const std::string& path) {
 std::string read_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw Error("cannot read OBJ file " + quoted(path) + ": it is a directory");
+    throw Error("cannot read OBJ file " + quoted_path(path) + ": it is a directory");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open OBJ file " + quoted(path) + ": " + std::strerror(errno));
+  if (!in) throw Error("cannot open OBJ file " + quoted_path(path) + ": " + std::strerror(errno));
   std::ostringstream s;
   s << in.rdbuf();
-  if (in.bad()) throw Error("cannot read OBJ file " + quoted(path));
+  if (in.bad()) throw Error("cannot read OBJ file " + quoted_path(path));
   return s.str();
 }
 
@@ -161,7 +160,7 @@ std::string read_file(const std::string& path) {
 
 Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
   const std::string text = read_file(path);
-  if (prescan(text, path) == 0) throw Error("OBJ file " + quoted(path) + " contains no faces");
+  if (prescan(text, path) == 0) throw Error("OBJ file " + quoted_path(path) + " contains no faces");
 
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
@@ -170,7 +169,7 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
   // From a string: material libraries are not needed (albedo comes from vertex colours).
   if (!reader.ParseFromString(text, "", config)) {
     const std::string msg = one_line(reader.Error());
-    throw Error("cannot parse OBJ file " + quoted(path) + ": " +
+    throw Error("cannot parse OBJ file " + quoted_path(path) + ": " +
                 (msg.empty() ? std::string("unknown error") : msg));
   }
 
@@ -195,7 +194,7 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
       offset += n;
     }
   }
-  if (mesh.faces.empty()) throw Error("OBJ file " + quoted(path) + " contains no faces");
+  if (mesh.faces.empty()) throw Error("OBJ file " + quoted_path(path) + " contains no faces");
 
   mesh.albedo_mode = AlbedoMode::PerVertex;
   if (!attrib.colors.empty() && attrib.colors.size() == attrib.vertices.size()) {
@@ -210,7 +209,7 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
   try {
     validate(mesh);
   } catch (const Error& e) {
-    throw Error("OBJ file " + quoted(path) + ": " + e.what());
+    throw Error("OBJ file " + quoted_path(path) + ": " + e.what());
   }
   return mesh;
 }

@@ -87,4 +87,19 @@ nlohmann::json parse_json(const std::string& text) {
   return nlohmann::json::parse(text, DuplicateKeyCheck());
 }
 
+std::string quoted_path(const std::string& path) { return "'" + path + "'"; }
+
+void check_image(const Image& image, const std::string& what, const std::string& path) {
+  if (image.width <= 0 || image.height <= 0 || image.channels <= 0)
+    throw Error("cannot write " + what + " " + quoted_path(path) + ": image is empty (" +
+                std::to_string(image.width) + "x" + std::to_string(image.height) + "x" +
+                std::to_string(image.channels) + ")");
+  const size_t want = size_t(image.width) * size_t(image.height) * size_t(image.channels);
+  if (image.data.size() != want)
+    throw Error("cannot write " + what + " " + quoted_path(path) + ": image has " +
+                std::to_string(image.data.size()) + " values, " + std::to_string(image.width) +
+                "x" + std::to_string(image.height) + "x" + std::to_string(image.channels) +
+                " needs " + std::to_string(want));
+}
+
 }  // namespace penumbra

@@ -1,16 +1,25 @@
 #pragma once
-// Text helpers of the file readers (internal): file contents made safe for one-line messages,
-// and JSON parsed strictly.
+// Helpers of the file readers and writers (internal): file contents made safe for one-line
+// messages, quoted paths, the shape check of images to write, and JSON parsed strictly.
 #include <cstddef>
 #include <string>
 
 #include <nlohmann/json.hpp>
+
+#include "penumbra/image.hpp"
 
 namespace penumbra {
 
 // `text` for an error message: control and non-ASCII bytes as \xNN (so that the message stays
 // on one line), cut after `max` characters with "...".
 std::string printable(const std::string& text, size_t max = 40);
+
+// "'path'", as messages quote file names.
+std::string quoted_path(const std::string& path);
+
+// Throws penumbra::Error "cannot write <what> '<path>': ..." unless `image` is non-empty and
+// holds width × height × channels values.
+void check_image(const Image& image, const std::string& what, const std::string& path);
 
 // JSON as nlohmann::json::parse reads it, except that an object holding the same key twice is
 // an error (nlohmann would keep the last value silently): throws penumbra::Error

@@ -13,7 +13,9 @@
 #include <gif_lib.h>
 #include <vector>
 
+#include "io/text.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 
 namespace penumbra {
@@ -26,8 +28,6 @@ constexpr int kRedLevels = 6, kGreenLevels = 6, kBlueLevels = 6;
 constexpr int kCubeSize = kRedLevels * kGreenLevels * kBlueLevels;  // 216
 constexpr int kGreyCount = 40;
 static_assert(kCubeSize + kGreyCount == 256, "the palette has 256 entries");
-
-std::string quoted(const std::string& path) { return "'" + path + "'"; }
 
 // The fixed palette: index 36·r + 6·g + b for the cube (levels 0, 51, ..., 255), then the
 // greys round((k + 1/2)·255/40), k = 0..39.
@@ -145,7 +145,7 @@ struct GifWriter::Impl {
   void check(int status, const char* step) {
     if (status != GIF_ERROR) return;
     if (write_error) std::rethrow_exception(write_error);
-    throw Error("cannot write GIF " + quoted(path) + ": " + step + ": " +
+    throw Error("cannot write GIF " + quoted_path(path) + ": " + step + ": " +
                 GifErrorString(gif->Error));
   }
 };
@@ -155,10 +155,10 @@ GifWriter::GifWriter(const std::string& path, int width, int height, int delay_c
   Impl& m = *impl_;
   m.path = path;
   if (width < 1 || height < 1 || width > 65535 || height > 65535)
-    throw Error("cannot write GIF " + quoted(path) + ": frame size " + std::to_string(width) +
+    throw Error("cannot write GIF " + quoted_path(path) + ": frame size " + std::to_string(width) +
                 "x" + std::to_string(height) + " is not in 1 to 65535 pixels");
   if (delay_centiseconds < 0 || delay_centiseconds > 65535)
-    throw Error("cannot write GIF " + quoted(path) + ": delay " +
+    throw Error("cannot write GIF " + quoted_path(path) + ": delay " +
                 std::to_string(delay_centiseconds) + " is not in 0 to 65535 centiseconds");
   m.width = width;
   m.height = height;
@@ -166,7 +166,7 @@ GifWriter::GifWriter(const std::string& path, int width, int height, int delay_c
   m.file = std::make_unique<OutputFile>(path, "GIF");
   int error = 0;
   m.gif = EGifOpen(&m, &Impl::write, &error);
-  if (!m.gif) throw Error("cannot write GIF " + quoted(path) + ": " + GifErrorString(error));
+  if (!m.gif) throw Error("cannot write GIF " + quoted_path(path) + ": " + GifErrorString(error));
   EGifSetGifVersion(m.gif, true);
   std::array<GifColorType, 256> colours;
   for (size_t i = 0; i < colours.size(); ++i)
@@ -191,16 +191,16 @@ int GifWriter::frames() const { return impl_->frames; }
 
 void GifWriter::add_frame(const Image& frame) {
   Impl& m = *impl_;
-  if (m.closed) throw Error("cannot write GIF " + quoted(m.path) + ": already closed");
+  if (m.closed) throw Error("cannot write GIF " + quoted_path(m.path) + ": already closed");
   if (frame.width != m.width || frame.height != m.height)
-    throw Error("cannot write GIF " + quoted(m.path) + ": frame " + std::to_string(m.frames) +
+    throw Error("cannot write GIF " + quoted_path(m.path) + ": frame " + std::to_string(m.frames) +
                 " is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
                 ", the animation is " + std::to_string(m.width) + "x" + std::to_string(m.height));
   if (frame.channels != 1 && frame.channels != 3 && frame.channels != 4)
-    throw Error("cannot write GIF " + quoted(m.path) + ": frame " + std::to_string(m.frames) +
+    throw Error("cannot write GIF " + quoted_path(m.path) + ": frame " + std::to_string(m.frames) +
                 " has " + std::to_string(frame.channels) + " channels (expected 1, 3 or 4)");
   if (frame.data.size() != size_t(frame.width) * frame.height * frame.channels)
-    throw Error("cannot write GIF " + quoted(m.path) + ": frame " + std::to_string(m.frames) +
+    throw Error("cannot write GIF " + quoted_path(m.path) + ": frame " + std::to_string(m.frames) +
                 " has " + std::to_string(frame.data.size()) + " values, " + frame_shape(frame) +
                 " needs " + std::to_string(size_t(frame.width) * frame.height * frame.channels));
   // Disposal 1 (leave in place), no transparency, the delay; the whole screen, global colours.
@@ -218,13 +218,13 @@ void GifWriter::add_frame(const Image& frame) {
 void GifWriter::close() {
   Impl& m = *impl_;
   if (m.closed) return;
-  if (m.frames == 0) throw Error("cannot write GIF " + quoted(m.path) + ": no frames");
+  if (m.frames == 0) throw Error("cannot write GIF " + quoted_path(m.path) + ": no frames");
   GifFileType* gif = m.gif;
   m.gif = nullptr;  // EGifCloseFile frees it, whatever it returns
   int error = 0;
   if (EGifCloseFile(gif, &error) == GIF_ERROR) {
     if (m.write_error) std::rethrow_exception(m.write_error);
-    throw Error("cannot write GIF " + quoted(m.path) + ": " + GifErrorString(error));
+    throw Error("cannot write GIF " + quoted_path(m.path) + ": " + GifErrorString(error));
   }
   m.closed = true;
   m.file->commit();
@@ -232,19 +232,19 @@ void GifWriter::close() {
 
 void save_gif(const std::vector<Image>& frames, const std::string& path,
               int delay_centiseconds) {
-  if (frames.empty()) throw Error("cannot write GIF " + quoted(path) + ": no frames");
+  if (frames.empty()) throw Error("cannot write GIF " + quoted_path(path) + ": no frames");
   const Image& first = frames.front();
   for (size_t i = 0; i < frames.size(); ++i) {
     const Image& f = frames[i];
     if (f.width != first.width || f.height != first.height)
-      throw Error("cannot write GIF " + quoted(path) + ": frame " + std::to_string(i) + " is " +
+      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) + " is " +
                   std::to_string(f.width) + "x" + std::to_string(f.height) + ", frame 0 is " +
                   std::to_string(first.width) + "x" + std::to_string(first.height));
     if (f.channels != 1 && f.channels != 3 && f.channels != 4)
-      throw Error("cannot write GIF " + quoted(path) + ": frame " + std::to_string(i) + " has " +
+      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) + " has " +
                   std::to_string(f.channels) + " channels (expected 1, 3 or 4)");
     if (f.data.size() != size_t(f.width) * f.height * f.channels)
-      throw Error("cannot write GIF " + quoted(path) + ": frame " + std::to_string(i) + " has " +
+      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) + " has " +
                   std::to_string(f.data.size()) + " values, " + frame_shape(f) + " needs " +
                   std::to_string(size_t(f.width) * f.height * f.channels));
   }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "penumbra/error.hpp"
+#include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 
