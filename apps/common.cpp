@@ -60,11 +60,22 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
                                "(a sphere light of diameter D_L: penumbrae)")
                     ->check(one_of<Shadows>())
                     ->group(shadow_group);
+  std::vector<std::string> sampling_words;
+  for (const auto& [value, w] : enum_words<Sampling>()) sampling_words.push_back(w);
+  sampling_words.push_back(gemm_shorthand());
   o.o_sampling = cmd.add_option("--sampling", o.sampling,
                                 "shadow-filter sampling: truncated (Gaussian cut at ε_λ), exact "
-                                "(every texel) or gemm (exact, as two matrix products)")
-                     ->check(one_of<Sampling>())
+                                "(every texel); gemm: short for --sampling exact "
+                                "--exact-backend clblast")
+                     ->check(one_of(sampling_words))
                      ->group(shadow_group);
+  o.o_exact_backend =
+      cmd.add_option("--exact-backend", o.exact_backend,
+                     "who computes the exact sum of the paper model's hard shadows: auto (the "
+                     "tuning's choice for the device), kernels (penumbra's) or clblast "
+                     "(CLBlast's GEMM)")
+          ->check(one_of<ExactBackend>())
+          ->group(shadow_group);
   o.o_shadow_model =
       cmd.add_option("--shadow-model", o.shadow_model,
                      "shadow model: accurate (percentage-closer filtering; soft shadows by a "
@@ -197,7 +208,19 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     p.gamma_p = o.gamma_p;
   }
   if (given(o.o_shadows)) p.shadows = parse_shadows(o.shadows);
-  if (given(o.o_sampling)) p.sampling = parse_word<Sampling>("--sampling", o.sampling);
+  if (given(o.o_sampling)) {
+    std::optional<ExactBackend> implied;  // --sampling gemm
+    if (!sampling_from_word(o.sampling, &p.sampling, &implied))
+      throw Error("--sampling must be " + sampling_word_choices() + " (got '" + o.sampling + "')");
+    if (implied) p.exact_backend = *implied;
+  }
+  if (given(o.o_exact_backend)) {
+    const ExactBackend backend = parse_word<ExactBackend>("--exact-backend", o.exact_backend);
+    if (given(o.o_sampling) && o.sampling == gemm_shorthand() && backend != p.exact_backend)
+      throw Error("--sampling gemm is exact sampling with --exact-backend clblast, not '" +
+                  o.exact_backend + "'");
+    p.exact_backend = backend;
+  }
   if (given(o.o_shadow_model))
     p.shadow_model = parse_word<ShadowModel>("--shadow-model", o.shadow_model);
   if (given(o.o_map_size)) {

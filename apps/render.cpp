@@ -52,6 +52,17 @@ std::vector<FileContent> render_files(const RenderArgs& a, const std::vector<Ren
   return files;
 }
 
+// The sampling, and for the paper model's exact hard shadows the exact backend that ran
+// ("exact on clblast"; "auto → clblast" when the tuning chose it).
+std::string sampling_summary(const RenderParams& p, const Renderer& renderer) {
+  std::string s = word(p.sampling);
+  if (p.sampling != Sampling::Exact || p.shadows != Shadows::Hard ||
+      p.shadow_model != ShadowModel::Paper)
+    return s;
+  const std::string used = word(exact_backend_in_force(p, renderer.tuning()));
+  return s + " on " + (p.exact_backend == ExactBackend::Auto ? "auto → " + used : used);
+}
+
 int run_render(const RenderArgs& a) {
   Scene scene = load_scene_source(a.source);
   apply_render_options(a.render, scene);
@@ -71,7 +82,8 @@ int run_render(const RenderArgs& a) {
   const Camera& cam = scene.cameras.front();
   std::string shadows = word(scene.params.shadows);
   if (scene.params.shadows != Shadows::None)
-    shadows += " (" + word(scene.params.shadow_model) + ", " + word(scene.params.sampling) + ", " +
+    shadows += " (" + word(scene.params.shadow_model) + ", " +
+               sampling_summary(scene.params, renderer) + ", " +
                std::to_string(scene.params.shadow_map_size) + "x" +
                std::to_string(scene.params.shadow_map_size) + " map)";
   std::printf("rendered %zu view%s, %dx%d, %zu faces, shadows %s, %.1f ms (%s) -> %s%s\n",

@@ -202,6 +202,7 @@ Scene accuracy_scene(const AccuracyCase& c) {
   Case k;
   k.shadows = c.shadows;
   k.sampling = c.sampling;
+  k.exact_backend = c.exact_backend;
   k.map = c.map;
   k.model = c.model;
   k.image = 256;

@@ -51,6 +51,7 @@ struct AccuracyCase {
   ShadowModel model = ShadowModel::Accurate;
   Shadows shadows = Shadows::Hard;
   Sampling sampling = Sampling::Truncated;
+  ExactBackend exact_backend = ExactBackend::Kernels;  // as Case::exact_backend
   int map = 256;
   std::optional<double> sigma_s;  // unset: the shadow model's default
 };

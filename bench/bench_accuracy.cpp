@@ -81,7 +81,7 @@ void run_accuracy(benchmark::State& state, const AccuracyCase& c) {
 
 std::string name_of(const AccuracyCase& c, bool large) {
   std::ostringstream o;
-  o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/' << word(c.sampling)
+  o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/' << word(c.sampling, c.exact_backend)
     << "/img:256/map:" << c.map << "/faces:" << total_faces(accuracy_scene(c))
     << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params) << "/lights:1/model:"
     << word(c.model) << "/scene:" << c.scene;
@@ -129,7 +129,9 @@ void register_accuracy_benchmarks() {
         if (ss != standard) add(make("sphere", model, sh, Sampling::Truncated, 256, ss));
       for (int map : {128, 512}) add(make("sphere", model, sh, Sampling::Truncated, map));
     }
-  add(make("sphere", ShadowModel::Paper, Shadows::Hard, Sampling::Gemm));
+  AccuracyCase gemm = make("sphere", ShadowModel::Paper, Shadows::Hard, Sampling::Exact);
+  gemm.exact_backend = ExactBackend::CLBlast;
+  add(gemm);
 }
 
 }  // namespace penumbra::bench

@@ -1,6 +1,6 @@
 // Whole-frame cost of Renderer::render (forward) and Renderer::backward, each timed alone
 // (both calls are synchronous: they return host images / gradients), over shadows
-// none / hard / soft × sampling truncated / exact / gemm, image size, shadow-map size, face
+// none / hard / soft × sampling truncated / exact / gemm (exact on CLBlast), image size, shadow-map size, face
 // count, σ_s and the number of lights. Every case is the bundled turnaround scene
 // (data/scenes/turnaround.json) with one setting changed from the reference point
 //   image 256², map 256², 1312 faces (1280-face sphere + 32-face ground), σ_s = 2, 1 light.
@@ -52,11 +52,11 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
   memory_counter(state);
 }
 
-using Key = std::tuple<bool, int, int, int, int, int, double, int>;
+using Key = std::tuple<bool, int, int, int, int, int, int, double, int>;
 
 void add(bool backward, const Case& c, bool large = false) {
   static std::set<Key> seen;  // a case shared by several sweeps runs once
-  const Key key{backward, int(c.shadows), int(c.sampling), c.image, c.map, c.frequency,
+  const Key key{backward, int(c.shadows), int(c.sampling), int(c.exact_backend), c.image, c.map, c.frequency,
                 c.sigma_s, c.lights};
   if (!seen.insert(key).second) return;
   const std::string name = (large ? "large/" : "") + case_name("", backward, c).substr(1);
@@ -66,10 +66,11 @@ void add(bool backward, const Case& c, bool large = false) {
       ->Unit(benchmark::kMillisecond);
 }
 
-Case with(Shadows sh, Sampling sa) {
+Case with(Shadows sh, Sampling sa, ExactBackend backend = ExactBackend::Kernels) {
   Case c;
   c.shadows = sh;
   c.sampling = sa;
+  c.exact_backend = backend;
   return c;
 }
 
@@ -79,7 +80,7 @@ void register_render_benchmarks() {
   const Case none = with(Shadows::None, Sampling::Truncated),
              hard = with(Shadows::Hard, Sampling::Truncated),
              hard_exact = with(Shadows::Hard, Sampling::Exact),
-             hard_gemm = with(Shadows::Hard, Sampling::Gemm),
+             hard_gemm = with(Shadows::Hard, Sampling::Exact, ExactBackend::CLBlast),
              soft = with(Shadows::Soft, Sampling::Truncated),
              soft_exact = with(Shadows::Soft, Sampling::Exact);
   auto set = [](Case c, auto member, auto value) {

@@ -80,8 +80,9 @@ int icosphere_frequency_for(int faces) {
 const char* word(Shadows s) {
   return s == Shadows::None ? "none" : s == Shadows::Hard ? "hard" : "soft";
 }
-const char* word(Sampling s) {
-  return s == Sampling::Truncated ? "truncated" : s == Sampling::Exact ? "exact" : "gemm";
+const char* word(Sampling s, ExactBackend backend) {
+  if (s == Sampling::Truncated) return "truncated";
+  return backend == ExactBackend::CLBlast ? "gemm" : "exact";
 }
 
 Scene turnaround_scene() {
@@ -130,6 +131,7 @@ Scene make_scene(const Case& c) {
   s.params.shadows = c.shadows;
   s.params.shadow_model = c.model;
   s.params.sampling = c.sampling;
+  s.params.exact_backend = c.sampling == Sampling::Exact ? c.exact_backend : ExactBackend::Auto;
   s.params.shadow_map_size = c.map;
   s.params.sigma_s = c.sigma_s;
   // The frusta of the scene file were fitted to the bundled sphere: refit to this geometry.
@@ -143,7 +145,7 @@ Scene make_scene(const Case& c) {
 
 namespace {
 std::unique_ptr<Context> g_context;
-std::unique_ptr<Renderer> g_renderer, g_direct_renderer;
+std::unique_ptr<Renderer> g_renderer;
 }  // namespace
 
 Context& context() {
@@ -151,21 +153,12 @@ Context& context() {
   return *g_context;
 }
 
-Renderer& renderer(const Scene& scene) {
-  if (scene.params.sampling == Sampling::Exact) {
-    if (!g_direct_renderer) {
-      Tuning t = TuningDatabase::load_default().lookup(context().info(), workload_stats(scene));
-      t.exact.clblast = false;
-      g_direct_renderer = std::make_unique<Renderer>(context(), Precision::Float, t);
-    }
-    return *g_direct_renderer;
-  }
+Renderer& renderer(const Scene&) {
   if (!g_renderer) g_renderer = std::make_unique<Renderer>(context(), Precision::Float);
   return *g_renderer;
 }
 
 void release_device() {
-  g_direct_renderer.reset();
   g_renderer.reset();
   g_context.reset();
 }
@@ -277,7 +270,7 @@ std::string case_name(const std::string& group, bool backward, const Case& c) {
   static const int others = total_faces(turnaround_scene()) - bundled_sphere;
   const int faces = (c.frequency > 0 ? 20 * c.frequency * c.frequency : bundled_sphere) + others;
   o << group << '/' << (backward ? "bwd" : "fwd") << '/' << word(c.shadows) << '/'
-    << word(c.sampling) << "/img:" << c.image << "/map:" << c.map << "/faces:" << faces
+    << word(c.sampling, c.exact_backend) << "/img:" << c.image << "/map:" << c.map << "/faces:" << faces
     << "/sigma_s:" << c.sigma_s << "/lights:" << c.lights;
   return o.str();
 }

@@ -30,6 +30,8 @@ int icosphere_frequency_for(int faces);
 struct Case {
   Shadows shadows = Shadows::None;
   Sampling sampling = Sampling::Truncated;
+  // Exact sampling of hard shadows: penumbra's kernels (`exact`) or CLBlast (`gemm`).
+  ExactBackend exact_backend = ExactBackend::Kernels;
   int image = 256;         // W = H
   int map = 256;           // W_s = H_s
   int frequency = 0;       // 0: the bundled 1280-face sphere; else an icosphere of this frequency
@@ -52,15 +54,16 @@ glm::dvec3 rotate_y(const glm::dvec3& v, double angle);
 void orbit_camera(Scene& s, const Camera& base, double angle);
 
 const char* word(Shadows s);
-const char* word(Sampling s);
+// The sampling of a case name: truncated, exact (penumbra's kernels) or gemm (exact on CLBlast).
+const char* word(Sampling s, ExactBackend backend);
 
 // ---- device and renderer -------------------------------------------------------------------
 
 Context& context();
 // One float renderer for the whole process, so programs are built once, with the tuning the
-// library picks for the device and workload. For a scene with sampling `exact` it is a second
-// renderer whose exact sum always runs penumbra's direct product kernels (the tuning may pick
-// CLBlast there, which sampling `gemm` measures), so that the two exact-sum paths stay apart.
+// library picks for the device and workload. The cases name their exact backend (kernels for
+// `exact`, clblast for `gemm`), so that the two exact-sum paths stay apart whatever the tuning
+// picks for `auto`.
 Renderer& renderer(const Scene& scene);
 // Releases the renderer and the device before exit (PoCL's own exit handlers, such as its
 // POCL_TRACING=cq summary, then find no live objects).

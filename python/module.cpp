@@ -225,6 +225,7 @@ NB_MODULE(_penumbra, m) {
       .value("directional", LightType::Directional);
   bind_words<Shadows>(m, "Shadows");
   bind_words<Sampling>(m, "Sampling");
+  bind_words<ExactBackend>(m, "ExactBackend");
   bind_words<ShadowModel>(m, "ShadowModel");
   nb::enum_<Precision>(m, "Precision")
       .value("float", Precision::Float)
@@ -299,6 +300,7 @@ NB_MODULE(_penumbra, m) {
       .def_rw("cull_backfaces", &RenderParams::cull_backfaces)
       .def_rw("shadows", &RenderParams::shadows)
       .def_rw("sampling", &RenderParams::sampling)
+      .def_rw("exact_backend", &RenderParams::exact_backend)
       .def_rw("shadow_model", &RenderParams::shadow_model)
       .def_rw("shadow_map_size", &RenderParams::shadow_map_size)
       .def_rw("light_sigma", &RenderParams::light_sigma)

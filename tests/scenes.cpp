@@ -43,10 +43,18 @@ const char* name_of(Sampling s) {
       return "truncated";
     case Sampling::Exact:
       return "exact";
-    case Sampling::Gemm:
-      return "gemm";
   }
   return "?";
+}
+
+const char* name_of(Method m) {
+  return m == Method::Truncated ? "truncated" : m == Method::Exact ? "exact" : "gemm";
+}
+
+void set_method(RenderParams& p, Method m) {
+  p.sampling = m == Method::Truncated ? Sampling::Truncated : Sampling::Exact;
+  p.exact_backend = m == Method::Gemm ? penumbra::ExactBackend::CLBlast
+                                      : penumbra::ExactBackend::Auto;
 }
 
 const char* name_of(Precision p) { return p == Precision::Double ? "double" : "float"; }
@@ -160,6 +168,12 @@ void shadow_params(Scene& s, penumbra::Shadows shadows, Sampling sampling,
   p.lambda_eps = 1e-3;
   p.gamma_s = 0.04;
   p.beta = 0.2;
+}
+
+void shadow_params(Scene& s, penumbra::Shadows shadows, Method method,
+                   penumbra::ShadowModel model) {
+  shadow_params(s, shadows, Sampling::Truncated, model);
+  set_method(s.params, method);
 }
 
 size_t count_non_finite(const Image& img) {

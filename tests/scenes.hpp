@@ -34,6 +34,13 @@ penumbra::Context* shared_context(std::string* error);
 penumbra::Renderer& shared_renderer(penumbra::Context& ctx, penumbra::Precision precision);
 
 const char* name_of(penumbra::Sampling s);
+
+// The ways the tests sum the shadow filter: truncated, exact (on the exact backend the tuning
+// picks, `auto`) and gemm (exact on CLBlast, exact backend `clblast`).
+enum class Method { Truncated, Exact, Gemm };
+const char* name_of(Method m);
+// Sets p.sampling and p.exact_backend for `m`.
+void set_method(penumbra::RenderParams& p, Method m);
 const char* name_of(penumbra::Precision p);
 
 // ---------------------------------------------------------------------------------------------
@@ -64,6 +71,8 @@ penumbra::Camera front_camera(bool ortho, double scale = 1.0);
 // (fitted frusta ≈ 0.13–0.2 world units per texel on the ground), β = 0.2 and γ_s = 0.04 in
 // depth units (lit ground keeps s ≈ sigmoid(5)); ambient and background colours.
 void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, penumbra::Sampling sampling,
+                   penumbra::ShadowModel model = penumbra::ShadowModel::Paper);
+void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, Method method,
                    penumbra::ShadowModel model = penumbra::ShadowModel::Paper);
 
 // The pixel a world point projects to in camera `cam` (SPEC §0), rounded to the nearest centre.

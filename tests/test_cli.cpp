@@ -131,6 +131,11 @@ TEST(Cli, BadShadowOptions) {
       {"render -o " + png + " --shadows sometimes", "--shadows"},
       {"render -o " + png + " --shadows", "--shadows"},
       {"render -o " + png + " --sampling bogus", "--sampling"},
+      {"render -o " + png + " --exact-backend blas", "--exact-backend"},
+      {"render -o " + png + " --shadows hard --shadow-model paper --sampling gemm "
+       "--exact-backend kernels", "--sampling gemm"},
+      {"render -o " + png + " --shadows hard --sampling truncated --exact-backend clblast",
+       "exact backend 'clblast'"},
       {"render -o " + png + " --map-size 0", "--map-size"},
       {"render -o " + png + " --map-size 9000", "--map-size"},
       {"render -o " + png + " --map-size abc", "--map-size"},
@@ -174,8 +179,8 @@ TEST(Cli, Help) {
   for (const char* option :
        {"--sigma", "--gamma", "--eps", "--dist-eps", "--sigma-s", "--lambda-eps", "--gamma-s",
         "--beta", "--gamma-p", "--width", "--height", "--device", "--raw", "--precision", "--mesh",
-        "--shadows", "--sampling", "--map-size", "--light-size", "--light-sigma", "--light-gamma",
-        "--weight-eps"})
+        "--shadows", "--sampling", "--exact-backend", "--map-size", "--light-size", "--light-sigma",
+        "--light-gamma", "--weight-eps"})
     EXPECT_NE(sub.out.find(option), std::string::npos) << option;
   for (const char* command : {"gradcheck", "backward", "turnaround"}) {
     const RunResult help = run_cli(std::string(command) + " --help", "help_shadows");

@@ -9,7 +9,7 @@
 //   GradCheck.ColoursAtZero     colours at 0 (which may not go negative) are still checked
 //   GradCheck.Deterministic     two backward calls give bit-identical gradients
 //   GradCheck.WrongGradientIsCaught  a gradient off by 10% (or zero) fails the check
-//   GradCheck.HardShadows*      hard shadows (truncated, exact, GEMM sampling): the sampled
+//   GradCheck.HardShadows*      hard shadows (truncated, exact, gemm sampling): the sampled
 //                               entries cover a vertex of every mesh and every light's position
 //                               or direction, on scenes whose frusta are fitted by the check
 #include <gtest/gtest.h>
@@ -319,10 +319,9 @@ TEST(GradCheck, HardShadowsBundledScene) {
   scene.params.shadows = penumbra::Shadows::Hard;
   scene.params.shadow_map_size = 32;
   for (auto model : {penumbra::ShadowModel::Accurate, penumbra::ShadowModel::Paper})
-  for (auto sampling : {penumbra::Sampling::Truncated, penumbra::Sampling::Exact,
-                        penumbra::Sampling::Gemm}) {
-    if (model == penumbra::ShadowModel::Accurate && sampling == penumbra::Sampling::Gemm) continue;
-    scene.params.sampling = sampling;
+  for (auto sampling : {Method::Truncated, Method::Exact, Method::Gemm}) {
+    if (model == penumbra::ShadowModel::Accurate && sampling == Method::Gemm) continue;
+    set_method(scene.params, sampling);
     scene.params.shadow_model = model;
     penumbra::refit_light_frusta(scene);
     GradCheckOptions options;
@@ -330,7 +329,7 @@ TEST(GradCheck, HardShadowsBundledScene) {
     options.seed = 2;
     const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
     const std::string what = "turnaround 40x40 hard, " + penumbra::word(model) +
-                             ", sampling " + penumbra::word(sampling);
+                             ", sampling " + name_of(sampling);
     report(what, r);
     EXPECT_EQ(r.checked, 12);
     EXPECT_TRUE(r.passed()) << what << "\n" << describe(r);

@@ -360,6 +360,39 @@ TEST(IoScene, DefaultsAndOptions) {
   EXPECT_EQ(s.params.sigma, RenderParams().sigma);
 }
 
+// "sampling" and "exact_backend" are independent keys; "sampling": "gemm" stays a shorthand
+// for exact sampling on CLBlast, and contradicting it is an error. The combinations the
+// renderer cannot run are refused by validate (check_combination), named by both settings.
+TEST(IoScene, SamplingAndExactBackend) {
+  auto params = [](const std::string& render) {
+    return parse_scene(R"({"meshes": [{"file": "icosphere.obj"}], "cameras": [{}], "render": )" +
+                           render + "}",
+                       kMeshes)
+        .params;
+  };
+  EXPECT_EQ(params("{}").sampling, Sampling::Truncated);
+  EXPECT_EQ(params("{}").exact_backend, ExactBackend::Auto);
+  RenderParams p = params(R"({"sampling": "exact", "exact_backend": "kernels"})");
+  EXPECT_EQ(p.sampling, Sampling::Exact);
+  EXPECT_EQ(p.exact_backend, ExactBackend::Kernels);
+  p = params(R"({"sampling": "gemm", "shadows": "hard", "shadow_model": "paper"})");
+  EXPECT_EQ(p.sampling, Sampling::Exact);
+  EXPECT_EQ(p.exact_backend, ExactBackend::CLBlast);
+  p = params(R"({"sampling": "gemm", "exact_backend": "clblast"})");
+  EXPECT_EQ(p.exact_backend, ExactBackend::CLBlast);
+  auto parse = [&](const std::string& render) { return [=] { params(render); }; };
+  expect_error(parse(R"({"sampling": "gemm", "exact_backend": "kernels"})"),
+               "'render.exact_backend' is \"kernels\"");
+  expect_error(parse(R"({"sampling": "gems"})"), "expected truncated, exact or gemm");
+  expect_error(parse(R"({"exact_backend": "blas"})"), "expected auto, kernels or clblast");
+  expect_error(parse(R"({"sampling": "truncated", "exact_backend": "clblast"})"),
+               "needs sampling 'exact'");
+  expect_error(parse(R"({"sampling": "gemm", "shadows": "soft", "shadow_model": "paper"})"),
+               "soft shadows");
+  expect_error(parse(R"({"sampling": "gemm", "shadows": "hard"})"), "accurate shadow model");
+  EXPECT_NO_THROW(params(R"({"sampling": "exact", "exact_backend": "kernels", "shadows": "soft"})"));
+}
+
 TEST(IoScene, Errors) {
   auto parse = [](const std::string& text) { return [text] { parse_scene(text, kMeshes); }; };
   const std::string mesh = R"("meshes": [{"file": "icosphere.obj"}])";

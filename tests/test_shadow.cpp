@@ -5,9 +5,11 @@
 //   ShadowReference.*  the reference's light pass against closed-form depths (no device needed)
 //   ShadowMaps.*       Renderer::shadow_maps() against the reference's light pass
 //   ShadowKernels.*    double (~1e-9) and float kernels vs the reference, with truncated, exact
-//                      and gemm sampling (test names Shadow/ShadowKernels.*/<sampling>)
+//                      and gemm (exact on CLBlast) sampling (test names
+//                      Shadow/ShadowKernels.*/<sampling>)
 //   ShadowDouble.*     the shadows show: hard differs from none in every comparison scene
-//   ShadowSampling.*   exact and gemm compute the same number (and gradient); truncated → exact
+//   ShadowSampling.*   exact on penumbra's kernels and on CLBlast (gemm) compute the same number
+//                      (and gradient); truncated → exact
 //                      as ε_λ → 0
 //   ShadowGradCheck.*  backward vs finite differences for every sampling method, with entries on
 //                      occluder vertices, receiver vertices and light positions; and with a loss
@@ -70,7 +72,7 @@ const char* name_of(Lighting l) {
 // (orthographic with `ortho`). The fitted light frusta span the ground, so a 32² map has
 // ≈ 0.13–0.2 world units per texel; β = 0.2 and γ_s = 0.04 (depth units) give lit ground
 // s ≈ sigmoid(5) and shadowed ground s ≈ sigmoid(−7) or darker.
-Scene shadow_scene(Lighting lighting, Sampling sampling = Sampling::Truncated, bool ortho = false) {
+Scene shadow_scene(Lighting lighting, Method sampling = Method::Truncated, bool ortho = false) {
   Scene s;
   s.meshes = {icosphere({0.0, 1.0, 0.0}, 0.5), ground(2.0, 4)};
   s.cameras = {front_camera(ortho)};
@@ -95,7 +97,7 @@ Scene shadow_scene(Lighting lighting, Sampling sampling = Sampling::Truncated, b
 }
 
 // The scenes every comparison runs on.
-std::vector<NamedScene> comparison_scenes(Sampling sampling) {
+std::vector<NamedScene> comparison_scenes(Method sampling) {
   return {{"point", shadow_scene(Lighting::Point, sampling)},
           {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true)},
           {"two lights", shadow_scene(Lighting::Two, sampling)}};
@@ -203,7 +205,7 @@ TEST(ShadowReference, NoneAndHardAgreeAwayFromShadowsSoftGemmThrows) {
   RenderOutput c;
   ASSERT_NO_THROW(c = penumbra::reference::render(soft, 0));
   expect_finite(c.color, "soft reference colour");
-  soft.params.sampling = Sampling::Gemm;
+  set_method(soft.params, Method::Gemm);
   EXPECT_THROW(penumbra::reference::render(soft, 0), penumbra::Error);
 }
 
@@ -218,7 +220,7 @@ TEST(ShadowMaps, MatchReference) {
     // errors by γ_L·(far − near), which at silhouettes mixes occluder and ground depths: 1e-5.
     const double tol = precision == Precision::Double ? 1e-9 : 1e-5;
     double worst = 0;
-    for (const auto& [name, scene] : comparison_scenes(Sampling::Truncated)) {
+    for (const auto& [name, scene] : comparison_scenes(Method::Truncated)) {
       ASSERT_NO_THROW(r.render(scene)) << name;
       const std::vector<Image> maps = r.shadow_maps();
       ASSERT_EQ(maps.size(), scene.lights.size()) << name;
@@ -265,7 +267,7 @@ TEST(ShadowMaps, LightSigmaAndGamma) {
 // ---------------------------------------------------------------------------------------------
 // (b) Kernels against the reference.
 
-class ShadowKernels : public ::testing::TestWithParam<Sampling> {};
+class ShadowKernels : public ::testing::TestWithParam<Method> {};
 
 TEST_P(ShadowKernels, DoubleMatchesReference) {
   REQUIRE_CONTEXT(ctx);
@@ -290,13 +292,13 @@ TEST_P(ShadowKernels, FloatMatchesReference) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Shadow, ShadowKernels,
-                         ::testing::Values(Sampling::Truncated, Sampling::Exact, Sampling::Gemm),
+                         ::testing::Values(Method::Truncated, Method::Exact, Method::Gemm),
                          [](const auto& info) { return std::string(name_of(info.param)); });
 
 // The shadows show in these comparisons: hard shadows change the image against none.
 TEST(ShadowDouble, ShadowsChangeTheImage) {
   REQUIRE_CONTEXT(ctx);
-  for (const auto& [name, scene] : comparison_scenes(Sampling::Truncated)) {
+  for (const auto& [name, scene] : comparison_scenes(Method::Truncated)) {
     Scene none = scene;
     none.params.shadows = Shadows::None;
     const double diff =
@@ -309,9 +311,10 @@ TEST(ShadowDouble, ShadowsChangeTheImage) {
 // ---------------------------------------------------------------------------------------------
 // (c), (d) Sampling methods.
 
-// Exact and gemm evaluate the same sum v = Σ g·S / Σ g in a different order: exact texel by
-// texel, gemm as Σ_j (Σ_i gx_i·S_ij)·gy_j / (Σgx·Σgy) through matrix products. In double they
-// agree to rounding (~1e-16 relative in v, times 1/γ_s = 25 in the logit): 1e-11. In float the
+// Exact on penumbra's kernels (exact backend `kernels`, named here so that the tuning's `auto`
+// cannot pick CLBlast for both) and gemm (exact backend `clblast`) evaluate the same sum
+// v = Σ g·S / Σ g, both as Σ_j (Σ_i gx_i·S_ij)·gy_j / (Σgx·Σgy) through matrix products, in
+// matmul.cl's and CLBlast's different orders. In double they agree to rounding (~1e-16 relative in v, times 1/γ_s = 25 in the logit): 1e-11. In float the
 // reordering costs ~1e-7 relative in v (≈ 5e-7 absolute at depth ≈ 5), ≈ 1e-5 in the logit
 // after 1/γ_s, so ≤ s(1 − s)·1e-5 ≤ 3e-6 of a light's colour, besides the raster's own float
 // rounding being the same in both: 1e-5.
@@ -321,11 +324,12 @@ TEST(ShadowSampling, ExactEqualsGemm) {
     Renderer& r = shared_renderer(*ctx, precision);
     const double tol = precision == Precision::Double ? 1e-11 : 1e-5;
     double worst = 0;
-    for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
-      Scene gemm = scene;
-      gemm.params.sampling = Sampling::Gemm;
+    for (const auto& [name, scene] : comparison_scenes(Method::Exact)) {
+      Scene kernels = scene, gemm = scene;
+      kernels.params.exact_backend = ExactBackend::Kernels;
+      set_method(gemm.params, Method::Gemm);
       std::vector<RenderOutput> a, b;
-      ASSERT_NO_THROW(a = r.render(scene)) << name;
+      ASSERT_NO_THROW(a = r.render(kernels)) << name;
       ASSERT_NO_THROW(b = r.render(gemm)) << name;
       for (size_t v = 0; v < a.size(); ++v) {
         worst = std::max(worst, expect_close(b[v].color, a[v].color, tol, false,
@@ -342,13 +346,14 @@ TEST(ShadowSampling, ExactEqualsGemm) {
 TEST(ShadowSampling, ExactEqualsGemmGradients) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
-  for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
-    Scene gemm = scene;
-    gemm.params.sampling = Sampling::Gemm;
+  for (const auto& [name, scene] : comparison_scenes(Method::Exact)) {
+    Scene kernels = scene, gemm = scene;
+    kernels.params.exact_backend = ExactBackend::Kernels;
+    set_method(gemm.params, Method::Gemm);
     const auto weights = penumbra::random_loss_weights(scene, 13);
     SceneGrads a, b;
-    ASSERT_NO_THROW(r.render(scene)) << name;
-    ASSERT_NO_THROW(a = r.backward(scene, weights)) << name;
+    ASSERT_NO_THROW(r.render(kernels)) << name;
+    ASSERT_NO_THROW(a = r.backward(kernels, weights)) << name;
     ASSERT_NO_THROW(r.render(gemm)) << name;
     ASSERT_NO_THROW(b = r.backward(gemm, weights)) << name;
     const double scale = penumbra::max_abs_gradient(a);
@@ -373,14 +378,14 @@ TEST(ShadowSampling, ExactEqualsGemmGradients) {
 TEST(ShadowSampling, TruncatedApproachesExact) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
-  for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
+  for (const auto& [name, scene] : comparison_scenes(Method::Exact)) {
     std::vector<RenderOutput> exact;
     ASSERT_NO_THROW(exact = r.render(scene)) << name;
     std::vector<double> diffs;
     std::ostringstream line;
     for (double eps : {1e-1, 1e-2, 1e-4, 1e-8}) {
       Scene t = scene;
-      t.params.sampling = Sampling::Truncated;
+      set_method(t.params, Method::Truncated);
       t.params.lambda_eps = eps;
       std::vector<RenderOutput> got;
       ASSERT_NO_THROW(got = r.render(t)) << name;
@@ -398,13 +403,13 @@ TEST(ShadowSampling, TruncatedApproachesExact) {
 // ---------------------------------------------------------------------------------------------
 // (e) Gradients.
 
-std::vector<GradCase> gradient_cases(Sampling sampling) {
+std::vector<GradCase> gradient_cases(Method sampling) {
   return {{"point", shadow_scene(Lighting::Point, sampling), 3},
           {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true), 5},
           {"two lights", shadow_scene(Lighting::Two, sampling), 7}};
 }
 
-class ShadowGradCheck : public ::testing::TestWithParam<Sampling> {};
+class ShadowGradCheck : public ::testing::TestWithParam<Method> {};
 
 TEST_P(ShadowGradCheck, Double) {
   REQUIRE_CONTEXT(ctx);
@@ -500,7 +505,7 @@ TEST_P(ShadowGradCheck, ThroughTheMapOnly) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Shadow, ShadowGradCheck,
-                         ::testing::Values(Sampling::Truncated, Sampling::Exact, Sampling::Gemm),
+                         ::testing::Values(Method::Truncated, Method::Exact, Method::Gemm),
                          [](const auto& info) { return std::string(name_of(info.param)); });
 
 // ---------------------------------------------------------------------------------------------
@@ -512,7 +517,7 @@ INSTANTIATE_TEST_SUITE_P(Shadow, ShadowGradCheck,
 TEST(ShadowVisible, GroundUnderOccluderIsDark) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
-  for (Sampling sampling : {Sampling::Truncated, Sampling::Exact, Sampling::Gemm}) {
+  for (Method sampling : {Method::Truncated, Method::Exact, Method::Gemm}) {
     const Scene hard = shadow_scene(Lighting::Overhead, sampling);
     Scene none = hard;
     none.params.shadows = Shadows::None;
@@ -550,7 +555,7 @@ TEST(ShadowDeterminism, BackwardIsBitIdentical) {
   REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
-    for (Sampling sampling : {Sampling::Truncated, Sampling::Gemm, Sampling::Exact}) {
+    for (Method sampling : {Method::Truncated, Method::Gemm, Method::Exact}) {
       const Scene scene = shadow_scene(Lighting::Two, sampling);
       const auto weights = penumbra::random_loss_weights(scene, 11);
       const std::string tag = std::string(name_of(sampling)) +

@@ -371,8 +371,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
       if (accurate)
         detail::pcf_forward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
       else
-        detail::shadow_forward(m.kernels, s.params.shadows, s.params.sampling, v, int(l),
-                               m.light_views[l]);
+        detail::shadow_forward(m.kernels, s.params, v, int(l), m.light_views[l]);
     }
     detail::raster_resolve(m.kernels, v);
     const size_t npix = size_t(v.W) * v.H;
@@ -478,8 +477,8 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
       auto gm = accurate ? detail::pcf_backward(m.kernels, s.params,
                                                 blocker_search_sigma(s.params, s.lights[l]),
                                                 v, int(l), m.light_views[l], &gsize[l])
-                         : detail::shadow_backward(m.kernels, s.params.shadows, s.params.sampling,
-                                                   v, int(l), m.light_views[l]);
+                         : detail::shadow_backward(m.kernels, s.params, v, int(l),
+                                                   m.light_views[l]);
       accumulate(gmaps[l], gm.S);
       if (gm.P()) accumulate(gpens[l], gm.P);
     }

@@ -169,13 +169,19 @@ void check_positive(const char* name, double v) {
 
 // The one place that rejects combinations of the independent shadow settings.
 void check_combination(const RenderParams& p) {
-  if (p.sampling != Sampling::Gemm || p.shadows == Shadows::None) return;
-  if (p.shadows == Shadows::Soft)
-    fail("soft shadows sample with 'truncated' or 'exact'; their sum does not factor into "
-         "matrix products ('gemm')");
-  if (p.shadow_model == ShadowModel::Accurate)
-    fail("the accurate shadow model compares, then filters; its sum does not factor into "
-         "matrix products ('gemm'): use 'truncated' or 'exact', or shadow model 'paper'");
+  if (p.exact_backend == ExactBackend::CLBlast) {
+    if (p.sampling != Sampling::Exact)
+      fail("exact backend 'clblast' computes the exact sum; it needs sampling 'exact', not '" +
+           word(p.sampling) + "'");
+    if (p.shadows == Shadows::Soft)
+      fail("soft shadows sum with penumbra's kernels; their sum does not factor into matrix "
+           "products (exact backend 'clblast', sampling 'gemm'): use exact backend 'kernels' "
+           "or 'auto'");
+    if (p.shadows != Shadows::None && p.shadow_model == ShadowModel::Accurate)
+      fail("the accurate shadow model compares, then filters; its sum does not factor into "
+           "matrix products (exact backend 'clblast', sampling 'gemm'): use exact backend "
+           "'kernels' or 'auto', or shadow model 'paper'");
+  }
 }
 
 void validate_params(const RenderParams& p) {
@@ -210,8 +216,32 @@ const std::vector<std::pair<Shadows, std::string>>& enum_words<Shadows>() {
 template <>
 const std::vector<std::pair<Sampling, std::string>>& enum_words<Sampling>() {
   static const std::vector<std::pair<Sampling, std::string>> words{
-      {Sampling::Truncated, "truncated"}, {Sampling::Exact, "exact"}, {Sampling::Gemm, "gemm"}};
+      {Sampling::Truncated, "truncated"}, {Sampling::Exact, "exact"}};
   return words;
+}
+template <>
+const std::vector<std::pair<ExactBackend, std::string>>& enum_words<ExactBackend>() {
+  static const std::vector<std::pair<ExactBackend, std::string>> words{
+      {ExactBackend::Auto, "auto"}, {ExactBackend::Kernels, "kernels"},
+      {ExactBackend::CLBlast, "clblast"}};
+  return words;
+}
+
+bool sampling_from_word(const std::string& w, Sampling* sampling,
+                        std::optional<ExactBackend>* backend) {
+  if (w == gemm_shorthand()) {
+    *sampling = Sampling::Exact;
+    *backend = ExactBackend::CLBlast;
+    return true;
+  }
+  backend->reset();
+  return from_word(w, sampling);
+}
+
+std::string sampling_word_choices() {
+  std::string out;
+  for (const auto& [value, w] : enum_words<Sampling>()) out += w + ", ";
+  return out.substr(0, out.size() - 2) + " or " + gemm_shorthand();
 }
 template <>
 const std::vector<std::pair<ShadowModel, std::string>>& enum_words<ShadowModel>() {

@@ -50,6 +50,38 @@ def test_render_equals_cli_bit_for_bit(cli, context, tmp_path, shadows, precisio
     assert len(renderer.shadow_maps()) == (shadows != "none")
 
 
+@pytest.mark.parametrize("backend,cli_args", [
+    ("kernels", ["--sampling", "exact", "--exact-backend", "kernels"]),
+    ("clblast", ["--sampling", "gemm"])])
+def test_exact_backend_equals_cli_bit_for_bit(cli, context, tmp_path, backend, cli_args):
+    raw = tmp_path / "raw"
+    r = run_cli(cli, "render", "-o", str(tmp_path / "x.png"), "--raw", str(raw), "--shadows",
+                "hard", "--shadow-model", "paper", "--map-size", "64", *cli_args, *SIZE)
+    assert r.returncode == 0, r.stderr
+    assert f"exact on {backend}" in r.stdout, r.stdout
+    scene = penumbra.bundled_scene()
+    scene.params.shadow_map_size = 64
+    scene.params.shadows = penumbra.Shadows.hard
+    scene.params.shadow_model = penumbra.ShadowModel.paper
+    scene.params.sampling = penumbra.Sampling.exact
+    scene.params.exact_backend = getattr(penumbra.ExactBackend, backend)
+    cameras = scene.cameras
+    for c in cameras:
+        c.width = c.height = 64
+    scene.cameras = cameras
+    penumbra.refit_light_frusta(scene)
+    (view,) = penumbra.Renderer(context, penumbra.Precision.float).render(scene)
+    assert np.array_equal(view["color"].astype(np.float32), np.load(raw / "color.npy"))
+
+
+def test_clblast_backend_needs_the_paper_hard_exact_sum(context):
+    scene = bundled("soft", model="paper")
+    scene.params.sampling = penumbra.Sampling.exact
+    scene.params.exact_backend = penumbra.ExactBackend.clblast
+    with pytest.raises(penumbra.Error, match="soft shadows"):
+        penumbra.Renderer(context, penumbra.Precision.float).render(scene)
+
+
 def test_backward_equals_cli_bit_for_bit(cli, context, tmp_path):
     rng = np.random.default_rng(3)
     grads = {"color": rng.normal(size=(64, 64, 3)), "silhouette": rng.normal(size=(64, 64)),

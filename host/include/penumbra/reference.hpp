@@ -1,6 +1,6 @@
 #pragma once
 // Plain C++ double-precision reference of the forward pass (SPEC §1–§2) with hard shadows
-// (SPEC §3–§4: truncated or exact Gaussian sampling; gemm sampling computes the exact sum) and
+// (SPEC §3–§4: truncated or exact Gaussian sampling; the exact backend does not change the sum) and
 // soft shadows (SPEC §3 penumbra map, §4 eq. 11; truncated or exact sampling),
 // written for clarity, not speed: every pixel visits every face. Tests compare the OpenCL
 // kernels against it. Light frusta not given are fitted to a copy of the scene by
@@ -13,7 +13,8 @@
 namespace penumbra::reference {
 
 // Colour, silhouette and soft depth of camera `camera_index`, with the scene's shadows (none,
-// hard, or soft; soft shadows with gemm sampling throw penumbra::Error, as the renderer does).
+// hard, or soft; soft shadows with exact backend clblast (gemm) throw penumbra::Error, as the
+// renderer does).
 RenderOutput render(const Scene& scene, size_t camera_index);
 
 // The shadow map S of light `light` (SPEC §3): the soft depth of the light pass, W_s × H_s

@@ -63,7 +63,14 @@ struct Light {
 };
 
 enum class Shadows { None, Hard, Soft };
-enum class Sampling { Truncated, Exact, Gemm };
+// How the Gaussian shadow filter is summed (docs/shadows.md): `Truncated` (the texels within
+// the window where the weight exceeds ε_λ) or `Exact` (every texel of the map).
+enum class Sampling { Truncated, Exact };
+// Who computes the exact sum of the paper model's hard shadows, which factors into two matrix
+// products: `Kernels` (penumbra's kernels/matmul.cl), `CLBlast` (CLBlast's GEMM), or `Auto`
+// (the tuning's choice for the device: ExactSumTuning::clblast, data/tuning/*.json). Every
+// other exact sum (soft shadows, the accurate model) runs penumbra's own kernels.
+enum class ExactBackend { Auto, Kernels, CLBlast };
 // How shadows are computed (docs/shadows.md): `Accurate` (percentage-closer filtering of a
 // smooth-step depth compare with a receiver-plane bias; soft shadows widen the filter by the
 // penumbra width found by a blocker search; light frusta fitted tightly to the occluders) or
@@ -96,6 +103,16 @@ std::string word_choices() {
   return out;
 }
 
+// The word "gemm", which scene files and --sampling keep accepting for sampling `exact` with
+// exact backend `clblast` (the one word that sets both).
+inline const char* gemm_shorthand() { return "gemm"; }
+// The sampling (and, for the shorthand, the exact backend) of a word of `sampling`: a word of
+// Sampling, or gemm_shorthand(). False for any other word.
+bool sampling_from_word(const std::string& w, Sampling* sampling,
+                        std::optional<ExactBackend>* backend);
+// "truncated, exact or gemm": the words sampling_from_word accepts.
+std::string sampling_word_choices();
+
 // SPEC §7, names as in its table.
 struct RenderParams {
   double sigma = 1e-5;       // coverage sharpness σ (screen units²)
@@ -111,6 +128,7 @@ struct RenderParams {
   bool cull_backfaces = false;
   Shadows shadows = Shadows::None;
   Sampling sampling = Sampling::Truncated;
+  ExactBackend exact_backend = ExactBackend::Auto;  // exact sum of the paper's hard shadows
   ShadowModel shadow_model = ShadowModel::Accurate;
   int shadow_map_size = 256;  // W_s = H_s, texels
   double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/32 or σ/10 (light_pass_sigma)

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "penumbra/context.hpp"
+#include "penumbra/scene.hpp"
 
 namespace penumbra {
 
@@ -40,10 +41,12 @@ struct XgemmParameters {
 // kernels/matmul.cl and CLBlast: the products of exact-sum hard shadows. Changing them changes
 // the summation order of those sums (results agree to rounding).
 struct ExactSumTuning {
-  bool clblast = false;   // sampling `exact`: CLBlast's GEMM instead of penumbra's kernels
+  // Exact backend `auto` (RenderParams::exact_backend): CLBlast's GEMM instead of penumbra's
+  // kernels. An explicit `kernels` or `clblast` ignores it.
+  bool clblast = false;
   int vector_width = 8;   // MM_VW: 1, 2, 4, 8 or 16
   int row_block = 4;      // MM_RB: rows of the product per work-item, 1 to 8
-  // CLBlast's GEMM (sampling `gemm`, or `exact` with clblast), set with
+  // CLBlast's GEMM (exact backend `clblast`, or `auto` with clblast), set with
   // clblast::OverrideParameters. Unset: CLBlast's built-in parameters for the device.
   std::optional<XgemmParameters> xgemm;
   // CLBlast runs its Xgemm kernel when m·n·k ≥ min_indirect_size³ and its direct kernel (which
@@ -68,6 +71,11 @@ struct Tuning {
 
 // Throws penumbra::Error naming the first illegal value for this device.
 void validate(const Tuning& tuning, const DeviceInfo& device);
+
+// The exact backend that computes the exact sum of the paper model's hard shadows under
+// `tuning`: p.exact_backend when given (kernels or clblast), else (auto) CLBlast where
+// tuning.exact.clblast and penumbra's kernels otherwise. Never Auto.
+ExactBackend exact_backend_in_force(const RenderParams& p, const Tuning& tuning);
 // The same for CLBlast's Xgemm parameters, with the checks of CLBlast's own tuner (local
 // memory counted for double, the widest real, so that a legal set is legal in both precisions).
 void validate(const XgemmParameters& xgemm, const DeviceInfo& device);

@@ -255,8 +255,8 @@ Light parse_light(const json& j, const std::string& where) {
 
 RenderParams parse_render(const json& j, const std::string& where) {
   check_object(j, where, {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps",
-                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling", "shadow_model",
-                          "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
+                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling", "exact_backend",
+                          "shadow_model", "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
   RenderParams p;
   opt(j, where, "sigma", p.sigma, get_number);
   opt(j, where, "gamma", p.gamma, get_number);
@@ -270,8 +270,22 @@ RenderParams parse_render(const json& j, const std::string& where) {
   opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
   if (j.contains("shadows"))
     p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
-  if (j.contains("sampling"))
-    p.sampling = get_enum<Sampling>(j["sampling"], child(where, "sampling"));
+  std::optional<ExactBackend> implied;  // by "sampling": "gemm"
+  if (j.contains("sampling")) {
+    const std::string w = get_string(j["sampling"], child(where, "sampling"));
+    if (!sampling_from_word(w, &p.sampling, &implied))
+      fail("'" + child(where, "sampling") + "' is \"" + w + "\" (expected " +
+           sampling_word_choices() + ")");
+  }
+  if (j.contains("exact_backend"))
+    p.exact_backend = get_enum<ExactBackend>(j["exact_backend"], child(where, "exact_backend"));
+  if (implied) {
+    if (j.contains("exact_backend") && p.exact_backend != *implied)
+      fail("'" + child(where, "sampling") + "' is \"" + gemm_shorthand() +
+           "\", exact sampling with exact backend 'clblast', but '" +
+           child(where, "exact_backend") + "' is \"" + word(p.exact_backend) + "\"");
+    p.exact_backend = *implied;
+  }
   if (j.contains("shadow_model"))
     p.shadow_model = get_enum<ShadowModel>(j["shadow_model"], child(where, "shadow_model"));
   opt(j, where, "shadow_map_size", p.shadow_map_size, get_int);

@@ -76,6 +76,12 @@ inline const char* exact_define(Sampling s) {
   return s == Sampling::Exact ? "-DEXACT=1" : "-DEXACT=0";
 }
 
+// Whether the matrix products of the paper model's exact hard shadows run on CLBlast (the
+// exact backend in force, exact_backend_in_force) rather than on matmul.cl.
+inline bool exact_on_clblast(const RenderParams& p, const Tuning& t) {
+  return exact_backend_in_force(p, t) == ExactBackend::CLBlast;
+}
+
 // Texels per vector in shadow.cl's window rows (ROW): 16 floats fill an AVX-512 register on
 // CPUs; GPUs keep 8.
 inline int shadow_row_width(const DeviceInfo& d) { return d.is_gpu ? 8 : 16; }
@@ -137,14 +143,15 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
 
 // Shadow terms of every fragment of camera view `v` for light `light`, sampled from the
 // light's shadow map `lv.depth` (and penumbra map `lv.pen_map` for soft shadows).
-void shadow_forward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
+// (p.shadows, p.sampling and, for the exact sum of hard shadows, exact_on_clblast).
+void shadow_forward(Kernels& k, const RenderParams& p, ViewState& v, int light,
                     const ViewState& lv);
 // Completes rec_lgrad (and rec_lgrad2) of `v` for `light` and returns dL/d(the light's shadow
 // map) and, for soft shadows, dL/d(its penumbra map).
 struct MapGrads {
   cl::Buffer S, P;
 };
-MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
+MapGrads shadow_backward(Kernels& k, const RenderParams& p, ViewState& v, int light,
                          const ViewState& lv);
 
 // The fragments of `v` bucketed by the texel nearest their μ in `light`'s map (bin.cl with

@@ -206,36 +206,33 @@ Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
   return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
 
-void shadow_forward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
+void shadow_forward(Kernels& k, const RenderParams& p, ViewState& v, int light,
                     const ViewState& lv) {
   const int n = int(v.nrec);
   if (n == 0) return;
   const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
-  if (mode == Shadows::Soft) {
-    if (sampling == Sampling::Gemm)
-      throw Error("soft shadows sample with 'truncated' or 'exact'; their sum does not factor "
-                  "into matrix products ('gemm')");
+  if (p.shadows == Shadows::Soft) {
     auto& s = bind_args(k, SoftSampleArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2},
-                        exact_define(sampling));
+                        exact_define(p.sampling));
     launch_1d(k.ctx(), s, n);
-  } else if (sampling == Sampling::Truncated) {
+  } else if (p.sampling == Sampling::Truncated) {
     auto& s = bind_args(k, ShadowSampleArgs{at, lv.depth, v.rec_light});
     launch_1d(k.ctx(), s, n);
   } else {
-    exact_forward(k, sampling == Sampling::Gemm || k.tuning().exact.clblast, v, at, lv);
+    exact_forward(k, exact_on_clblast(p, k.tuning()), v, at, lv);
   }
 }
 
-MapGrads shadow_backward(Kernels& k, Shadows mode, Sampling sampling, ViewState& v, int light,
+MapGrads shadow_backward(Kernels& k, const RenderParams& p, ViewState& v, int light,
                          const ViewState& lv) {
   MapGrads g;
   g.S = zero_reals(k.ctx(), k.precision(), size_t(lv.W) * lv.H);
   const int n = int(v.nrec);
   if (n == 0) return g;
   const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
-  if (mode == Shadows::Soft) return soft_backward(k, sampling, v, at, lv, g);
-  if (sampling == Sampling::Truncated) return truncated_backward(k, v, at, lv, g);
-  return exact_backward(k, sampling == Sampling::Gemm || k.tuning().exact.clblast, v, at, lv, g);
+  if (p.shadows == Shadows::Soft) return soft_backward(k, p.sampling, v, at, lv, g);
+  if (p.sampling == Sampling::Truncated) return truncated_backward(k, v, at, lv, g);
+  return exact_backward(k, exact_on_clblast(p, k.tuning()), v, at, lv, g);
 }
 
 }  // namespace penumbra::detail

@@ -176,7 +176,7 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
     const Trial ref = time_candidate(context, scene, reference, 1);
     double best_ms = INFINITY, best_blas_ms = INFINITY;
     Tuning winner = best;
-    ExactSumTuning best_blas;  // the fastest CLBlast candidate: sampling `gemm` always uses it
+    ExactSumTuning best_blas;  // the fastest CLBlast candidate: exact backend `clblast` uses it
     for (Tuning candidate : stage.candidates) {
       // Candidates of the later stages inherit the winners of the earlier ones.
       if (stage.name != "raster") candidate.raster = best.raster;

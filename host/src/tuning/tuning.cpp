@@ -236,6 +236,11 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   return t;
 }
 
+ExactBackend exact_backend_in_force(const RenderParams& p, const Tuning& tuning) {
+  if (p.exact_backend != ExactBackend::Auto) return p.exact_backend;
+  return tuning.exact.clblast ? ExactBackend::CLBlast : ExactBackend::Kernels;
+}
+
 std::string TuningDatabase::device_key(const DeviceInfo& d) { return d.name; }
 std::string TuningDatabase::class_key(const DeviceInfo& d) {
   return d.vendor + "/" + type_key(d);
