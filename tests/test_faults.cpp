@@ -19,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <regex>
+#include <iostream>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -252,6 +253,10 @@ RunResult run_cli(const std::string& args, const std::string& tag) {
 }
 
 const std::string kSmall = " --width 24 --height 24 --map-size 16 ";
+// A render of 2–10 s on two CPU cores (PoCL), its lookups in batches of fragments.
+const std::string kSlowProgress =
+    " --width 128 --height 128 --map-size 1024 --shadows hard --shadow-model paper "
+    "--sampling exact";
 
 TEST(FaultsCli, RenderToDevFullFails) {
   const RunResult r = run_cli("render -o /dev/full" + kSmall, "devfull");
@@ -627,6 +632,49 @@ TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
   expect_clean_error(run_cli(fit + " --resume", "resume_cut"), "is not a checkpoint");
   expect_clean_error(run_cli(" fit-silhouette --checkpoint-every -1 -o " + quote(dir), "resume_every"),
                      "--checkpoint-every must be 0");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Progress of long calls.
+
+// Every line of `err` starts with `prefix`; at least one mentions `stage`.
+void expect_progress(const RunResult& r, const std::string& prefix, const std::string& stage) {
+  const auto err = lines(r.err);
+  EXPECT_FALSE(err.empty()) << "no progress on stderr\n" << show(r);
+  for (const std::string& line : err) EXPECT_EQ(line.rfind(prefix, 0), 0u) << line << "\n" << show(r);
+  EXPECT_NE(r.err.find(stage), std::string::npos) << show(r);
+}
+
+TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
+  const std::string dir = fresh_dir("progress");
+  // A short call prints nothing on stderr.
+  const RunResult fast = run_cli("render -o " + quote(dir + "/fast.png") + kSmall, "progress_fast");
+  EXPECT_EQ(fast.exit_code, 0) << show(fast);
+  EXPECT_EQ(fast.err, "") << show(fast);
+  // Progress from the first stage on (PENUMBRA_PROGRESS_AFTER=0): a line per tenth of the call
+  // (stderr is not a terminal), stdout as without it.
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "0", 1);
+  const RunResult all = run_cli("render -o " + quote(dir + "/all.png") + kSmall +
+                                    " --shadows hard --shadow-model paper --sampling exact",
+                                "progress_all");
+  ::unsetenv("PENUMBRA_PROGRESS_AFTER");
+  EXPECT_EQ(all.exit_code, 0) << show(all);
+  expect_progress(all, "render: render ", "render: render light 1/1, shadow map, 0 %");
+  EXPECT_NE(all.err.find("render: render view 1/1, raster, 50 %"), std::string::npos) << show(all);
+  EXPECT_EQ(lines(all.out).size(), 1u) << show(all);
+  EXPECT_EQ(all.out.rfind("rendered 1 view", 0), 0u) << show(all);
+  // A long call (the paper model's exact lookups on a large map, in batches of fragments):
+  // progress once 2 s have passed, each line naming the batch.
+  const auto start = std::chrono::steady_clock::now();
+  const RunResult slow =
+      run_cli("render -o " + quote(dir + "/slow.png") + kSlowProgress, "progress_slow");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(slow.exit_code, 0) << show(slow);
+  if (seconds > 3.0)
+    expect_progress(slow, "render: render view 1/1, shadow lookups ", " s\n");
+  else
+    std::cout << "the long call took " << seconds << " s: too short to check its progress\n";
 }
 
 // ---------------------------------------------------------------------------------------------
