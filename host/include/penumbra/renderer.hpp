@@ -26,9 +26,10 @@ struct SceneGrads {
 
 // The device memory a render() of `scene` needs (with `backward`, and the backward() after
 // it), estimated from the scene's sizes before anything is allocated: the geometry, every
-// camera's view and every light's shadow-map view, a fragment on every fourth pixel (how many
-// there are is known only once they are counted; the fragments' memory is then checked
-// again), the penumbra maps and the exact filter's buffers. render() and backward() refuse a scene whose estimate exceeds
+// camera's view and every light's shadow-map view, 1.25 fragments per pixel of a camera's view
+// and 1.5 per texel of a map (how many there are is known only once they are counted; the
+// fragments' memory is then checked again), the penumbra maps and the batches of the paper
+// model's exact hard-shadow lookups. render() and backward() refuse a scene whose estimate exceeds
 // Context::memory_limit().
 size_t estimate_device_memory(const Scene& scene, Precision precision, bool backward = false);
 
@@ -37,6 +38,15 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
 // renderer renders a scene whose bounding radius is far from 1 (outside [2^-12, 2^12]) scaled
 // by a power of two that brings it near 1, and maps depths and gradients back.
 Scene scale_scene(const Scene& scene, double factor);
+
+// Bytes of device memory in the renderers' buffers (every context of the process): `live` not
+// freed yet; `peak` the most at once of the buffers made since reset_device_memory_peak() (or
+// since the process started). Buffers the BLAS library allocates itself are not counted.
+struct DeviceMemoryUse {
+  size_t live = 0, peak = 0;
+};
+DeviceMemoryUse device_memory_use();
+void reset_device_memory_peak();
 
 // A program a Renderer builds: kernels/<file>, its includes expanded
 // (Context::kernel_source), compiled with `options` exactly as given to the OpenCL compiler.
