@@ -648,6 +648,7 @@ void expect_progress(const RunResult& r, const std::string& prefix, const std::s
 
 TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
   const std::string dir = fresh_dir("progress");
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "2", 1);  // the default, whatever the environment says
   // A short call prints nothing on stderr.
   const RunResult fast = run_cli("render -o " + quote(dir + "/fast.png") + kSmall, "progress_fast");
   EXPECT_EQ(fast.exit_code, 0) << show(fast);
@@ -658,7 +659,7 @@ TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
   const RunResult all = run_cli("render -o " + quote(dir + "/all.png") + kSmall +
                                     " --shadows hard --shadow-model paper --sampling exact",
                                 "progress_all");
-  ::unsetenv("PENUMBRA_PROGRESS_AFTER");
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "2", 1);
   EXPECT_EQ(all.exit_code, 0) << show(all);
   expect_progress(all, "render: render ", "render: render light 1/1, shadow map, 0 %");
   EXPECT_NE(all.err.find("render: render view 1/1, raster, 50 %"), std::string::npos) << show(all);
@@ -671,6 +672,7 @@ TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
       run_cli("render -o " + quote(dir + "/slow.png") + kSlowProgress, "progress_slow");
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ::unsetenv("PENUMBRA_PROGRESS_AFTER");
   EXPECT_EQ(slow.exit_code, 0) << show(slow);
   if (seconds > 3.0)
     expect_progress(slow, "render: render view 1/1, shadow lookups ", " s\n");
