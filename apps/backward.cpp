@@ -164,8 +164,12 @@ int run_backward(const BackwardArgs& a) {
   Context context(a.render.device);
   limit_memory(a.render, context);
   Renderer renderer(context, precision);
+  CallProgress progress("backward");
+  progress.watch(renderer);
   renderer.render(scene);
+  progress.start();
   const SceneGrads g = renderer.backward(scene, grads);
+  progress.finish();
 
   make_dirs(a.output);
   write_files(gradient_files(a.output, scene, g));

@@ -228,4 +228,31 @@ class FitRecorder {
   std::unique_ptr<GifWriter> gif_;
 };
 
+// Progress of long render() and backward() calls on stderr (Renderer::set_progress). A call
+// prints nothing for its first 2 s (PENUMBRA_PROGRESS_AFTER=SECONDS sets another delay); then
+// on a terminal one line redrawn in place, otherwise a line each time another tenth of the
+// call is done. Lines read
+//   render: render view 1/1, shadow lookups 3/8, 31 %, 2.4 s
+// `name` is the command; `what` (optional, e.g. "frame 3/72") goes before the call.
+class CallProgress {
+ public:
+  explicit CallProgress(std::string name);
+  ~CallProgress();
+  // Reports every call of `renderer` from now on.
+  void watch(Renderer& renderer);
+  // A new call starts now (its 2 s count from here); `what` names it in the lines.
+  void start(std::string what = "");
+  // Ends a line redrawn in place, if one was drawn.
+  void finish();
+  void update(const RenderProgress& p);
+
+ private:
+  std::string name_, what_;
+  bool tty_;
+  double after_s_ = 2.0;
+  std::chrono::steady_clock::time_point start_;
+  int decile_ = -1;
+  bool drawn_ = false;
+};
+
 }  // namespace penumbra::cli

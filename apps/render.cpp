@@ -71,8 +71,12 @@ int run_render(const RenderArgs& a) {
   Context context(a.render.device);
   limit_memory(a.render, context);
   Renderer renderer(context, precision);
+  CallProgress progress("render");
+  progress.watch(renderer);
   const auto t0 = std::chrono::steady_clock::now();
+  progress.start();
   const std::vector<RenderOutput> views = renderer.render(scene);
+  progress.finish();
   const auto t1 = std::chrono::steady_clock::now();
   const double ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
 

@@ -93,11 +93,15 @@ int run_turnaround(const TurnaroundArgs& a) {
   std::unique_ptr<GifWriter> gif;  // opened once the first frame has rendered
 
   Progress progress(a.frames);
+  CallProgress call_progress("turnaround");  // within a frame that takes long
+  call_progress.watch(renderer);
   const double two_pi = 2.0 * std::acos(-1.0);
   const auto t0 = std::chrono::steady_clock::now();
   for (int k = 0; k < a.frames; ++k) {
     scene.cameras.front() = orbit(base, two_pi * k / a.frames);
+    call_progress.start("frame " + std::to_string(k + 1) + "/" + std::to_string(a.frames));
     const std::vector<RenderOutput> views = renderer.render(scene);
+    call_progress.finish();
     save_png(views.front().color, (fs::path(a.output) / frame_name(k, a.frames)).string());
     if (!gif)
       gif = std::make_unique<GifWriter>(gif_path, base.width, base.height, kGifDelayCentiseconds);

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <regex>
+#include <iostream>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -28,6 +29,7 @@
 
 #include "cli_run.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/gradcheck.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
@@ -253,6 +255,10 @@ RunResult run_cli(const std::string& args, const std::string& tag) {
 }
 
 const std::string kSmall = " --width 24 --height 24 --map-size 16 ";
+// A render of 2–10 s on two CPU cores (PoCL), its lookups in batches of fragments.
+const std::string kSlowProgress =
+    " --width 128 --height 128 --map-size 1024 --shadows hard --shadow-model paper "
+    "--sampling exact";
 
 TEST(FaultsCli, RenderToDevFullFails) {
   const RunResult r = run_cli("render -o /dev/full" + kSmall, "devfull");
@@ -631,6 +637,51 @@ TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Progress of long calls.
+
+// Every line of `err` starts with `prefix`; at least one mentions `stage`.
+void expect_progress(const RunResult& r, const std::string& prefix, const std::string& stage) {
+  const auto err = lines(r.err);
+  EXPECT_FALSE(err.empty()) << "no progress on stderr\n" << show(r);
+  for (const std::string& line : err) EXPECT_EQ(line.rfind(prefix, 0), 0u) << line << "\n" << show(r);
+  EXPECT_NE(r.err.find(stage), std::string::npos) << show(r);
+}
+
+TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
+  const std::string dir = fresh_dir("progress");
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "2", 1);  // the default, whatever the environment says
+  // A short call prints nothing on stderr.
+  const RunResult fast = run_cli("render -o " + quote(dir + "/fast.png") + kSmall, "progress_fast");
+  EXPECT_EQ(fast.exit_code, 0) << show(fast);
+  EXPECT_EQ(fast.err, "") << show(fast);
+  // Progress from the first stage on (PENUMBRA_PROGRESS_AFTER=0): a line per tenth of the call
+  // (stderr is not a terminal), stdout as without it.
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "0", 1);
+  const RunResult all = run_cli("render -o " + quote(dir + "/all.png") + kSmall +
+                                    " --shadows hard --shadow-model paper --sampling exact",
+                                "progress_all");
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "2", 1);
+  EXPECT_EQ(all.exit_code, 0) << show(all);
+  expect_progress(all, "render: render ", "render: render light 1/1, shadow map, 0 %");
+  EXPECT_NE(all.err.find("render: render view 1/1, raster, 50 %"), std::string::npos) << show(all);
+  EXPECT_EQ(lines(all.out).size(), 1u) << show(all);
+  EXPECT_EQ(all.out.rfind("rendered 1 view", 0), 0u) << show(all);
+  // A long call (the paper model's exact lookups on a large map, in batches of fragments):
+  // progress once 2 s have passed, each line naming the batch.
+  const auto start = std::chrono::steady_clock::now();
+  const RunResult slow =
+      run_cli("render -o " + quote(dir + "/slow.png") + kSlowProgress, "progress_slow");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ::unsetenv("PENUMBRA_PROGRESS_AFTER");
+  EXPECT_EQ(slow.exit_code, 0) << show(slow);
+  if (seconds > 3.0)
+    expect_progress(slow, "render: render view 1/1, shadow lookups ", " s\n");
+  else
+    std::cout << "the long call took " << seconds << " s: too short to check its progress\n";
+}
+
+// ---------------------------------------------------------------------------------------------
 // Device memory, bounded before anything is allocated.
 
 TEST(FaultsCli, MemoryLimitRefusesTooLargeARenderAtOnce) {
@@ -704,14 +755,63 @@ TEST(FaultsMemory, EstimateGrowsWithEveryPartOfTheWork) {
   more = scene;
   more.params.shadows = penumbra::Shadows::Soft;
   EXPECT_GT(estimate(more), base);
-  more = scene;
+  more = scene;  // the paper model's exact hard shadows add their batches (the accurate
+  more.params.shadow_model = penumbra::ShadowModel::Paper;  // model's exact filter needs none)
+  const size_t paper = estimate(more);
   more.params.sampling = penumbra::Sampling::Exact;
-  EXPECT_GT(estimate(more), base);
+  EXPECT_GT(estimate(more), paper);
   more = scene;
   more.params.shadows = penumbra::Shadows::None;
   EXPECT_LT(estimate(more), base);
   EXPECT_GT(penumbra::estimate_device_memory(scene, penumbra::Precision::Double), base);
   EXPECT_GT(penumbra::estimate_device_memory(scene, penumbra::Precision::Float, true), base);
+}
+
+// The estimate against what the renderer allocates (penumbra::device_memory_use: every buffer
+// the renderer makes, counted until the OpenCL implementation frees it): render() alone and
+// render() + backward(), hard and soft shadows, the accurate and the paper model, truncated and
+// exact sampling, the bundled scene at 64² and 512² pixels (exact at 512²: the paper model's hard
+// shadows only). The estimate must cover the peak
+// and stay within 25 % above it. Prints one line per configuration.
+TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
+  penumbra::Scene base = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) +
+                                              "/scenes/turnaround.json");
+  for (const int size : {64, 512})
+    for (const auto model : {penumbra::ShadowModel::Accurate, penumbra::ShadowModel::Paper})
+      for (const auto shadows : {penumbra::Shadows::Hard, penumbra::Shadows::Soft})
+        for (const auto sampling : {penumbra::Sampling::Truncated, penumbra::Sampling::Exact})
+          for (const bool backward : {false, true}) {
+            // Exact soft shadows and the accurate model's exact filter visit every texel per
+            // fragment: at 64² only (the paper model's exact hard shadows run in batches).
+            if (size > 64 && sampling == penumbra::Sampling::Exact &&
+                (model == penumbra::ShadowModel::Accurate || shadows == penumbra::Shadows::Soft))
+              continue;
+            penumbra::Scene scene = base;
+            for (penumbra::Camera& c : scene.cameras) c.width = c.height = size;
+            scene.params.shadow_model = model;
+            scene.params.shadows = shadows;
+            scene.params.sampling = sampling;
+            const size_t estimate =
+                penumbra::estimate_device_memory(scene, penumbra::Precision::Float, backward);
+            size_t used = 0;
+            {
+              penumbra::Renderer renderer(context());
+              penumbra::reset_device_memory_peak();
+              renderer.render(scene);
+              if (backward)
+                renderer.backward(scene, penumbra::random_loss_weights(scene, 3));
+              context().queue().finish();
+              used = penumbra::device_memory_use().peak;
+            }
+            std::ostringstream label;
+            label << size << "² " << penumbra::word(model) << " " << penumbra::word(shadows)
+                  << " " << penumbra::word(sampling) << (backward ? " + backward" : "");
+            const double ratio = double(estimate) / double(used);
+            std::cout << "memory | " << label.str() << " | allocated " << used << " | estimate "
+                      << estimate << " | ratio " << ratio << std::endl;
+            EXPECT_GE(estimate, used) << label.str();
+            EXPECT_LE(ratio, 1.25) << label.str();
+          }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,9 +1,11 @@
 // The device memory a render (and its backward) needs, estimated before anything is allocated
 // (renderer.hpp: estimate_device_memory). It follows the buffers of ops/: per view the
 // transformed vertices and face boxes, per pixel the counts, offsets, colour, depth and
-// auxiliary sums, and per fragment the records of raster.cpp — for a fragment on every fourth
-// pixel: how many there are is known only once they are counted, and then checked again —; per light with shadows its map view, the
-// penumbra maps of soft shadows, the batches of the exact filter (at most 96 MiB each).
+// auxiliary sums, and per fragment the records of raster.cpp — for 1.25 fragments per pixel (1.5 per texel of a map): how
+// many there are is known only once they are counted, and then checked again —; per light with
+// shadows its map view, the penumbra maps of soft shadows, the batches of the paper model's exact
+// hard-shadow lookups (at most ~96 MiB each, fewer for fewer fragments).
+#include <algorithm>
 #include <cstddef>
 
 #include "penumbra/renderer.hpp"
@@ -16,16 +18,39 @@ struct Sizes {
   size_t nv = 0, nf = 0;
 };
 
-// One view of W×H pixels with `lights` lights in its shading.
-size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward) {
-  const size_t per_pixel = 3 * sizeof(int) + 1 + z.rs * (4 + 4 + 1);  // counts, aux, image, depth
-  size_t per_fragment = sizeof(int) + z.rs * 4 * (3 + 5 * lights);
+// Fragments per pixel of a camera's view and per texel of a light's map that the estimate
+// assumes. Measured on the bundled scene (FaultsMemory.EstimateCoversWhatIsAllocated): 1.1–1.2
+// per pixel of the camera's view; more per texel of a light's map, which the ground covers
+// almost whole (the accurate model fits the frustum to the occluders), faces near an edge each
+// keeping a fragment on the texels within their coverage cut-off.
+constexpr double kFragmentsPerPixel = 1.25, kFragmentsPerTexel = 1.5;
+
+size_t fragments(size_t pixels, double per_pixel) { return size_t(double(pixels) * per_pixel); }
+
+// One view of W×H pixels with `lights` lights in its shading (raster.cpp's buffers).
+// `per_pixel`: fragments per pixel (kFragmentsPerPixel or kFragmentsPerTexel).
+size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, double per_pixel) {
+  const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1);  // counts, offsets,
+                                                                          // runs, aux, image, depth
+  // face, fragment, shading (1 + lights), two light records (lights)
+  size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + 3 * lights);
   size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
   if (backward) {
     per_fragment += z.rs * 4 * (1 + 2 * lights);
     per_face += z.rs * (36 + (6 * lights + 1) * 4);
   }
-  return z.nv * 4 * z.rs + z.nf * per_face + pixels * per_pixel + pixels / 4 * per_fragment;
+  return z.nv * 4 * z.rs + z.nf * per_face + pixels * per_pixel_bytes +
+         fragments(pixels, per_pixel) * per_fragment;
+}
+
+// The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
+// exact_backward): batches of at most ~96 MiB of weights and products, or fewer fragments.
+size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward) {
+  const size_t cap = std::max<size_t>(1, (size_t(96) << 20) / (texels_side * 6 * z.rs));
+  const size_t fwd = std::min(cap, fragments) * (3 * texels_side + 4) * z.rs;
+  const size_t bwd =
+      std::min(std::max<size_t>(cap / 2, 1), fragments) * (5 * texels_side + 4) * z.rs;
+  return backward ? std::max(fwd, bwd) : fwd;
 }
 
 }  // namespace
@@ -39,14 +64,25 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   const RenderParams& p = scene.params;
   const size_t lights = scene.lights.size();
   for (const Camera& c : scene.cameras)
-    bytes += view_bytes(z, size_t(c.width) * size_t(c.height), lights, backward);
+    bytes += view_bytes(z, size_t(c.width) * size_t(c.height), lights, backward,
+                        kFragmentsPerPixel) +
+             (backward ? size_t(c.width) * size_t(c.height) * 6 * z.rs : 0);  // dL/d(image, depth)
   if (p.shadows == Shadows::None) return bytes;
   const size_t texels = size_t(p.shadow_map_size) * size_t(p.shadow_map_size);
   for (size_t l = 0; l < lights; ++l) {
-    bytes += view_bytes(z, texels, 0, backward);
+    bytes += view_bytes(z, texels, 0, backward, kFragmentsPerTexel);
     if (p.shadows == Shadows::Soft) bytes += z.nf * 16 + texels * 3 * z.rs;  // P and its sums
     if (backward) bytes += texels * 6 * z.rs;  // gradients of S (and P), image, depth
-    if (p.sampling != Sampling::Truncated) bytes += (backward ? 2 : 1) * (size_t(96) << 20);
+    if (p.sampling != Sampling::Truncated && p.shadows == Shadows::Hard &&
+        p.shadow_model == ShadowModel::Paper) {
+      size_t most = 0;  // the batches live one camera at a time
+      for (const Camera& c : scene.cameras)
+        most = std::max(most, exact_batch_bytes(z, size_t(p.shadow_map_size),
+                                                fragments(size_t(c.width) * size_t(c.height),
+                                                          kFragmentsPerPixel),
+                                                backward));
+      bytes += most;
+    }
   }
   return bytes;
 }

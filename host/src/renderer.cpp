@@ -2,6 +2,7 @@
 // backwards for gradients.
 #include "penumbra/renderer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -241,7 +242,48 @@ void check_grad_image(const Image& g, int W, int H, int C, const char* what, siz
                 std::to_string(H) + "x" + std::to_string(C));
 }
 
+// The power of two the renderer multiplies a scene's lengths by before packing it for the
+// device: 1 while the bounding radius is within [2^-kNormalisedExponent, 2^kNormalisedExponent]
+// (the scene is packed exactly as given), else 2^-e for the radius's exponent e, which brings
+// the radius into [1, 2). Scenes at 1e±20 would otherwise overflow or underflow float (squared
+// distances, areas) on the device. A power of two scales every length exactly.
+constexpr int kNormalisedExponent = 12;
+double normalisation(const Scene& s) {
+  const double r = bounds(s).radius();
+  if (!(r > 0) || !std::isfinite(r)) return 1;
+  const int e = std::ilogb(r);
+  return std::abs(e) <= kNormalisedExponent ? 1 : std::ldexp(1.0, -e);
+}
+
 }  // namespace
+
+Scene scale_scene(const Scene& scene, double k) {
+  Scene s = scene;
+  for (Mesh& m : s.meshes)
+    for (glm::dvec3& v : m.vertices) v *= k;
+  for (Camera& c : s.cameras) {
+    c.eye *= k;
+    c.target *= k;
+    c.half_height *= k;
+    c.near *= k;
+    c.far *= k;
+  }
+  for (Light& l : s.lights) {
+    l.position *= k;
+    l.size *= k;
+    LightFrustum& f = l.frustum;
+    f.target *= k;
+    f.half_size *= k;
+    f.distance *= k;
+    f.near *= k;
+    f.far *= k;
+  }
+  RenderParams& r = s.params;
+  if (r.gamma_s) *r.gamma_s *= k;
+  if (r.beta) *r.beta *= k;
+  r.depth_unit *= k;
+  return s;
+}
 
 struct Renderer::Impl {
   Context& ctx;
@@ -250,16 +292,43 @@ struct Renderer::Impl {
   TuningDatabase database;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
-  Scene scene;  // as rendered, light frusta fitted
+  Scene scene;  // as rendered, light frusta fitted, lengths multiplied by `norm`
+  double norm = 1;  // the normalisation (normalisation()): device lengths = world lengths · norm
+  std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
   DeviceGeometry geometry;
   std::vector<ViewState> views;        // one per camera
   std::vector<ViewState> light_views;  // one per light, when shadows are on
   std::vector<std::vector<double>> view_P;
 
+  // Progress (set_progress): the observer, where the call is, and which pass of how many.
+  ProgressObserver observer;
+  RenderProgress progress;
+  int pass_done = 0, pass_total = 1;
+
   Impl(Context& c, Precision p, bool automatic_, const Tuning& t)
       : ctx(c), precision(p), automatic(automatic_), kernels(c, p, t) {
     if (automatic) database = TuningDatabase::load_default();
+  }
+
+  void begin_pass(const char* call, const char* pass, int index, int count, int done, int total) {
+    progress.call = call;
+    progress.pass = pass;
+    progress.index = index + 1;
+    progress.count = count;
+    pass_done = done;
+    pass_total = std::max(total, 1);
+  }
+  void report(double within) {
+    ctx.queue().finish();  // what is reported is what runs next
+    progress.fraction = std::min(1.0, (pass_done + within) / pass_total);
+    observer(progress);
+  }
+  void stage(const char* name) {
+    if (!observer) return;
+    progress.stage = name;
+    progress.part = progress.parts = 0;
+    report(0);
   }
 
   void render_view(ViewState& v, int W, int H, int nlights, const std::vector<double>& P) {
@@ -323,6 +392,20 @@ Renderer::Renderer(Context& context, Precision precision, const Tuning& tuning) 
 }
 
 Renderer::~Renderer() = default;
+
+void Renderer::set_progress(ProgressObserver observer) {
+  Impl& m = *impl_;
+  m.observer = std::move(observer);
+  if (!m.observer) {
+    m.kernels.on_part = nullptr;
+    return;
+  }
+  m.kernels.on_part = [&m](int i, int n) {
+    m.progress.part = i + 1;
+    m.progress.parts = n;
+    m.report(double(i) / n);
+  };
+}
 Precision Renderer::precision() const { return impl_->precision; }
 const Tuning& Renderer::tuning() const { return impl_->kernels.tuning(); }
 
@@ -335,6 +418,10 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   Context& ctx = m.ctx;
   m.scene = scene;
   fit_light_frusta(m.scene);  // frusta not given are fitted to this scene and then fixed
+  m.frusta.clear();
+  for (const Light& l : m.scene.lights) m.frusta.push_back(l.frustum);
+  m.norm = normalisation(m.scene);
+  if (m.norm != 1) m.scene = scale_scene(m.scene, m.norm);
   if (m.automatic) m.kernels.set_tuning(m.database.lookup(ctx.info(), workload_stats(scene)));
   const Scene& s = m.scene;
   const bool shadows = s.params.shadows != Shadows::None;
@@ -352,12 +439,18 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   g.albedo = detail::upload_reals(ctx, m.precision, p.albedo);
 
   m.light_views.assign(shadows ? nl : 0, ViewState{});
+  const int passes = int(m.light_views.size() + s.cameras.size());
   for (size_t l = 0; l < m.light_views.size(); ++l) {  // shadow maps S
     ViewState& lv = m.light_views[l];
     const int size = s.params.shadow_map_size;
+    m.begin_pass("render", "light", int(l), nl, int(l), passes);
+    m.stage("shadow map");
     m.render_view(lv, size, size, 0, light_view_params(s, l));
     detail::raster_resolve(m.kernels, lv);
-    if (s.params.shadows == Shadows::Soft && !accurate) detail::penumbra_forward(m.kernels, g, lv);
+    if (s.params.shadows == Shadows::Soft && !accurate) {
+      m.stage("penumbra map");
+      detail::penumbra_forward(m.kernels, g, lv);
+    }
   }
   m.views.assign(s.cameras.size(), ViewState{});
   m.view_P.clear();
@@ -365,14 +458,19 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   for (size_t c = 0; c < s.cameras.size(); ++c) {
     const Camera& cam = s.cameras[c];
     ViewState& v = m.views[c];
+    m.begin_pass("render", "view", int(c), int(s.cameras.size()),
+                 int(m.light_views.size() + c), passes);
+    m.stage("raster");
     m.view_P.push_back(view_params(s, cam));
     m.render_view(v, cam.width, cam.height, nl, m.view_P.back());
     for (size_t l = 0; l < m.light_views.size(); ++l) {
+      m.stage("shadow lookups");
       if (accurate)
         detail::pcf_forward(m.kernels, s.params.sampling, v, int(l), m.light_views[l]);
       else
         detail::shadow_forward(m.kernels, s.params, v, int(l), m.light_views[l]);
     }
+    m.stage("resolve");
     detail::raster_resolve(m.kernels, v);
     const size_t npix = size_t(v.W) * v.H;
     auto image = detail::download_reals(ctx, m.precision, v.image, npix * 4);
@@ -381,6 +479,8 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     o.silhouette = channels(image, v.W, v.H, 3, 1);
     o.depth = Image(v.W, v.H, 1);
     o.depth.data = detail::download_reals(ctx, m.precision, v.depth, npix);
+    if (m.norm != 1)
+      for (double& z : o.depth.data) z /= m.norm;
     out.push_back(std::move(o));
   }
   return out;
@@ -388,12 +488,14 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
 
 namespace {
 std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<ViewState>& views,
-                              cl::Buffer ViewState::*map) {
+                              cl::Buffer ViewState::*map, double unit = 1) {
   std::vector<Image> maps;
   for (auto& lv : views) {
     if (!(lv.*map)()) continue;
     Image img(lv.W, lv.H, 1);
     img.data = detail::download_reals(ctx, p, lv.*map, size_t(lv.W) * lv.H);
+    if (unit != 1)
+      for (double& x : img.data) x *= unit;
     maps.push_back(std::move(img));
   }
   return maps;
@@ -401,7 +503,8 @@ std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<ViewS
 }  // namespace
 
 std::vector<Image> Renderer::shadow_maps() const {
-  return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::depth);
+  return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::depth,
+                    1 / impl_->norm);
 }
 
 std::vector<Image> Renderer::penumbra_maps() const {
@@ -413,7 +516,8 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   Context& ctx = m.ctx;
   Scene fitted = scene;
   for (size_t l = 0; l < fitted.lights.size() && l < m.scene.lights.size(); ++l)
-    if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = m.scene.lights[l].frustum;
+    if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = m.frusta[l];
+  if (m.norm != 1) fitted = scale_scene(fitted, m.norm);
   Packed now = pack(fitted);
   bool same = now.vworld == m.packed.vworld && now.faces == m.packed.faces &&
               now.albedo == m.packed.albedo && fitted.cameras.size() == m.views.size() &&
@@ -457,9 +561,12 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     m.geometry.adj_offsets = detail::upload_ints(ctx, count);
     m.geometry.adj = detail::upload_ints(ctx, adj);
   }
+  const int passes = int(m.views.size() + m.light_views.size());
   for (size_t c = 0; c < m.views.size(); ++c) {
     ViewState& v = m.views[c];
     const OutputGrads& g = grads[c];
+    m.begin_pass("backward", "view", int(c), int(m.views.size()), int(c), passes);
+    m.stage("resolve");
     check_grad_image(g.color, v.W, v.H, 3, "color", c);
     check_grad_image(g.silhouette, v.W, v.H, 1, "silhouette", c);
     check_grad_image(g.depth, v.W, v.H, 1, "depth", c);
@@ -470,10 +577,14 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
       if (!g.silhouette.data.empty()) gimage[i * 4 + 3] = g.silhouette.data[i];
     }
     auto gimage_buf = detail::upload_reals(ctx, m.precision, gimage);
-    auto gdepth_buf = detail::upload_reals(
-        ctx, m.precision, g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data);
+    std::vector<double> gdepth =
+        g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data;
+    if (m.norm != 1)  // dL/d(device depth) = dL/d(depth) / norm
+      for (double& x : gdepth) x /= m.norm;
+    auto gdepth_buf = detail::upload_reals(ctx, m.precision, gdepth);
     detail::raster_resolve_backward(m.kernels, v, gimage_buf, gdepth_buf);
     for (size_t l = 0; l < m.light_views.size(); ++l) {
+      m.stage("shadow lookups");
       auto gm = accurate ? detail::pcf_backward(m.kernels, s.params,
                                                 blocker_search_sigma(s.params, s.lights[l]),
                                                 v, int(l), m.light_views[l], &gsize[l])
@@ -482,6 +593,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
       accumulate(gmaps[l], gm.S);
       if (gm.P()) accumulate(gpens[l], gm.P);
     }
+    m.stage("faces");
     auto gl = m.backward_faces(v, gimage_buf, gdepth_buf, gvert, galb, nullptr);
     for (int f = 0; f < p.nf; ++f)  // fixed order: reproducible
       for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl[f * glight.size() + i];
@@ -492,11 +604,14 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   for (size_t l = 0; l < m.light_views.size(); ++l) {
     ViewState& lv = m.light_views[l];
     const size_t ntex = size_t(lv.W) * lv.H;
+    m.begin_pass("backward", "light", int(l), nl, int(m.views.size() + l), passes);
     cl::Buffer gpen;
     if (s.params.shadows == Shadows::Soft && !accurate) {
+      m.stage("penumbra map");
       gpen = detail::upload_reals(ctx, m.precision, gpens[l]);
       accumulate(gmaps[l], detail::penumbra_backward_texels(m.kernels, m.geometry, lv, gpen, &gsize[l]));
     }
+    m.stage("shadow map");
     auto gimage_buf = detail::zero_reals(ctx, m.precision, ntex * 4);
     auto gdepth_buf = detail::upload_reals(ctx, m.precision, gmaps[l]);
     detail::raster_resolve_backward(m.kernels, lv, gimage_buf, gdepth_buf);
@@ -537,6 +652,14 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     out.light_size.push_back(gsize[l]);
   }
   out.ambient = vec(glight, size_t(8 * nl));
+  if (m.norm != 1) {  // d/d(world length) = norm · d/d(device length)
+    for (auto& mesh : out.vertices)
+      for (glm::dvec3& g : mesh) g *= m.norm;
+    for (int l = 0; l < nl; ++l) {
+      if (s.lights[l].type == LightType::Point) out.light_position[l] *= m.norm;
+      out.light_size[l] *= m.norm;
+    }
+  }
   return out;
 }
 

@@ -1,5 +1,6 @@
 #pragma once
 // The differentiable renderer: forward (render) and backward (gradients) on an OpenCL device.
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,11 +26,27 @@ struct SceneGrads {
 
 // The device memory a render() of `scene` needs (with `backward`, and the backward() after
 // it), estimated from the scene's sizes before anything is allocated: the geometry, every
-// camera's view and every light's shadow-map view, a fragment on every fourth pixel (how many
-// there are is known only once they are counted; the fragments' memory is then checked
-// again), the penumbra maps and the exact filter's buffers. render() and backward() refuse a scene whose estimate exceeds
+// camera's view and every light's shadow-map view, 1.25 fragments per pixel of a camera's view
+// and 1.5 per texel of a map (how many there are is known only once they are counted; the
+// fragments' memory is then checked again), the penumbra maps and the batches of the paper
+// model's exact hard-shadow lookups. render() and backward() refuse a scene whose estimate exceeds
 // Context::memory_limit().
 size_t estimate_device_memory(const Scene& scene, Precision precision, bool backward = false);
+
+// `scene` with every length multiplied by `factor`: vertices, cameras (eye, target, near, far,
+// orthographic half-height), lights (position, size, frustum), γ_s, β and depth_unit. The
+// renderer renders a scene whose bounding radius is far from 1 (outside [2^-12, 2^12]) scaled
+// by a power of two that brings it near 1, and maps depths and gradients back.
+Scene scale_scene(const Scene& scene, double factor);
+
+// Bytes of device memory in the renderers' buffers (every context of the process): `live` not
+// freed yet; `peak` the most at once of the buffers made since reset_device_memory_peak() (or
+// since the process started). Buffers the BLAS library allocates itself are not counted.
+struct DeviceMemoryUse {
+  size_t live = 0, peak = 0;
+};
+DeviceMemoryUse device_memory_use();
+void reset_device_memory_peak();
 
 // A program a Renderer builds: kernels/<file>, its includes expanded
 // (Context::kernel_source), compiled with `options` exactly as given to the OpenCL compiler.
@@ -42,6 +59,21 @@ struct KernelVariant {
 // (penumbra tune), each raster tuning also with brute_force. In file order, no duplicates. For
 // compiling every variant offline (`penumbra kernels`, scripts/spir_check.sh).
 std::vector<KernelVariant> kernel_variants(const DeviceInfo& device);
+
+// Where a render() or backward() is, for progress reports (Renderer::set_progress): the call,
+// the pass (a light's shadow-map pass or a camera's view, 1-based of how many), the stage, and
+// for a stage run in parts (the exact shadow lookups, in batches of fragments) the part,
+// 1-based of `parts` (0 of 0 otherwise). `fraction` is how far the call is, 0 to 1, counting
+// each pass alike.
+struct RenderProgress {
+  const char* call = "render";  // "render" or "backward"
+  const char* pass = "view";    // "light" (its shadow-map pass) or "view" (a camera's)
+  int index = 1, count = 1;
+  const char* stage = "";
+  int part = 0, parts = 0;
+  double fraction = 0;
+};
+using ProgressObserver = std::function<void(const RenderProgress&)>;
 
 class Renderer {
  public:
@@ -67,6 +99,12 @@ class Renderer {
   // The penumbra map P of every light (SPEC §3) from the most recent render() with soft shadows
   // (empty otherwise).
   std::vector<Image> penumbra_maps() const;
+
+  // Calls `observer` at the start of every stage of every pass of render() and backward(),
+  // and of every part of a stage run in parts, after the device has finished the work before
+  // it (so that what it reports is what runs; without an observer nothing waits). Outputs are
+  // the same with or without one. Empty: none.
+  void set_progress(ProgressObserver observer);
 
   Precision precision() const;
   // The launch parameters of the most recent render() (or the fixed ones).

@@ -1,6 +1,7 @@
 #include "cl/device.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -23,6 +24,38 @@ std::vector<unsigned char> to_bytes(Precision p, const std::vector<double>& v) {
 }
 }  // namespace
 
+// Bytes of the buffers made below that the OpenCL implementation has not freed yet, and of those
+// made since the last reset_device_memory_peak() (its generation) the most at once
+// (device_memory_use). A buffer's bytes are counted back by its destructor callback, which may
+// run late: the buffers of an earlier generation are not counted against a later one.
+std::atomic<size_t> live_bytes{0}, generation_bytes{0}, peak_bytes{0};
+std::atomic<unsigned> generation{0};
+
+struct Made {
+  size_t bytes;
+  unsigned generation;
+};
+
+void CL_CALLBACK count_freed(cl_mem, void* data) {
+  const Made* made = static_cast<const Made*>(data);
+  live_bytes -= made->bytes;
+  if (made->generation == generation.load()) generation_bytes -= made->bytes;
+  delete made;
+}
+
+void count_made(const cl::Buffer& buffer, size_t bytes) {
+  Made* made = new Made{bytes, generation.load()};
+  if (clSetMemObjectDestructorCallback(buffer(), count_freed, made) != CL_SUCCESS) {
+    delete made;  // cannot be counted back: not counted at all
+    return;
+  }
+  live_bytes += bytes;
+  const size_t now = generation_bytes += bytes;
+  size_t peak = peak_bytes.load();
+  while (now > peak && !peak_bytes.compare_exchange_weak(peak, now)) {
+  }
+}
+
 // Every device buffer is made here, after a check that it fits: a clear error naming the sizes
 // rather than an OpenCL failure (or worse) later.
 cl::Buffer make_buffer(Context& ctx, size_t bytes, void* host) {
@@ -33,8 +66,10 @@ cl::Buffer make_buffer(Context& ctx, size_t bytes, void* host) {
                 d.name + "' allows (" + mib(d.max_alloc) +
                 "); use a smaller image, shadow map or mesh");
   try {
-    return cl::Buffer(ctx.cl_context(), CL_MEM_READ_WRITE | (host ? CL_MEM_COPY_HOST_PTR : 0),
+    cl::Buffer buffer(ctx.cl_context(), CL_MEM_READ_WRITE | (host ? CL_MEM_COPY_HOST_PTR : 0),
                       bytes, host);
+    count_made(buffer, bytes);
+    return buffer;
   } catch (const cl::Error& e) {
     throw Error("cannot allocate " + mib(bytes) + " on '" + d.name + "': " + e.what() + " (" +
                 std::to_string(e.err()) + ")");
@@ -160,3 +195,17 @@ void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) 
 }
 
 }  // namespace penumbra::detail
+
+namespace penumbra {
+
+DeviceMemoryUse device_memory_use() {
+  return {detail::live_bytes.load(), detail::peak_bytes.load()};
+}
+
+void reset_device_memory_peak() {
+  ++detail::generation;
+  detail::generation_bytes = 0;
+  detail::peak_bytes = 0;
+}
+
+}  // namespace penumbra

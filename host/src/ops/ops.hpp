@@ -4,6 +4,7 @@
 // shadow.cpp ↔ shadow.cl, matmul.cpp ↔ matmul.cl.
 #include <CL/opencl.hpp>
 #include <algorithm>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -36,6 +37,12 @@ class Kernels {
   Precision precision() const { return precision_; }
   const Tuning& tuning() const { return tuning_; }
   void set_tuning(const Tuning& tuning) { tuning_ = tuning; }
+  // Called before each part of a stage launched in parts (the exact shadow lookups' batches of
+  // fragments): (part, parts), part counted from 0. Empty: nothing is called.
+  std::function<void(int, int)> on_part;
+  void part(int i, int n) {
+    if (on_part) on_part(i, n);
+  }
 
  private:
   Context& ctx_;

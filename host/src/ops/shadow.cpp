@@ -129,6 +129,7 @@ void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
   cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
              T = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
+    k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
         k, ExactWeightsArgs{v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gx, 0, Gy, norm});
@@ -181,6 +182,7 @@ MapGrads exact_backward(Kernels& k, bool clblast, ViewState& v, const MapLookup&
              Gy = zero_reals(ctx, p, batch * Hm), T = zero_reals(ctx, p, batch * Hm),
              Td = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
+    k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
         k, ExactWeightsArgs{v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gxd, 1, Gy, norm});
