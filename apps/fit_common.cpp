@@ -64,7 +64,8 @@ FitCheckpointFile::FitCheckpointFile(const CheckpointOptions& options, const std
   };
   if (!options.resume) return;
   std::ifstream in(path_, std::ios::binary);
-  if (!in) throw Error("--resume: cannot read the checkpoint " + path_ + ": " + std::strerror(errno));
+  if (!in)
+    throw Error("--resume: cannot read the checkpoint " + path_ + ": " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
   resumed_ = optim::parse_checkpoint(text.str(), path_, run_);
@@ -75,8 +76,8 @@ FitCheckpointFile::FitCheckpointFile(const CheckpointOptions& options, const std
 
 void check_fit_counts(int iterations, int min_iterations, int gif_every) {
   if (iterations < min_iterations || iterations > 100000)
-    throw Error("--iterations must be in " + std::to_string(min_iterations) +
-                " to 100000 (got " + std::to_string(iterations) + ")");
+    throw Error("--iterations must be in " + std::to_string(min_iterations) + " to 100000 (got " +
+                std::to_string(iterations) + ")");
   if (gif_every < 1) throw Error("--gif-every must be positive");
 }
 
@@ -98,8 +99,8 @@ std::vector<glm::dvec3> light_directions(const std::vector<std::string>& light_d
   }
   if (targets != directions.size())
     throw Error(std::string(targets < directions.size() ? "fewer" : "more") + " targets (" +
-                std::to_string(targets) + ") than lights (" +
-                std::to_string(directions.size()) + "): give one --target per --light-dir");
+                std::to_string(targets) + ") than lights (" + std::to_string(directions.size()) +
+                "): give one --target per --light-dir");
   return directions;
 }
 

@@ -73,12 +73,14 @@ Command add_kernels_command(CLI::App& root) {
   c.app = root.add_subcommand("kernels",
                               "list every kernel program the renderer can build (file and build "
                               "options), optionally writing each as a file for offline compiling");
-  CLI::Option* kind = c.app->add_option("--kind", args->kind,
-                    "for a GPU-like device, a CPU-like one, or both (all)")
-      ->check(CLI::IsMember({"gpu", "cpu", "all"}))
-      ->capture_default_str();
-  c.app->add_option("--device", args->device,
-                    "for this OpenCL device instead (index or part of its name)")
+  CLI::Option* kind =
+      c.app
+          ->add_option("--kind", args->kind, "for a GPU-like device, a CPU-like one, or both (all)")
+          ->check(CLI::IsMember({"gpu", "cpu", "all"}))
+          ->capture_default_str();
+  c.app
+      ->add_option("--device", args->device,
+                   "for this OpenCL device instead (index or part of its name)")
       ->excludes(kind);
   c.app->add_option("--variants", args->variants,
                     "folder for NNNN_<stem>.cl (the expanded source) and NNNN_<stem>.options "

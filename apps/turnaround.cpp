@@ -101,8 +101,8 @@ int run_turnaround(const TurnaroundArgs& a) {
     if (!gif)
       gif = std::make_unique<GifWriter>(gif_path, base.width, base.height, kGifDelayCentiseconds);
     gif->add_frame(views.front().color);
-    progress.update(k + 1, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-                               .count());
+    progress.update(k + 1,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

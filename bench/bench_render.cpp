@@ -56,8 +56,8 @@ using Key = std::tuple<bool, int, int, int, int, int, double, int>;
 
 void add(bool backward, const Case& c, bool large = false) {
   static std::set<Key> seen;  // a case shared by several sweeps runs once
-  const Key key{backward, int(c.shadows), int(c.sampling), c.image, c.map, c.frequency,
-                c.sigma_s, c.lights};
+  const Key key{backward, int(c.shadows), int(c.sampling), c.image,
+                c.map,    c.frequency,    c.sigma_s,       c.lights};
   if (!seen.insert(key).second) return;
   const std::string name = (large ? "large/" : "") + case_name("", backward, c).substr(1);
   benchmark::RegisterBenchmark(name.c_str(),

@@ -35,12 +35,9 @@ struct KnownMiss {
 // defaults); docs/benchmarks.md has the whole table. Remove an entry when the model meets its
 // target.
 const std::vector<KnownMiss> kKnownMisses = {
-    {"knot_h0_hard_rmse", "0.0903"},
-    {"knot_h0_soft_rmse", "0.0782"},
-    {"knot_h0_3_hard_rmse", "0.0785"},
-    {"knot_h0_3_soft_rmse", "0.0596"},
-    {"knot_h1_hard_rmse", "0.0631"},
-    {"knot_h0_hard_leak", "0.0083"},
+    {"knot_h0_hard_rmse", "0.0903"},   {"knot_h0_soft_rmse", "0.0782"},
+    {"knot_h0_3_hard_rmse", "0.0785"}, {"knot_h0_3_soft_rmse", "0.0596"},
+    {"knot_h1_hard_rmse", "0.0631"},   {"knot_h0_hard_leak", "0.0083"},
     {"knot_h0_soft_leak", "0.0168"},
 };
 
@@ -83,7 +80,7 @@ void check(const std::string& scene, Shadows shadows, const std::string& target)
   } else if (target == "leak") {
     ASSERT_TRUE(m.leak.has_value()) << "no truth shadow at the contact";
     EXPECT_LE(*m.leak, T::leak) << m.contact_shadow_pixels << " of " << m.contact_pixels
-                                 << " contact pixels shadowed by the truth";
+                                << " contact pixels shadowed by the truth";
   }
 }
 
@@ -104,10 +101,9 @@ std::string test_name(std::string scene, Shadows shadows, const std::string& tar
 void add_test(const std::string& scene, Shadows shadows, const std::string& target) {
   std::string name = test_name(scene, shadows, target);
   if (known_miss(name)) name = "DISABLED_" + name;
-  testing::RegisterTest("AccurateModel", name.c_str(), nullptr, nullptr, __FILE__, __LINE__,
-                        [=]() -> testing::Test* {
-                          return new Target([=] { check(scene, shadows, target); });
-                        });
+  testing::RegisterTest(
+      "AccurateModel", name.c_str(), nullptr, nullptr, __FILE__, __LINE__,
+      [=]() -> testing::Test* { return new Target([=] { check(scene, shadows, target); }); });
 }
 
 void register_targets() {

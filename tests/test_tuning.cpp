@@ -76,7 +76,8 @@ TEST(Tuning, KernelVariantsListEveryProgramTheRendererBuilds) {
     for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
       for (Shadows shadows : {Shadows::None, Shadows::Hard, Shadows::Soft})
         for (Sampling sampling : {Sampling::Truncated, Sampling::Exact, Sampling::Gemm}) {
-          if (sampling == Sampling::Gemm && (shadows != Shadows::Hard || model != ShadowModel::Paper))
+          if (sampling == Sampling::Gemm &&
+              (shadows != Shadows::Hard || model != ShadowModel::Paper))
             continue;
           Scene s = small_scene(shadows, sampling);
           s.params.shadow_model = model;
@@ -94,8 +95,8 @@ TEST(Tuning, KernelVariantsListEveryProgramTheRendererBuilds) {
   const auto built = ctx.programs();
   EXPECT_GE(built.size(), 7u);
   for (const auto& program : built)
-    EXPECT_TRUE(listed.count(program)) << program.first << " built with '" << program.second
-                                       << "' is not in kernel_variants";
+    EXPECT_TRUE(listed.count(program))
+        << program.first << " built with '" << program.second << "' is not in kernel_variants";
 }
 
 TEST(Tuning, EveryRasterCandidateIsBitIdenticalWithShadows) {
@@ -122,7 +123,8 @@ TEST(Tuning, EveryPenumbraTileIsBitIdentical) {
   for (int tile : {4, 8, 32, 64}) {
     Tuning t = base;
     t.penumbra.tile = tile;
-    expect_identical(render_with(s, t, Precision::Double), ref, "penumbra tile " + std::to_string(tile));
+    expect_identical(render_with(s, t, Precision::Double), ref,
+                     "penumbra tile " + std::to_string(tile));
   }
 }
 
@@ -149,11 +151,11 @@ TEST(Tuning, EveryExactSumCandidateAgreesToRounding) {
 // CLBlast's parameters as it reports them for this device (what its next GEMM will use).
 std::unordered_map<std::string, size_t> clblast_xgemm(Precision p) {
   std::unordered_map<std::string, size_t> out;
-  EXPECT_EQ(clblast::RetrieveParameters(context().info().device(), "Xgemm",
-                                        p == Precision::Double ? clblast::Precision::kDouble
-                                                               : clblast::Precision::kSingle,
-                                        out),
-            clblast::StatusCode::kSuccess);
+  EXPECT_EQ(
+      clblast::RetrieveParameters(
+          context().info().device(), "Xgemm",
+          p == Precision::Double ? clblast::Precision::kDouble : clblast::Precision::kSingle, out),
+      clblast::StatusCode::kSuccess);
   return out;
 }
 
@@ -293,7 +295,8 @@ TEST(Tuning, CorruptOrMissingDatabaseFallsBackWithAWarning) {
     out << "{ this is not json";
   }
   ::testing::internal::CaptureStderr();
-  const TuningDatabase db = TuningDatabase::load({bad, ::testing::TempDir() + "/no_such_file.json"});
+  const TuningDatabase db =
+      TuningDatabase::load({bad, ::testing::TempDir() + "/no_such_file.json"});
   const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_EQ(db.size(), 0u);
   EXPECT_NE(err.find("penumbra: warning: ignoring tuning database"), std::string::npos) << err;

@@ -84,8 +84,8 @@ struct View {
   int width, height;
 
   // eye, viewing direction `fwd` (any length), up hint; scale as above.
-  View(const dvec3& eye_, const dvec3& fwd, const dvec3& up_hint, bool perspective_,
-       double scale_, double near_, double far_, int width_, int height_)
+  View(const dvec3& eye_, const dvec3& fwd, const dvec3& up_hint, bool perspective_, double scale_,
+       double near_, double far_, int width_, int height_)
       : eye(eye_),
         perspective(perspective_),
         scale(scale_),
@@ -322,12 +322,12 @@ Image penumbra(const Scene& scene, const ShadowMap& map, double light_size) {
                              ? 1.0 / (wc[0] / face.z[0] + wc[1] / face.z[1] + wc[2] / face.z[2])
                              : wc[0] * face.z[0] + wc[1] * face.z[1] + wc[2] * face.z[2];
         if (!(z < Sq) || !(light_size > 0.0)) continue;  // only occluders in front count
-        const double d =
-            inside ? 0.0
-                   : std::sqrt(std::min({point_segment_dist2(q, face.p[0], face.p[1]),
-                                         point_segment_dist2(q, face.p[1], face.p[2]),
-                                         point_segment_dist2(q, face.p[2], face.p[0])}));
-        const double b = light_size * (Sq - z) / Sq;                   // cone width
+        const double d = inside
+                             ? 0.0
+                             : std::sqrt(std::min({point_segment_dist2(q, face.p[0], face.p[1]),
+                                                   point_segment_dist2(q, face.p[1], face.p[2]),
+                                                   point_segment_dist2(q, face.p[2], face.p[0])}));
+        const double b = light_size * (Sq - z) / Sq;                            // cone width
         const double r = d * (view.perspective ? z * view.scale : view.scale);  // world units
         const double tau = r / b;
         if (!(tau < 1.0)) continue;  // q outside t's cone
@@ -400,8 +400,7 @@ dvec2 receiver_gradient(const ShadowMap& map, const Face& face, double d) {
   }
   const dvec2 e1 = mu[1] - mu[0], e2 = mu[2] - mu[0];
   const double A = cross2(e1, e2);
-  if (std::abs(A) <= std::numeric_limits<double>::epsilon() *
-                         (glm::dot(e1, e1) + glm::dot(e2, e2)))
+  if (std::abs(A) <= std::numeric_limits<double>::epsilon() * (glm::dot(e1, e1) + glm::dot(e2, e2)))
     return dvec2(0.0);
   dvec2 G(0.0);
   for (int k = 0; k < 3; ++k) {
@@ -455,7 +454,8 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
 
 // The accurate model (kernels/pcf.cl): c = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
 double lit_step(double delta, const RenderParams& p) {
-  const double t = std::clamp((delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
+  const double t = std::clamp(
+      (delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
   return 1 - t * t * (3 - 2 * t);
 }
 
@@ -496,8 +496,8 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   if (!(mu.x >= -0.5 && mu.x < Ws - 0.5 && mu.y >= -0.5 && mu.y < Hs - 0.5)) return 1.0;
   dvec2 grad = receiver_gradient(map, face, d);
   const bool ortho = light.type == LightType::Directional;
-  const double k = Hs / (2 * (ortho ? light.frustum.half_size
-                                    : std::tan(light.frustum.fov_deg * M_PI / 360)));
+  const double k =
+      Hs / (2 * (ortho ? light.frustum.half_size : std::tan(light.frustum.fov_deg * M_PI / 360)));
   // Slope limit: a face within 1° of edge-on extrapolates as if at 1° (texel size over tan 1°).
   const double limit = (ortho ? 1.0 : std::abs(d)) / (k * 0.017455), len = glm::length(grad);
   if (len > limit) grad *= limit / len;
@@ -555,8 +555,8 @@ RenderOutput render(const Scene& given, size_t camera_index) {
   const View view = View::of_camera(cam);
 
   std::vector<ShadowMap> maps;
-  const bool penumbra_maps = scene.params.shadows == Shadows::Soft &&
-                             scene.params.shadow_model == ShadowModel::Paper;
+  const bool penumbra_maps =
+      scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper;
   if (scene.params.shadows != Shadows::None && !penumbra_maps)
     for (size_t l = 0; l < scene.lights.size(); ++l) maps.push_back(light_pass(scene, l));
   if (penumbra_maps)

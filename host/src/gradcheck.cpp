@@ -21,8 +21,15 @@ constexpr const char* kChannel[3] = {"r", "g", "b"};
 
 // One scalar parameter of the scene.
 struct Param {
-  enum Kind { Vertex, Albedo, LightPosition, LightDirection, LightColor, LightSize, Ambient } kind =
-      Ambient;
+  enum Kind {
+    Vertex,
+    Albedo,
+    LightPosition,
+    LightDirection,
+    LightColor,
+    LightSize,
+    Ambient
+  } kind = Ambient;
   int mesh = 0;   // Vertex, Albedo
   int index = 0;  // vertex / albedo entry / light
   int axis = 0;   // coordinate or colour channel
@@ -188,7 +195,7 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
       if (mesh.faces.empty()) continue;
       const auto it = faces_of_mesh.find(int(m));
       const int face = it != faces_of_mesh.end() ? it->second[uniform(it->second.size())].face
-                                                  : int(uniform(mesh.faces.size()));
+                                                 : int(uniform(mesh.faces.size()));
       Param p;
       p.kind = Param::Vertex;
       p.mesh = int(m);

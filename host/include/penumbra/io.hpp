@@ -71,8 +71,8 @@ Image load_image(const std::string& path, int channels = 0);
 void save_npy(const Image& image, const std::string& path, bool f64 = false);
 Image load_npy(const std::string& path);
 // Plain arrays of N×K values (vertex gradients and the like), shape (N, K).
-void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
-              const std::string& path, bool f64 = false);
+void save_npy(const std::vector<double>& values, size_t rows, size_t cols, const std::string& path,
+              bool f64 = false);
 // The bytes the save_npy above write; `path` only names the file in error messages.
 std::string npy_bytes(const Image& image, const std::string& path, bool f64 = false);
 std::string npy_bytes(const std::vector<double>& values, size_t rows, size_t cols,
@@ -83,8 +83,9 @@ std::string npy_bytes(const std::vector<double>& values, size_t rows, size_t col
 // of 256 colours — a 6×6×6 RGB cube, index 36·r + 6·g + b for levels 0, 51, ..., 255, then 40
 // greys round((k + 1/2)·255/40), k = 0..39 — and LZW-compressed. Values are clamped to
 // [0, 1] and rounded to 8 bits as by save_png; 1 channel → grey, 3 → RGB, 4 → RGB (alpha
-// ignored). Each frame shows for `delay_centiseconds` (10 → 10 frames per second). Throws penumbra::Error for an empty list,
-// frames of different sizes or channel counts other than 1, 3, 4, and unwritable paths.
+// ignored). Each frame shows for `delay_centiseconds` (10 → 10 frames per second). Throws
+// penumbra::Error for an empty list, frames of different sizes or channel counts other than 1, 3,
+// 4, and unwritable paths.
 void save_gif(const std::vector<Image>& frames, const std::string& path,
               int delay_centiseconds = 10);
 

@@ -27,8 +27,8 @@ struct SceneGrads {
 // it), estimated from the scene's sizes before anything is allocated: the geometry, every
 // camera's view and every light's shadow-map view, a fragment on every fourth pixel (how many
 // there are is known only once they are counted; the fragments' memory is then checked
-// again), the penumbra maps and the exact filter's buffers. render() and backward() refuse a scene whose estimate exceeds
-// Context::memory_limit().
+// again), the penumbra maps and the exact filter's buffers. render() and backward() refuse a scene
+// whose estimate exceeds Context::memory_limit().
 size_t estimate_device_memory(const Scene& scene, Precision precision, bool backward = false);
 
 // A program a Renderer builds: kernels/<file>, its includes expanded

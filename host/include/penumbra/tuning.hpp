@@ -40,9 +40,9 @@ struct XgemmParameters {
 // kernels/matmul.cl and CLBlast: the products of exact-sum hard shadows. Changing them changes
 // the summation order of those sums (results agree to rounding).
 struct ExactSumTuning {
-  bool clblast = false;   // sampling `exact`: CLBlast's GEMM instead of penumbra's kernels
-  int vector_width = 8;   // MM_VW: 1, 2, 4, 8 or 16
-  int row_block = 4;      // MM_RB: rows of the product per work-item, 1 to 8
+  bool clblast = false;  // sampling `exact`: CLBlast's GEMM instead of penumbra's kernels
+  int vector_width = 8;  // MM_VW: 1, 2, 4, 8 or 16
+  int row_block = 4;     // MM_RB: rows of the product per work-item, 1 to 8
   // CLBlast's GEMM (sampling `gemm`, or `exact` with clblast), set with
   // clblast::OverrideParameters. Unset: CLBlast's built-in parameters for the device.
   std::optional<XgemmParameters> xgemm;

@@ -113,8 +113,9 @@ std::vector<DeviceInfo> list_devices() {
     }
   }
   if (out.empty())
-    throw Error("no OpenCL device found (is an OpenCL driver installed? on Debian: "
-                "apt-get install pocl-opencl-icd)");
+    throw Error(
+        "no OpenCL device found (is an OpenCL driver installed? on Debian: "
+        "apt-get install pocl-opencl-icd)");
   return out;
 }
 

@@ -67,9 +67,7 @@ struct Palette {
     fill_nearest(b_level.data(), kBlueLevels, nearest_b);
   }
 
-  static int index(int r, int g, int b) {
-    return (r * kGreenLevels + g) * kBlueLevels + b;
-  }
+  static int index(int r, int g, int b) { return (r * kGreenLevels + g) * kBlueLevels + b; }
 
   static void fill_nearest(const int* levels, int n, std::array<uint8_t, 256>& out) {
     for (int v = 0; v < 256; ++v) {
@@ -148,8 +146,8 @@ class BitWriter {
 
 constexpr int kMinCodeSize = 8;
 constexpr int kClear = 1 << kMinCodeSize;  // 256
-constexpr int kEnd = kClear + 1;          // 257
-constexpr int kMaxCodes = 4096;           // 12-bit codes
+constexpr int kEnd = kClear + 1;           // 257
+constexpr int kMaxCodes = 4096;            // 12-bit codes
 
 // The LZW string table: child(code, byte) = the code of string(code) + byte. Entries carry the
 // generation they were written in, so that clearing the table is O(1) rather than a pass over
@@ -238,8 +236,8 @@ GifWriter::GifWriter(const std::string& path, int width, int height, int delay_c
   Impl& m = *impl_;
   m.path = path;
   if (width < 1 || height < 1 || width > 65535 || height > 65535)
-    throw Error("cannot write GIF " + quoted(path) + ": frame size " + std::to_string(width) +
-                "x" + std::to_string(height) + " is not in 1 to 65535 pixels");
+    throw Error("cannot write GIF " + quoted(path) + ": frame size " + std::to_string(width) + "x" +
+                std::to_string(height) + " is not in 1 to 65535 pixels");
   if (delay_centiseconds < 0 || delay_centiseconds > 65535)
     throw Error("cannot write GIF " + quoted(path) + ": delay " +
                 std::to_string(delay_centiseconds) + " is not in 0 to 65535 centiseconds");
@@ -315,8 +313,7 @@ void GifWriter::close() {
   m.file->commit();
 }
 
-void save_gif(const std::vector<Image>& frames, const std::string& path,
-              int delay_centiseconds) {
+void save_gif(const std::vector<Image>& frames, const std::string& path, int delay_centiseconds) {
   if (frames.empty()) throw Error("cannot write GIF " + quoted(path) + ": no frames");
   const Image& first = frames.front();
   for (size_t i = 0; i < frames.size(); ++i) {

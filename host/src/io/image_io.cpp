@@ -39,8 +39,8 @@ std::string quoted(const std::string& path) { return "'" + path + "'"; }
 // and so is anything whose first bytes name no format (stb would try it as TGA, its only
 // format without a signature). The formats read are recognised by their signature.
 constexpr const char* kImageFormats = "PNG, BMP, GIF, PSD, HDR";
-constexpr int kMaxImageSide = 16384;            // as for rendered images (scene.hpp)
-constexpr double kMaxImagePixels = 1 << 24;     // 16 Mi pixels: 512 MiB as a 4-channel Image
+constexpr int kMaxImageSide = 16384;         // as for rendered images (scene.hpp)
+constexpr double kMaxImagePixels = 1 << 24;  // 16 Mi pixels: 512 MiB as a 4-channel Image
 
 bool starts_with(const unsigned char* p, size_t n, const char* magic, size_t m) {
   return n >= m && std::memcmp(p, magic, m) == 0;
@@ -265,8 +265,10 @@ class HeaderParser {
       }
       out.push_back(v);
       skip();
-      if (peek() == ',') ++i_;
-      else if (peek() != ')') fail("malformed header (shape must be a tuple of integers)");
+      if (peek() == ',')
+        ++i_;
+      else if (peek() != ')')
+        fail("malformed header (shape must be a tuple of integers)");
     }
   }
 
@@ -331,8 +333,7 @@ Image load_image(const std::string& path, int channels) {
   if (bytes.size() > size_t(std::numeric_limits<int>::max())) throw fail("file too large");
 
   const char* refused = refused_format(p, bytes.size());
-  if (refused)
-    throw fail(std::string(refused) + " files are not read (" + kImageFormats + " are)");
+  if (refused) throw fail(std::string(refused) + " files are not read (" + kImageFormats + " are)");
   if (!known_format(p, bytes.size()))
     throw fail(std::string("unknown image format (") + kImageFormats + " are read)");
   if (p[0] == 0x89) {  // PNG
@@ -386,9 +387,9 @@ std::string npy_bytes(const Image& image, const std::string& path, bool f64) {
 std::string npy_bytes(const std::vector<double>& values, size_t rows, size_t cols,
                       const std::string& path, bool f64) {
   if (values.size() != rows * cols)
-    throw Error("cannot write NumPy file " + quoted(path) + ": " +
-                std::to_string(values.size()) + " values do not fill shape (" +
-                std::to_string(rows) + ", " + std::to_string(cols) + ")");
+    throw Error("cannot write NumPy file " + quoted(path) + ": " + std::to_string(values.size()) +
+                " values do not fill shape (" + std::to_string(rows) + ", " + std::to_string(cols) +
+                ")");
   return npy_encode(values.data(), {rows, cols}, path, f64);
 }
 
@@ -396,8 +397,8 @@ void save_npy(const Image& image, const std::string& path, bool f64) {
   write_file(path, npy_bytes(image, path, f64), "NumPy file");
 }
 
-void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
-              const std::string& path, bool f64) {
+void save_npy(const std::vector<double>& values, size_t rows, size_t cols, const std::string& path,
+              bool f64) {
   write_file(path, npy_bytes(values, rows, cols, path, f64), "NumPy file");
 }
 

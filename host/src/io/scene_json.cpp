@@ -31,15 +31,22 @@ struct SceneError {
 
 const char* type_name(const json& j) {
   switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "a boolean";
+    case json::value_t::null:
+      return "null";
+    case json::value_t::boolean:
+      return "a boolean";
     case json::value_t::number_integer:
     case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
-    default: return "an unsupported value";
+    case json::value_t::number_float:
+      return "a number";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::array:
+      return "an array";
+    case json::value_t::object:
+      return "an object";
+    default:
+      return "an unsupported value";
   }
 }
 
@@ -142,8 +149,8 @@ std::string item(const char* key, size_t i) {
 
 Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::path& base) {
   check_object(j, where, {"file", "name", "translate", "scale", "albedo"});
-  const std::string file = get_string(require(j, where, "file", "the path of an OBJ file"),
-                                       child(where, "file"));
+  const std::string file =
+      get_string(require(j, where, "file", "the path of an OBJ file"), child(where, "file"));
   if (file.empty()) fail("'" + child(where, "file") + "' is empty");
   std::filesystem::path path(file);
   if (path.is_relative()) path = base / path;
@@ -179,8 +186,9 @@ Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::
 }
 
 Camera parse_camera(const json& j, const std::string& where) {
-  check_object(j, where, {"eye", "target", "up", "projection", "fov", "half_height", "near",
-                          "far", "width", "height"});
+  check_object(j, where,
+               {"eye", "target", "up", "projection", "fov", "half_height", "near", "far", "width",
+                "height"});
   Camera c;
   opt(j, where, "eye", c.eye, get_vec3);
   opt(j, where, "target", c.target, get_vec3);
@@ -254,9 +262,10 @@ Light parse_light(const json& j, const std::string& where) {
 }
 
 RenderParams parse_render(const json& j, const std::string& where) {
-  check_object(j, where, {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps",
-                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling", "shadow_model",
-                          "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
+  check_object(j, where,
+               {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps", "gamma_s", "beta",
+                "gamma_p", "cull_backfaces", "shadows", "sampling", "shadow_model",
+                "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
   RenderParams p;
   opt(j, where, "sigma", p.sigma, get_number);
   opt(j, where, "gamma", p.gamma, get_number);
@@ -268,8 +277,7 @@ RenderParams parse_render(const json& j, const std::string& where) {
   opt(j, where, "beta", p.beta, get_number);
   opt(j, where, "gamma_p", p.gamma_p, get_number);
   opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
-  if (j.contains("shadows"))
-    p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
+  if (j.contains("shadows")) p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
   if (j.contains("sampling"))
     p.sampling = get_enum<Sampling>(j["sampling"], child(where, "sampling"));
   if (j.contains("shadow_model"))
@@ -290,8 +298,8 @@ Scene parse_document(const json& doc, const std::filesystem::path& base) {
   for (size_t i = 0; i < meshes.size(); ++i)
     scene.meshes.push_back(parse_mesh(meshes[i], item("meshes", i), base));
   const json& cameras = require_array(doc, "", "cameras",
-                                     "an array of cameras, each an object such as "
-                                     "{\"eye\": [0, 0, 3]}");
+                                      "an array of cameras, each an object such as "
+                                      "{\"eye\": [0, 0, 3]}");
   for (size_t i = 0; i < cameras.size(); ++i)
     scene.cameras.push_back(parse_camera(cameras[i], item("cameras", i)));
   if (doc.contains("lights")) {
