@@ -214,5 +214,7 @@ TEST(ProgramCache, UnwritableFolderStillRenders) {
   EXPECT_TRUE(fs::exists(dir / "raw" / "color.npy"));
   const std::vector<std::string> err = lines(r.err);
   ASSERT_LE(err.size(), 1u) << r.err;
-  if (!err.empty()) EXPECT_EQ(err[0].rfind("penumbra: warning:", 0), 0u) << r.err;
+  if (!err.empty()) {
+    EXPECT_EQ(err[0].rfind("penumbra: warning:", 0), 0u) << r.err;
+  }
 }

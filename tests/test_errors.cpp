@@ -476,7 +476,9 @@ TEST(ErrorsFuzz, ImageSeedsOfReadFormatsLoad) {
       const Image im = penumbra::load_image(fuzz_input("image", name), channels);
       EXPECT_GT(im.width, 0);
       EXPECT_GT(im.height, 0);
-      if (channels) EXPECT_EQ(im.channels, channels);
+      if (channels) {
+        EXPECT_EQ(im.channels, channels);
+      }
       EXPECT_EQ(im.data.size(), size_t(im.width) * im.height * im.channels);
     }
   }

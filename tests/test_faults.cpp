@@ -513,8 +513,8 @@ TEST(FaultsTuning, UpdatingOneEntryKeepsTheOthersByteIdentical) {
 }
 
 TEST(FaultsTuning, AnythingButADatabaseIsRefused) {
-  for (const std::string text : {std::string("\x89PNG\r\n"), std::string(R"({"entries": 3})"),
-                                 std::string(R"({"entries": {"a": {}, "a": {}}})")}) {
+  for (const std::string& text : {std::string("\x89PNG\r\n"), std::string(R"({"entries": 3})"),
+                                  std::string(R"({"entries": {"a": {}, "a": {}}})")}) {
     const std::string message = error_of([&] {
       penumbra::TuningDatabase::updated_text(text, "db.json", "Mine", penumbra::Tuning());
     });
@@ -747,9 +747,11 @@ TEST(FaultsDoc, EveryTestTheTableNamesExistsAndEveryFaultTestIsInIt) {
     EXPECT_TRUE(found) << "docs/faults.md names " << suite << "." << name << ", which is no test";
   }
   EXPECT_GT(rows, 30);
-  for (const std::string& t : registered)
-    if (t.rfind("Faults", 0) == 0 && t.rfind("FaultsDoc.", 0) != 0)
+  for (const std::string& t : registered) {
+    if (t.rfind("Faults", 0) == 0 && t.rfind("FaultsDoc.", 0) != 0) {
       EXPECT_NE(doc.find("`" + t + "`"), std::string::npos) << t << " is not in docs/faults.md";
+    }
+  }
 }
 
 }  // namespace

@@ -94,13 +94,6 @@ void check_vertex_gradient(Mesh mesh,
     }
 }
 
-// A grey PNG from a mask: shape dark (0), background light (1).
-void write_target(const Image& mask, const std::string& path) {
-  Image im(mask.width, mask.height, 1);
-  for (size_t i = 0; i < im.data.size(); ++i) im.data[i] = mask.data[i] > 0.5 ? 0.0 : 1.0;
-  save_png(im, path);
-}
-
 std::string temp(const std::string& name) {
   return ::testing::TempDir() + "penumbra_optim_" + name;
 }

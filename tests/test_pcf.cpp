@@ -118,7 +118,9 @@ TEST_P(PcfCase, GradCheckDouble) {
       EXPECT_TRUE(has_entry(
           result, light + (scene.lights[l].type == LightType::Point ? ".position" : ".direction")))
           << tag;
-      if (shadows == Shadows::Soft) EXPECT_TRUE(has_entry(result, light + ".size")) << tag;
+      if (shadows == Shadows::Soft) {
+        EXPECT_TRUE(has_entry(result, light + ".size")) << tag;
+      }
     }
   }
 }

@@ -44,26 +44,11 @@ using namespace penumbra;
 
 // Shared device, builders and comparisons (scenes.hpp).
 using namespace penumbra_tests;
-using penumbra_tests::name_of;  // overloaded below for Lighting
 
 // ---------------------------------------------------------------------------------------------
 // Scenes.
 
 enum class Lighting { Point, Directional, Two, Overhead };
-
-const char* name_of(Lighting l) {
-  switch (l) {
-    case Lighting::Point:
-      return "point";
-    case Lighting::Directional:
-      return "directional";
-    case Lighting::Two:
-      return "two lights";
-    case Lighting::Overhead:
-      return "overhead";
-  }
-  return "?";
-}
 
 // Mesh 0: an icosphere of radius 0.5 centred 1.0 above the ground (a gap of 0.5 below it);
 // mesh 1: a 4×4 ground grid over [−2, 2]². A 48×40 camera sees both from the front and above
