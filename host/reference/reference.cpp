@@ -331,35 +331,36 @@ void require_light(const Scene& scene, size_t light) {
 
 }  // namespace
 
-RenderOutput render(const Scene& given, size_t camera_index) {
-  validate(given);
-  const Camera& cam = given.cameras.at(camera_index);
-  const Scene scene = given.params.shadows == Shadows::None ? given : fitted(given);
+RenderOutput render(const Scene& scene, size_t camera_index) {
+  validate(scene);
+  const Camera& cam = scene.cameras.at(camera_index);
+  const Scene work =  // frusta fitted when shadows need them
+      scene.params.shadows == Shadows::None ? scene : fitted(scene);
   const View view = View::of_camera(cam);
 
   std::vector<ShadowMap> maps;
   const bool penumbra_maps =
-      scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper;
-  if (scene.params.shadows != Shadows::None && !penumbra_maps)
-    for (size_t l = 0; l < scene.lights.size(); ++l) maps.push_back(light_pass(scene, l));
+      work.params.shadows == Shadows::Soft && work.params.shadow_model == ShadowModel::Paper;
+  if (work.params.shadows != Shadows::None && !penumbra_maps)
+    for (size_t l = 0; l < work.lights.size(); ++l) maps.push_back(light_pass(work, l));
   if (penumbra_maps)
-    for (size_t l = 0; l < scene.lights.size(); ++l)
-      maps.push_back(light_pass_with_penumbra(scene, l));
+    for (size_t l = 0; l < work.lights.size(); ++l)
+      maps.push_back(light_pass_with_penumbra(work, l));
 
   const Shader shader = [&](const Face& face, const dvec3& b) {
-    return shade(scene, view, maps, face, b);
+    return shade(work, view, maps, face, b);
   };
-  return raster(scene, view, scene.params.sigma, scene.params.gamma, scene.background, shader);
+  return raster(work, view, work.params.sigma, work.params.gamma, work.background, shader);
 }
 
-Image shadow_map(const Scene& given, size_t light) {
-  require_light(given, light);
-  return light_pass(fitted(given), light).S;
+Image shadow_map(const Scene& scene, size_t light) {
+  require_light(scene, light);
+  return light_pass(fitted(scene), light).S;
 }
 
-Image penumbra_map(const Scene& given, size_t light) {
-  require_light(given, light);
-  return light_pass_with_penumbra(fitted(given), light).P;
+Image penumbra_map(const Scene& scene, size_t light) {
+  require_light(scene, light);
+  return light_pass_with_penumbra(fitted(scene), light).P;
 }
 
 }  // namespace penumbra::reference

@@ -184,6 +184,7 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
 
   auto uniform = [&rng](size_t n) { return std::uniform_int_distribution<size_t>(0, n - 1)(rng); };
   std::vector<int> meshes_with_faces;
+  meshes_with_faces.reserve(faces_of_mesh.size());
   for (const auto& kv : faces_of_mesh) meshes_with_faces.push_back(kv.first);
 
   std::vector<Param> chosen;

@@ -116,7 +116,7 @@ struct Profile {
   ~Profile() {
     if (!on) return;
     std::vector<std::pair<double, std::string>> rows;
-    for (auto& [name, t] : ms) rows.push_back({t.first, name});
+    for (auto& [name, t] : ms) rows.emplace_back(t.first, name);
     std::sort(rows.rbegin(), rows.rend());
     std::fprintf(stderr, "penumbra profile (device ms, launches):\n");
     for (auto& [total, name] : rows)

@@ -60,7 +60,7 @@ struct Palette {
     for (int k = 0; k < kGreyCount; ++k) {
       grey[k] = int(std::lround((k + 0.5) * 255.0 / kGreyCount));
       const uint8_t v = uint8_t(grey[k]);
-      rgb[size_t(kCubeSize + k)] = {v, v, v};
+      rgb[size_t(kCubeSize) + size_t(k)] = {v, v, v};
     }
     fill_nearest(r_level.data(), kRedLevels, nearest_r);
     fill_nearest(g_level.data(), kGreenLevels, nearest_g);

@@ -77,7 +77,7 @@ FitState parse_checkpoint(const std::string& text, const std::string& path,
     const std::vector<int> faces = m.at("faces").get<std::vector<int>>();
     if (faces.size() % 3 != 0) throw Error("the faces are not triples");
     for (size_t i = 0; i < faces.size(); i += 3)
-      s.mesh.faces.push_back({faces[i], faces[i + 1], faces[i + 2]});
+      s.mesh.faces.emplace_back(faces[i], faces[i + 1], faces[i + 2]);
     s.mesh.albedo = vectors(m.at("albedo").get<std::vector<double>>());
     s.mesh.albedo_mode =
         m.at("per_vertex").get<bool>() ? AlbedoMode::PerVertex : AlbedoMode::PerFace;

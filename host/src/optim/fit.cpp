@@ -34,9 +34,12 @@ Scene silhouette_scene(const Mesh& mesh, const std::vector<glm::dvec3>& directio
   return scene;
 }
 
-Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& problem,
-                     const std::vector<SilhouetteStage>& stages, const FitObserver& observer,
-                     const FitCheckpoints& checkpoints) {
+namespace {
+
+// The iterations of all the stages of fit_silhouettes, after checking the targets against the
+// views and each stage's resolution against the targets' size.
+int silhouette_iterations(const SilhouetteProblem& problem,
+                          const std::vector<SilhouetteStage>& stages) {
   check_targets(problem.targets, {});
   if (problem.targets.size() != problem.directions.size())
     throw Error("fit_silhouettes: " + std::to_string(problem.targets.size()) + " targets for " +
@@ -49,6 +52,16 @@ Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& pro
                   " must divide the target size " + std::to_string(full));
     total += std::max(s.iterations, 0);
   }
+  return total;
+}
+
+}  // namespace
+
+Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& problem,
+                     const std::vector<SilhouetteStage>& stages, const FitObserver& observer,
+                     const FitCheckpoints& checkpoints) {
+  const int total = silhouette_iterations(problem, stages);
+  const int full = problem.targets.front().width;
   if (mesh.albedo.size() != mesh.vertices.size()) {
     mesh.albedo.assign(mesh.vertices.size(), glm::dvec3(0.8));
     mesh.albedo_mode = AlbedoMode::PerVertex;
