@@ -89,6 +89,7 @@ void check_radius(double radius) {
 std::vector<glm::dvec3> light_directions(const std::vector<std::string>& light_dirs,
                                          size_t targets) {
   std::vector<glm::dvec3> directions;
+  directions.reserve(light_dirs.size());
   for (const std::string& d : light_dirs) directions.push_back(optim::parse_direction(d));
   if (directions.empty()) {
     const std::vector<glm::dvec3> order = {{0, 0, -1}, {-1, 0, 0}, {0, -1, 0}};
@@ -187,7 +188,7 @@ std::string FitRecorder::save_scene(Renderer& renderer, const Mesh& result,
                                     const std::vector<glm::dvec3>& directions, int size,
                                     const optim::WallSetup& setup) const {
   if (!optim::orthogonal(directions)) return "";
-  const std::string scene_png = path("scene.png");
+  std::string scene_png = path("scene.png");
   save_png(renderer.render(optim::room_scene(result, directions, size, size, setup)).front().color,
            scene_png);
   return scene_png;

@@ -54,6 +54,7 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
     views.assign(order.begin(), order.begin() + long(files.size()));
   }
   std::vector<glm::dvec3> directions;
+  directions.reserve(views.size());
   for (const std::string& v : views) directions.push_back(named_view(v));
   if (files.size() < views.size())
     throw Error("fewer targets (" + std::to_string(files.size()) + ") than views (" +

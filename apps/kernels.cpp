@@ -46,7 +46,7 @@ int run_kernels(const KernelsArgs& a) {
   std::set<std::pair<std::string, std::string>> seen;
   for (const DeviceInfo& d : devices)
     for (const KernelVariant& v : kernel_variants(d))
-      if (seen.insert({v.file, v.options}).second) all.push_back({d.name, v});
+      if (seen.insert({v.file, v.options}).second) all.emplace_back(d.name, v);
   if (!a.variants.empty()) make_dirs(a.variants);
   std::set<std::string> files;
   for (size_t i = 0; i < all.size(); ++i) {

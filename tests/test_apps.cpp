@@ -51,7 +51,7 @@ std::string target(const std::string& name, int size, F inside) {
       const double u = (2 * x + 1 - size) / double(size), v = (size - 2 * y - 1) / double(size);
       if (inside(u, v)) im.at(x, y) = 0.0;
     }
-  const std::string path = temp_path(name + ".png");
+  std::string path = temp_path(name + ".png");
   penumbra::save_png(im, path);
   return path;
 }
@@ -66,7 +66,7 @@ std::string square(int size, const std::string& name = "square") {
 }
 std::string flat(int size, double value) {
   penumbra::Image im(size, size, 1, value);
-  const std::string path = temp_path("flat" + std::to_string(value) + ".png");
+  std::string path = temp_path("flat" + std::to_string(value) + ".png");
   penumbra::save_png(im, path);
   return path;
 }
@@ -74,7 +74,7 @@ std::string wide() {
   penumbra::Image im(32, 24, 1, 1.0);
   for (int y = 8; y < 16; ++y)
     for (int x = 8; x < 24; ++x) im.at(x, y) = 0.0;
-  const std::string path = temp_path("wide.png");
+  std::string path = temp_path("wide.png");
   penumbra::save_png(im, path);
   return path;
 }

@@ -39,7 +39,7 @@ RunResult run_cli(const std::string& args, const std::string& tag) {
 }
 
 std::string obj_file(const std::string& name, const std::string& text) {
-  const std::string path = temp_path(name + ".obj");
+  std::string path = temp_path(name + ".obj");
   write_text(path, text);
   return path;
 }
@@ -493,7 +493,7 @@ ReadmeOptions readme_options() {
   for (const std::string& line : lines(text)) {
     if (line.rfind("```", 0) == 0) fenced = !fenced;
     if (fenced) continue;
-    if (line.rfind("#", 0) == 0) {
+    if (line.rfind('#', 0) == 0) {
       section.clear();
       if (line.rfind("### ", 0) == 0) {
         const std::regex name("`penumbra ([a-z][-a-z]*)`");
@@ -506,7 +506,7 @@ ReadmeOptions readme_options() {
       paragraph.clear();
       continue;
     }
-    if (line.rfind("|", 0) != 0) {  // text: the paragraph before the next table
+    if (line.rfind('|', 0) != 0) {  // text: the paragraph before the next table
       table.clear();
       if (line.empty())
         ended = true;
@@ -522,7 +522,7 @@ ReadmeOptions readme_options() {
       for (size_t i = 0; i < names.size(); ++i)
         if (names[i].find("commands") != std::string::npos) commands_column = int(i);
       header = true;
-      if (table.empty()) table.push_back("");  // a table of no command (environment variables)
+      if (table.empty()) table.emplace_back();  // a table of no command (environment variables)
       continue;
     }
     header = false;

@@ -52,7 +52,7 @@ std::string error_of(const std::function<void()>& fn) {
   try {
     fn();
   } catch (const Error& e) {
-    const std::string msg = e.what();
+    std::string msg = e.what();
     EXPECT_EQ(msg.find('\n'), std::string::npos) << "message spans lines: " << msg;
     return msg;
   } catch (const std::exception& e) {
@@ -168,7 +168,7 @@ struct TinyKernel {
       "}\n";
   TinyKernel() : env("PENUMBRA_KERNEL_DIR", dir().string()), kernels(ctx, Precision::Float, {}) {}
   static fs::path dir() {
-    const fs::path d = fs::path(::testing::TempDir()) / "penumbra_errors_tiny_kernel";
+    fs::path d = fs::path(::testing::TempDir()) / "penumbra_errors_tiny_kernel";
     fs::create_directories(d);
     std::ofstream(d / "tiny.cl", std::ios::trunc) << kSource;
     return d;

@@ -5,7 +5,6 @@
 // destination folder, checked writes and close, renamed into place — so that a failure leaves
 // nothing at the destination and an earlier file there untouched.
 #include <gtest/gtest.h>
-#include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -14,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -41,7 +41,7 @@ namespace {
 
 // A fresh, empty folder for one test.
 std::string fresh_dir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "penumbra_faults_" + name;
+  std::string dir = ::testing::TempDir() + "penumbra_faults_" + name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;

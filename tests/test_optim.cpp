@@ -26,7 +26,6 @@
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
 
-namespace fs = std::filesystem;
 using namespace penumbra;
 using namespace penumbra::optim;
 
@@ -454,6 +453,7 @@ TEST(OptimScenes, BundledSilhouettesAreThoseOfTheirMesh) {
   const Mesh shape = load_obj(kData + "/targets/silhouette_shape.obj");
   const std::vector<std::string> views = {"front", "side", "top"};
   std::vector<glm::dvec3> dirs;
+  dirs.reserve(views.size());
   for (const std::string& v : views) dirs.push_back(named_view(v));
   const auto sil = hard_silhouettes(renderer(), shape, dirs, 1.0, 128);
   for (size_t v = 0; v < views.size(); ++v) {
@@ -478,6 +478,7 @@ TEST(OptimScenes, BundledLettersAreNearlyConsistent) {
   const std::vector<glm::dvec3> dirs = {named_view("front"), named_view("side"), named_view("top")};
   const int n = 64;
   std::vector<Image> coarse;
+  coarse.reserve(letters.size());
   for (const Image& t : letters) coarse.push_back(binarize(downsample(t, 128 / n)));
   const Mesh hull = surface_nets(visual_hull(coarse, dirs, 1.0, n, 1.0), n, 1.0, 0);
   const auto sil = hard_silhouettes(renderer(), hull, dirs, 1.0, 128);

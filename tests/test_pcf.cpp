@@ -175,7 +175,7 @@ TEST(PcfLit, LitReceiversAreFullyLit) {
 }
 
 // Σ over the image of (unshadowed − shadowed) green: the darkness a shadow takes away.
-double darkness(Renderer& r, Scene scene) {
+double darkness(Renderer& r, const Scene& scene) {
   Scene none = scene;
   none.params.shadows = Shadows::None;
   const Image a = r.render(none)[0].color, b = r.render(scene)[0].color;

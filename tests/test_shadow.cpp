@@ -332,7 +332,8 @@ TEST(ShadowSampling, ExactEqualsGemm) {
 TEST(ShadowSampling, ExactEqualsGemmGradients) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
-  for (const auto& [name, scene] : comparison_scenes(Sampling::Exact)) {
+  for (const auto& [name_, scene] : comparison_scenes(Sampling::Exact)) {
+    const std::string& name = name_;  // a variable, not a binding: the lambda below captures it
     Scene gemm = scene;
     gemm.params.sampling = Sampling::Gemm;
     const auto weights = penumbra::random_loss_weights(scene, 13);

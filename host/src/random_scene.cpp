@@ -35,10 +35,10 @@ Mesh unit_icosphere() {
   std::vector<glm::ivec3> g;
   for (const auto& F : f) {
     const int a = mid(F.x, F.y), b = mid(F.y, F.z), c = mid(F.z, F.x);
-    g.push_back({F.x, a, c});
-    g.push_back({F.y, b, a});
-    g.push_back({F.z, c, b});
-    g.push_back({a, b, c});
+    g.emplace_back(F.x, a, c);
+    g.emplace_back(F.y, b, a);
+    g.emplace_back(F.z, c, b);
+    g.emplace_back(a, b, c);
   }
   Mesh mesh;
   mesh.vertices = std::move(v);
