@@ -54,8 +54,8 @@ void check_grad_names(const std::string& dir, size_t views) {
     std::string list;
     for (const std::string& e : expected) list += (list.empty() ? "" : ", ") + e;
     throw Error("--grad-in: " + it->path().string() + " matches no output of the scene (" +
-                std::to_string(views) + " camera" + (views == 1 ? "" : "s") + "; expected " +
-                list + ")");
+                std::to_string(views) + " camera" + (views == 1 ? "" : "s") + "; expected " + list +
+                ")");
   }
   if (ec) throw Error("--grad-in: cannot list " + dir + ": " + ec.message());
 }
@@ -83,7 +83,9 @@ Image read_grad(const std::string& dir, const std::string& stem, size_t view, co
   for (size_t i = 0; i < image.data.size(); ++i)
     if (!std::isfinite(image.data[i]))
       throw Error(path + ": value " +
-                  (std::isnan(image.data[i]) ? "NaN" : image.data[i] > 0 ? "inf" : "-inf") +
+                  (std::isnan(image.data[i]) ? "NaN"
+                   : image.data[i] > 0       ? "inf"
+                                             : "-inf") +
                   " at index " + index_of(image, i) + " is not finite; gradients must be finite");
   return image;
 }

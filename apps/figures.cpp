@@ -38,7 +38,8 @@ Image depth_picture(const Image& S, double background) {
     if (v < 0.999 * background) lo = std::min(lo, v), hi = std::max(hi, v);
   Image out(S.width, S.height, 1);
   for (size_t i = 0; i < S.data.size(); ++i)
-    out.data[i] = S.data[i] < 0.999 * background && hi > lo ? 1 - 0.8 * (S.data[i] - lo) / (hi - lo) : 0;
+    out.data[i] =
+        S.data[i] < 0.999 * background && hi > lo ? 1 - 0.8 * (S.data[i] - lo) / (hi - lo) : 0;
   return out;
 }
 
@@ -46,7 +47,7 @@ int run_figures(const FiguresArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   Scene base = load_scene_source(a.source);
   base.cameras.resize(1);
-  const Scene accurate_base = base;  // for the comparison of the two models at the end
+  const Scene accurate_base = base;               // for the comparison of the two models at the end
   base.params.shadow_model = ShadowModel::Paper;  // the paper's figures
   refit_light_frusta(base);
   make_dirs(a.output);
@@ -69,8 +70,8 @@ int run_figures(const FiguresArgs& a) {
   const Setting sweep[] = {{"fig1_a.png", 0.01, 0.5, 1e-5, 1e-4, 0.5},
                            {"fig1_b.png", 2.0 / 3, 2.0, 1e-5, 1e-4, 2e4 * 1e-5},
                            {"fig1_c.png", 2.0 / 3, 2.0, 1e-4, 1e-3, 2e4 * 1e-4},
-                           {"fig1_d.png", 2.0 / 3, 2.0, std::pow(10.0, -3.2),
-                            std::pow(10.0, -2.2), 2e4 * std::pow(10.0, -3.2)}};
+                           {"fig1_d.png", 2.0 / 3, 2.0, std::pow(10.0, -3.2), std::pow(10.0, -2.2),
+                            2e4 * std::pow(10.0, -3.2)}};
   for (const Setting& s : sweep) {
     Scene scene = base;
     RenderParams& p = scene.params;
@@ -128,8 +129,7 @@ Command add_figures_command(CLI::App& root) {
   c.app = root.add_subcommand(
       "figures", "render the documentation's pictures (the paper's Figures 1, 2, 4 and 5)");
   add_scene_options(*c.app, args->source, false);
-  c.app->add_option("-o,--output", args->output, "folder for the PNG files")
-      ->capture_default_str();
+  c.app->add_option("-o,--output", args->output, "folder for the PNG files")->capture_default_str();
   c.app->add_option("--device", args->device, "OpenCL device (index or part of its name)");
   c.run = [args] { return run_figures(*args); };
   return c;

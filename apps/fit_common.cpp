@@ -65,7 +65,8 @@ FitCheckpointFile::FitCheckpointFile(const CheckpointOptions& options, const std
   };
   if (!options.resume) return;
   std::ifstream in(path_, std::ios::binary);
-  if (!in) throw Error("--resume: cannot read the checkpoint " + path_ + ": " + std::strerror(errno));
+  if (!in)
+    throw Error("--resume: cannot read the checkpoint " + path_ + ": " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
   resumed_ = optim::parse_checkpoint(text.str(), path_, run_);
@@ -76,8 +77,8 @@ FitCheckpointFile::FitCheckpointFile(const CheckpointOptions& options, const std
 
 void check_fit_counts(int iterations, int min_iterations, int gif_every) {
   if (iterations < min_iterations || iterations > 100000)
-    throw Error("--iterations must be in " + std::to_string(min_iterations) +
-                " to 100000 (got " + std::to_string(iterations) + ")");
+    throw Error("--iterations must be in " + std::to_string(min_iterations) + " to 100000 (got " +
+                std::to_string(iterations) + ")");
   if (gif_every < 1) throw Error("--gif-every must be positive");
 }
 
@@ -89,6 +90,7 @@ void check_radius(double radius) {
 std::vector<glm::dvec3> light_directions(const std::vector<std::string>& light_dirs,
                                          size_t targets) {
   std::vector<glm::dvec3> directions;
+  directions.reserve(light_dirs.size());
   for (const std::string& d : light_dirs) directions.push_back(optim::parse_direction(d));
   if (directions.empty()) {
     const std::vector<glm::dvec3> order = {{0, 0, -1}, {-1, 0, 0}, {0, -1, 0}};
@@ -99,8 +101,8 @@ std::vector<glm::dvec3> light_directions(const std::vector<std::string>& light_d
   }
   if (targets != directions.size())
     throw Error(std::string(targets < directions.size() ? "fewer" : "more") + " targets (" +
-                std::to_string(targets) + ") than lights (" +
-                std::to_string(directions.size()) + "): give one --target per --light-dir");
+                std::to_string(targets) + ") than lights (" + std::to_string(directions.size()) +
+                "): give one --target per --light-dir");
   return directions;
 }
 
@@ -187,7 +189,7 @@ std::string FitRecorder::save_scene(Renderer& renderer, const Mesh& result,
                                     const std::vector<glm::dvec3>& directions, int size,
                                     const optim::WallSetup& setup) const {
   if (!optim::orthogonal(directions)) return "";
-  const std::string scene_png = path("scene.png");
+  std::string scene_png = path("scene.png");
   save_png(renderer.render(optim::room_scene(result, directions, size, size, setup)).front().color,
            scene_png);
   return scene_png;

@@ -94,8 +94,9 @@ int run_fit_shadows(const FitShadowsArgs& a) {
   const FitCheckpointFile checkpoints(
       a.checkpoints, a.output, "fit-shadows",
       "fit-shadows iterations=" + std::to_string(n) + " radius=" + std::to_string(a.radius) +
-          " shadows=" + a.shadows + " shadow-model=" + a.shadow_model + " light-size=" + std::to_string(a.light_size) +
-          " targets=" + joined(files) + " light-dirs=" + joined(a.light_dirs));
+          " shadows=" + a.shadows + " shadow-model=" + a.shadow_model +
+          " light-size=" + std::to_string(a.light_size) + " targets=" + joined(files) +
+          " light-dirs=" + joined(a.light_dirs));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   const Stopwatch clock;
@@ -124,9 +125,10 @@ Command add_fit_shadows_command(CLI::App& root) {
   c.app->add_option("--shadows", args->shadows, "shadows to optimise: hard or soft")
       ->check(CLI::IsMember({"hard", "soft"}))
       ->capture_default_str();
-  c.app->add_option("--shadow-model", args->shadow_model,
-                    "shadow model the fit renders through: accurate or paper (the result is "
-                    "judged by the accurate model's hard shadows either way)")
+  c.app
+      ->add_option("--shadow-model", args->shadow_model,
+                   "shadow model the fit renders through: accurate or paper (the result is "
+                   "judged by the accurate model's hard shadows either way)")
       ->check(one_of<ShadowModel>())
       ->capture_default_str();
   c.app->add_option("--target", args->targets,
@@ -135,8 +137,9 @@ Command add_fit_shadows_command(CLI::App& root) {
                     "data/targets/shadow_back.png and shadow_side.png");
   add_light_dir_option(*c.app, args->light_dirs);
   add_iterations_option(*c.app, args->iterations);
-  c.app->add_option("--light-size", args->light_size,
-                    "diameter D_L of the lights with --shadows soft (world units)")
+  c.app
+      ->add_option("--light-size", args->light_size,
+                   "diameter D_L of the lights with --shadows soft (world units)")
       ->capture_default_str();
   add_output_option(*c.app, args->output, "mesh.obj, result.png, scene.png and fit.gif");
   add_gif_every_option(*c.app, args->gif_every);

@@ -54,6 +54,7 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
     views.assign(order.begin(), order.begin() + long(files.size()));
   }
   std::vector<glm::dvec3> directions;
+  directions.reserve(views.size());
   for (const std::string& v : views) directions.push_back(named_view(v));
   if (files.size() < views.size())
     throw Error("fewer targets (" + std::to_string(files.size()) + ") than views (" +
@@ -81,14 +82,14 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
   stages[0] = {r0, n / 2, sigma(0.5, r0), 0.01, 0, {1.0, 0.0, 0.01, EdgeLoss::Variance}};
   stages[1] = {r1, n / 4, sigma(0.32, r1), 0.005, 1, {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
   stages[2] = {size, n / 6, sigma(0.2, size), 0.002, 0, {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
-  stages[3] = {size, n - n / 2 - n / 4 - n / 6, sigma(0.09, size), 0.001, 0,
-               {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
+  stages[3] = {size, n - n / 2 - n / 4 - n / 6,           sigma(0.09, size), 0.001,
+               0,    {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
 
   const Mesh sphere = start_sphere(a.radius);
-  const FitCheckpointFile checkpoints(
-      a.checkpoints, a.output, "fit-silhouette",
-      "fit-silhouette iterations=" + std::to_string(n) + " radius=" + std::to_string(a.radius) +
-          " targets=" + joined(files) + " views=" + joined(views));
+  const FitCheckpointFile checkpoints(a.checkpoints, a.output, "fit-silhouette",
+                                      "fit-silhouette iterations=" + std::to_string(n) +
+                                          " radius=" + std::to_string(a.radius) +
+                                          " targets=" + joined(files) + " views=" + joined(views));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   const Stopwatch clock;
@@ -116,9 +117,10 @@ Command add_fit_silhouette_command(CLI::App& root) {
                     "target image (repeatable, one per --view): the shape dark on a light "
                     "background, square, all the same size; default: the bundled "
                     "data/targets/silhouette_<view>.png");
-  c.app->add_option("--view", args->views,
-                    "view of the target at the same position: front, side or top (repeatable; "
-                    "default: front side)")
+  c.app
+      ->add_option("--view", args->views,
+                   "view of the target at the same position: front, side or top (repeatable; "
+                   "default: front side)")
       ->check(CLI::IsMember({"front", "side", "top"}));
   add_iterations_option(*c.app, args->iterations);
   add_output_option(*c.app, args->output, "mesh.obj, result.png and fit.gif");

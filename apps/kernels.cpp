@@ -46,7 +46,7 @@ int run_kernels(const KernelsArgs& a) {
   std::set<std::pair<std::string, std::string>> seen;
   for (const DeviceInfo& d : devices)
     for (const KernelVariant& v : kernel_variants(d))
-      if (seen.insert({v.file, v.options}).second) all.push_back({d.name, v});
+      if (seen.insert({v.file, v.options}).second) all.emplace_back(d.name, v);
   if (!a.variants.empty()) make_dirs(a.variants);
   std::set<std::string> files;
   for (size_t i = 0; i < all.size(); ++i) {
@@ -73,12 +73,14 @@ Command add_kernels_command(CLI::App& root) {
   c.app = root.add_subcommand("kernels",
                               "list every kernel program the renderer can build (file and build "
                               "options), optionally writing each as a file for offline compiling");
-  CLI::Option* kind = c.app->add_option("--kind", args->kind,
-                    "for a GPU-like device, a CPU-like one, or both (all)")
-      ->check(CLI::IsMember({"gpu", "cpu", "all"}))
-      ->capture_default_str();
-  c.app->add_option("--device", args->device,
-                    "for this OpenCL device instead (index or part of its name)")
+  CLI::Option* kind =
+      c.app
+          ->add_option("--kind", args->kind, "for a GPU-like device, a CPU-like one, or both (all)")
+          ->check(CLI::IsMember({"gpu", "cpu", "all"}))
+          ->capture_default_str();
+  c.app
+      ->add_option("--device", args->device,
+                   "for this OpenCL device instead (index or part of its name)")
       ->excludes(kind);
   c.app->add_option("--variants", args->variants,
                     "folder for NNNN_<stem>.cl (the expanded source) and NNNN_<stem>.options "

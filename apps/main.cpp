@@ -58,10 +58,11 @@ int main(int argc, char** argv) {
     bool known = false;
     for (const Command& command : commands) known = known || command.app->check_name(argv[1]);
     if (!known) {
-      return fail(std::string("unknown command '") + argv[1] +
-                      "' (commands: devices, render, backward, gradcheck, turnaround, figures, tune, "
-                      "kernels, fit-silhouette, fit-shadows, shadow-art; see penumbra --help)",
-                  2);
+      return fail(
+          std::string("unknown command '") + argv[1] +
+              "' (commands: devices, render, backward, gradcheck, turnaround, figures, tune, "
+              "kernels, fit-silhouette, fit-shadows, shadow-art; see penumbra --help)",
+          2);
     }
   }
 

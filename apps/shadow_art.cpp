@@ -46,8 +46,7 @@ int run_shadow_art(const ShadowArtArgs& a) {
     for (const char* letter : {"g", "e", "b"})
       files.push_back(data_dir() + "/targets/letter_" + letter + ".png");
   if (files.size() < 2 || files.size() > 3)
-    throw Error("shadow-art takes two or three targets (got " + std::to_string(files.size()) +
-                ")");
+    throw Error("shadow-art takes two or three targets (got " + std::to_string(files.size()) + ")");
   const std::vector<glm::dvec3> directions = light_directions(a.light_dirs, files.size());
   for (size_t i = 0; i < directions.size(); ++i)
     for (size_t j = 0; j < i; ++j)
@@ -67,7 +66,8 @@ int run_shadow_art(const ShadowArtArgs& a) {
   // covered from a third of its area on: the meshing and smoothing pull the surface inwards.
   const int grid = stage_resolution(size, 32);
   std::vector<Image> coarse;
-  for (const Image& t : problem.targets) coarse.push_back(binarize(downsample(t, size / grid), 0.35));
+  for (const Image& t : problem.targets)
+    coarse.push_back(binarize(downsample(t, size / grid), 0.35));
   const std::vector<unsigned char> hull = visual_hull(coarse, directions, kHalfHeight, grid, 1.0);
   if (std::count(hull.begin(), hull.end(), 1) == 0)
     throw Error("the targets have no object in common: no voxel of the " + std::to_string(grid) +
@@ -88,9 +88,8 @@ int run_shadow_art(const ShadowArtArgs& a) {
   stages[2] = {size, n - 2 * (n * 2 / 5), sigma(0.09, size), 0.001, 0, reg};
 
   const FitCheckpointFile checkpoints(a.checkpoints, a.output, "shadow-art",
-                                      "shadow-art iterations=" + std::to_string(n) +
-                                          " targets=" + joined(files) +
-                                          " light-dirs=" + joined(a.light_dirs));
+                                      "shadow-art iterations=" + std::to_string(n) + " targets=" +
+                                          joined(files) + " light-dirs=" + joined(a.light_dirs));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   FitRecorder recorder("shadow-art", a.output, problem.targets, n, a.gif_every, clock);

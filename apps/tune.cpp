@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "common.hpp"
 #include "penumbra/context.hpp"
@@ -76,7 +76,8 @@ Command add_tune_command(CLI::App& root) {
                               "in the tuning database");
   add_scene_options(*c.app, args->source, false);
   c.app->add_flag("--quick", args->quick, "fewer candidates, smaller images, fewer runs");
-  c.app->add_option("--runs", args->runs, "timed runs per candidate (median)")->capture_default_str();
+  c.app->add_option("--runs", args->runs, "timed runs per candidate (median)")
+      ->capture_default_str();
   c.app->add_option("-o,--output", args->output,
                     "database file to update (default: the user's cache, see README)");
   c.app->add_option("--device", args->device, "OpenCL device (index or part of its name)");

@@ -69,9 +69,9 @@ class Progress {
 std::string frame_name(int frame, int frames) {
   int digits = 3;
   for (int n = frames - 1; n >= 1000; n /= 10) ++digits;
-  char name[32];
-  std::snprintf(name, sizeof name, "frame_%0*d.png", digits, frame);
-  return name;
+  std::string number = std::to_string(frame);  // frame >= 0, zero-padded to `digits`
+  if (number.size() < size_t(digits)) number.insert(0, size_t(digits) - number.size(), '0');
+  return "frame_" + number + ".png";
 }
 
 int run_turnaround(const TurnaroundArgs& a) {
@@ -106,8 +106,8 @@ int run_turnaround(const TurnaroundArgs& a) {
     if (!gif)
       gif = std::make_unique<GifWriter>(gif_path, base.width, base.height, kGifDelayCentiseconds);
     gif->add_frame(views.front().color);
-    progress.update(k + 1, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-                               .count());
+    progress.update(k + 1,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -15,8 +15,8 @@ namespace penumbra::bench {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kShadowMargin = 8;      // px around the sphere-light truth's shadow
-constexpr int kContactMargin = 3;     // px around the contact
+constexpr int kShadowMargin = 8;         // px around the sphere-light truth's shadow
+constexpr int kContactMargin = 3;        // px around the contact
 constexpr double kContactHeight = 0.01;  // caster vertices this close to the ground touch it
 constexpr double kContactRadius = 0.1;   // surface points this close to one are at the contact
 
@@ -42,7 +42,8 @@ void tube_faces(Mesh& m, int segments, int sides, const std::vector<glm::dvec3>&
       m.faces.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
     }
   const glm::ivec3 f = m.faces.front();
-  const glm::dvec3 n = glm::cross(m.vertices[f.y] - m.vertices[f.x], m.vertices[f.z] - m.vertices[f.x]);
+  const glm::dvec3 n =
+      glm::cross(m.vertices[f.y] - m.vertices[f.x], m.vertices[f.z] - m.vertices[f.x]);
   if (glm::dot(n, m.vertices[f.x] - centers.front()) < 0)
     for (auto& g : m.faces) std::swap(g.y, g.z);
 }
@@ -169,15 +170,16 @@ const Regions& regions(const std::string& scene) {
 
 }  // namespace
 
-Mesh torus_knot(int p, int q, double R, double r, double tube, int segments, int sides,
-                double lift, glm::dvec3 albedo) {
+Mesh torus_knot(int p, int q, double R, double r, double tube, int segments, int sides, double lift,
+                glm::dvec3 albedo) {
   Mesh m;
   m.name = "knot";
   std::vector<glm::dvec3> centers;
   for (int i = 0; i < segments; ++i) {
     const double t = 2 * kPi * i / segments;
     const glm::dvec3 c = knot_point(p, q, R, r, t), T = knot_tangent(p, q, R, r, t);
-    const glm::dvec3 n1 = glm::normalize(glm::cross(T, glm::dvec3(0, 0, 1))), n2 = glm::cross(T, n1);
+    const glm::dvec3 n1 = glm::normalize(glm::cross(T, glm::dvec3(0, 0, 1))),
+                     n2 = glm::cross(T, n1);
     centers.push_back(c);
     for (int j = 0; j < sides; ++j) {
       const double a = 2 * kPi * j / sides;

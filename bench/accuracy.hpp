@@ -40,8 +40,8 @@ namespace penumbra::bench {
 // t ∈ [0, 2π), swept by a circle of radius `tube` in the plane normal to it; its z axis turned
 // to +y (lying flat) and its lowest vertex at height `lift`. segments × sides × 2 faces,
 // outward counter-clockwise.
-Mesh torus_knot(int p, int q, double R, double r, double tube, int segments, int sides,
-                double lift, glm::dvec3 albedo = {0.85, 0.35, 0.3});
+Mesh torus_knot(int p, int q, double R, double r, double tube, int segments, int sides, double lift,
+                glm::dvec3 albedo = {0.85, 0.35, 0.3});
 
 const std::vector<std::string>& accuracy_scene_names();
 
@@ -81,11 +81,11 @@ AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered);
 
 // The targets for the accurate model.
 struct AccuracyTargets {
-  static constexpr double area = 0.05;        // |area_ratio − 1| ≤
-  static constexpr double lit = 0.02;         // lit_error ≤
-  static constexpr double rmse = 0.05;        // rmse_shadow ≤
-  static constexpr double leak = 0.0;         // leak ≤
-  static constexpr double time_ratio = 1.5;   // accurate / paper forward time ≤
+  static constexpr double area = 0.05;       // |area_ratio − 1| ≤
+  static constexpr double lit = 0.02;        // lit_error ≤
+  static constexpr double rmse = 0.05;       // rmse_shadow ≤
+  static constexpr double leak = 0.0;        // leak ≤
+  static constexpr double time_ratio = 1.5;  // accurate / paper forward time ≤
 };
 
 // truth | penumbra | difference, side by side, as a PNG: the difference is white where they

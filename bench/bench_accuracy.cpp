@@ -83,8 +83,8 @@ std::string name_of(const AccuracyCase& c, bool large) {
   std::ostringstream o;
   o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/' << word(c.sampling, c.exact_backend)
     << "/img:256/map:" << c.map << "/faces:" << total_faces(accuracy_scene(c))
-    << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params) << "/lights:1/model:"
-    << word(c.model) << "/scene:" << c.scene;
+    << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params)
+    << "/lights:1/model:" << word(c.model) << "/scene:" << c.scene;
   return o.str();
 }
 

@@ -121,15 +121,21 @@ void run_ceiling(benchmark::State& state, const char* kernel, int iters, double 
 }  // namespace
 
 void register_ceiling_benchmarks() {
-  benchmark::RegisterBenchmark("ceiling/fma", [](benchmark::State& st) {
-    run_ceiling(st, "fma_peak", 100000, 2.0, "gflops");
-  })->UseManualTime()->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("ceiling/exp", [](benchmark::State& st) {
-    run_ceiling(st, "exp_peak", 10000, 1.0, "gexp_per_s");
-  })->UseManualTime()->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("ceiling/native_exp", [](benchmark::State& st) {
-    run_ceiling(st, "native_exp_peak", 10000, 1.0, "gexp_per_s");
-  })->UseManualTime()->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(
+      "ceiling/fma",
+      [](benchmark::State& st) { run_ceiling(st, "fma_peak", 100000, 2.0, "gflops"); })
+      ->UseManualTime()
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(
+      "ceiling/exp",
+      [](benchmark::State& st) { run_ceiling(st, "exp_peak", 10000, 1.0, "gexp_per_s"); })
+      ->UseManualTime()
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(
+      "ceiling/native_exp",
+      [](benchmark::State& st) { run_ceiling(st, "native_exp_peak", 10000, 1.0, "gexp_per_s"); })
+      ->UseManualTime()
+      ->Unit(benchmark::kMillisecond);
 }
 
 }  // namespace penumbra::bench

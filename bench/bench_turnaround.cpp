@@ -90,13 +90,15 @@ void print_turnaround_summary() {
   auto& m = measured();
   if (!m.count(Shadows::None)) return;
   const double none = m[Shadows::None];
-  std::fprintf(stderr, "\nturnaround, %d frames at 256² (map 256², truncated sampling), this machine vs "
-              "the paper (1 s / 33 s / 104 s on a GPU):\n", kFrames);
+  std::fprintf(stderr,
+               "\nturnaround, %d frames at 256² (map 256², truncated sampling), this machine vs "
+               "the paper (1 s / 33 s / 104 s on a GPU):\n",
+               kFrames);
   for (Shadows sh : {Shadows::None, Shadows::Hard, Shadows::Soft}) {
     if (!m.count(sh)) continue;
-    std::fprintf(stderr, "  %-5s %8.2f s   %s/none = %6.2f   paper %6.0f s, ratio %4.0f\n", word(sh), m[sh],
-                word(sh), none > 0 ? m[sh] / none : 0.0, kPaper.at(sh).seconds,
-                kPaper.at(sh).ratio);
+    std::fprintf(stderr, "  %-5s %8.2f s   %s/none = %6.2f   paper %6.0f s, ratio %4.0f\n",
+                 word(sh), m[sh], word(sh), none > 0 ? m[sh] / none : 0.0, kPaper.at(sh).seconds,
+                 kPaper.at(sh).ratio);
   }
   std::fflush(stderr);
 }

@@ -24,9 +24,18 @@ namespace penumbra::bench {
 Mesh icosphere(int n, glm::dvec3 center, double radius, glm::dvec3 albedo) {
   if (n < 1) throw Error("icosphere frequency must be ≥ 1");
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  const std::array<glm::dvec3, 12> base = {{{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                                            {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                                            {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}}};
+  const std::array<glm::dvec3, 12> base = {{{-1, t, 0},
+                                            {1, t, 0},
+                                            {-1, -t, 0},
+                                            {1, -t, 0},
+                                            {0, -1, t},
+                                            {0, 1, t},
+                                            {0, -1, -t},
+                                            {0, 1, -t},
+                                            {t, 0, -1},
+                                            {t, 0, 1},
+                                            {-t, 0, -1},
+                                            {-t, 0, 1}}};
   const int ico[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
                           {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
                           {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
@@ -229,8 +238,8 @@ double covered_pixels(const std::vector<RenderOutput>& out) {
   return n;
 }
 
-void throughput_counters(benchmark::State& state, const Scene& s, double fragments,
-                         double seconds, bool backward) {
+void throughput_counters(benchmark::State& state, const Scene& s, double fragments, double seconds,
+                         bool backward) {
   const RenderParams& p = s.params;
   const double faces = total_faces(s), lights = double(s.lights.size());
   const double map_texels = double(p.shadow_map_size) * p.shadow_map_size;

@@ -131,8 +131,8 @@ double timed_frames(benchmark::State& state, F&& frame) {
 //   gflops                  exact and gemm hard shadows: products·2·N·W_s·H_s / s, with one
 //                           product per light forward and three backward (SPEC §4)
 // plus the case's parameters (image, map, faces, sigma_s, lights, fragments).
-void throughput_counters(benchmark::State& state, const Scene& s, double fragments,
-                         double seconds, bool backward);
+void throughput_counters(benchmark::State& state, const Scene& s, double fragments, double seconds,
+                         bool backward);
 
 // Adds peak_rss_MiB (see peak_rss_mib) and rss_at_start_MiB (resident size when the case began).
 void memory_counter(benchmark::State& state);

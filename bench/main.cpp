@@ -16,8 +16,7 @@
 
 namespace {
 
-constexpr const char* kDefaultFilter =
-    "--benchmark_filter=^(ceiling|fwd|bwd|turnaround|accuracy)/";
+constexpr const char* kDefaultFilter = "--benchmark_filter=^(ceiling|fwd|bwd|turnaround|accuracy)/";
 
 std::string first_line_with(const char* path, const char* prefix) {
   std::ifstream f(path);
@@ -58,9 +57,13 @@ int main(int argc, char** argv) {
       return a + " " + b + " " + c;
     }());
     reset_peak_rss();
-    benchmark::AddCustomContext("peak_memory", peak_rss_resettable()
-                                                   ? "host RSS high-water mark per case (VmHWM, reset by /proc/self/clear_refs at the case's start, so it includes what earlier cases left resident); PoCL device buffers live in host memory"
-                                                   : "host RSS high-water mark of the whole process (ru_maxrss); PoCL device buffers live in host memory");
+    benchmark::AddCustomContext(
+        "peak_memory", peak_rss_resettable()
+                           ? "host RSS high-water mark per case (VmHWM, reset by "
+                             "/proc/self/clear_refs at the case's start, so it includes what "
+                             "earlier cases left resident); PoCL device buffers live in host memory"
+                           : "host RSS high-water mark of the whole process (ru_maxrss); PoCL "
+                             "device buffers live in host memory");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra_bench: no OpenCL device: %s\n", e.what());
     return 1;

@@ -79,7 +79,7 @@ void check(const std::string& scene, Shadows shadows, const std::string& target)
   } else if (target == "leak") {
     ASSERT_TRUE(m.leak.has_value()) << "no truth shadow at the contact";
     EXPECT_LE(*m.leak, T::leak) << m.contact_shadow_pixels << " of " << m.contact_pixels
-                                 << " contact pixels shadowed by the truth";
+                                << " contact pixels shadowed by the truth";
   }
 }
 
@@ -100,10 +100,9 @@ std::string test_name(std::string scene, Shadows shadows, const std::string& tar
 void add_test(const std::string& scene, Shadows shadows, const std::string& target) {
   std::string name = test_name(scene, shadows, target);
   if (known_miss(name)) name = "DISABLED_" + name;
-  testing::RegisterTest("AccurateModel", name.c_str(), nullptr, nullptr, __FILE__, __LINE__,
-                        [=]() -> testing::Test* {
-                          return new Target([=] { check(scene, shadows, target); });
-                        });
+  testing::RegisterTest(
+      "AccurateModel", name.c_str(), nullptr, nullptr, __FILE__, __LINE__,
+      [=]() -> testing::Test* { return new Target([=] { check(scene, shadows, target); }); });
 }
 
 void register_targets() {

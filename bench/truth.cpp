@@ -118,8 +118,8 @@ double disc_visibility(const EmbreeScene& es, glm::dvec3 o, glm::dvec3 l, const 
 
 // Visibility of light L from the receiver X (normal n, towards the camera; unit l towards the
 // light): 0 facing away, else from shadow rays leaving X offset along n.
-double visibility(const EmbreeScene& es, const Light& L, glm::dvec3 X, glm::dvec3 n,
-                  glm::dvec3 l, double offset, TruthLight light, size_t pix) {
+double visibility(const EmbreeScene& es, const Light& L, glm::dvec3 X, glm::dvec3 n, glm::dvec3 l,
+                  double offset, TruthLight light, size_t pix) {
   if (glm::dot(n, l) <= 0) return 0.0;
   const glm::dvec3 o = X + offset * n;
   if (L.type != LightType::Point) return es.occluded(o, l, INFINITY) ? 0.0 : 1.0;
@@ -149,7 +149,8 @@ void shade_pixel(const Scene& s, const EmbreeScene& es, const View& v, TruthLigh
   const size_t pix = size_t(py) * W + px;
   const double x = (2.0 * px + 1 - W) / H, y = (H - 2.0 * py - 1) / H;
   const glm::dvec3 across = v.scale * (x * v.right + y * v.up);
-  const RTCHit hit = v.ortho ? es.intersect(v.eye + across, v.fwd) : es.intersect(v.eye, v.fwd + across);
+  const RTCHit hit =
+      v.ortho ? es.intersect(v.eye + across, v.fwd) : es.intersect(v.eye, v.fwd + across);
   double* C = &gt.color[pix * 3];
   if (hit.geomID == RTC_INVALID_GEOMETRY_ID) {
     for (int k = 0; k < 3; ++k) C[k] = s.background[k];
@@ -170,8 +171,7 @@ void shade_pixel(const Scene& s, const EmbreeScene& es, const View& v, TruthLigh
   glm::dvec3 c = a * s.ambient;
   double vmin = 1.0;
   for (const Light& L : s.lights) {
-    const glm::dvec3 l =
-        glm::normalize(L.type == LightType::Point ? L.position - X : -L.direction);
+    const glm::dvec3 l = glm::normalize(L.type == LightType::Point ? L.position - X : -L.direction);
     const double vis = visibility(es, L, X, n, l, offset, light, pix);
     vmin = std::min(vmin, vis);
     c += vis * a * L.color * std::max(0.0, glm::dot(n, l));

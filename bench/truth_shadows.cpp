@@ -44,11 +44,11 @@ Image truth_shadow(const Mesh& shape, const glm::dvec3& direction, int size) {
 }
 
 int run(int argc, char** argv) {
-  if (argc < 4)
-    throw Error("usage: penumbra_truth_shadows MESH.obj SIZE OUT_DIR [x,y,z ...]");
+  if (argc < 4) throw Error("usage: penumbra_truth_shadows MESH.obj SIZE OUT_DIR [x,y,z ...]");
   const Mesh shape = load_obj(argv[1]);
   const int size = std::stoi(argv[2]);
-  if (size < 16 || size > 1024) throw Error("SIZE must be 16 to 1024 (got " + std::string(argv[2]) + ")");
+  if (size < 16 || size > 1024)
+    throw Error("SIZE must be 16 to 1024 (got " + std::string(argv[2]) + ")");
   std::vector<glm::dvec3> directions = {{0, 0, -1}, {-1, 0, 0}};
   if (argc > 4) directions.clear();
   for (int i = 4; i < argc; ++i) directions.push_back(parse_direction(argv[i]));

@@ -26,9 +26,11 @@ if grep -rlF "$src" "$prefix/lib" "$prefix/include" "$prefix/share"; then
   exit 1
 fi
 
+# Warnings are errors here as in penumbra's own build (README, "Code style and lint").
+warnings="-Wall -Wextra -Werror"
 cp -r examples/cpp "$tmp/example"
 cmake -S "$tmp/example" -B "$tmp/example-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_PREFIX_PATH="$prefix" >"$tmp/configure.log"
+  -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_CXX_FLAGS="$warnings" >"$tmp/configure.log"
 cmake --build "$tmp/example-build" >"$tmp/build.log"
 (cd "$tmp" && ./example-build/render_and_backward)
 test -s "$tmp/render.png"
@@ -36,8 +38,8 @@ test -s "$tmp/render.png"
 pcdir=$(dirname "$(find "$prefix" -name penumbra.pc)")
 static=()  # a static libpenumbra needs its private dependencies: pkg-config --static
 [[ -n "$(find "$prefix" -name 'libpenumbra.so*')" ]] || static=(--static)
-# shellcheck disable=SC2046  # pkg-config's flags are separate words
-g++ -std=c++17 -O1 -o "$tmp/example-pc" examples/cpp/render_and_backward.cpp \
+# shellcheck disable=SC2046,SC2086  # pkg-config's flags and $warnings: one word per flag
+g++ -std=c++17 -O1 $warnings -o "$tmp/example-pc" examples/cpp/render_and_backward.cpp \
   -DSCENE="\"$(PKG_CONFIG_PATH="$pcdir" pkg-config --variable=datadir penumbra)/scenes/turnaround.json\"" \
   $(PKG_CONFIG_PATH="$pcdir" pkg-config "${static[@]}" --cflags --libs penumbra-app) \
   -Wl,-rpath,"$(dirname "$pcdir")"

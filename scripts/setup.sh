@@ -11,11 +11,14 @@ set -euo pipefail
 # sanitizer build of the test suite uses g++'s own runtimes (libasan, libubsan). Embree 3
 # (libembree-dev) ray-traces the ground truth of the accuracy benchmarks and their test. The
 # Python module (scripts/python.sh) builds against python3-dev in a python3-venv environment
-# that sees Debian's python3-numpy, python3-torch and python3-pytest.
+# that sees Debian's python3-numpy, python3-torch and python3-pytest. clang-format-14 and
+# clang-tidy-14 (Debian 12's default versions) check the style and lint the C++
+# (scripts/lint.sh); the output of clang-format depends on its version, so it is pinned.
 PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
   libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev libgif-dev
   libcli11-dev nlohmann-json3-dev libembree-dev cmake ninja-build g++ pkg-config clinfo clang-15
+  clang-format-14 clang-tidy-14
   python3 python3-dev python3-venv python3-numpy python3-torch python3-pytest
 )
 

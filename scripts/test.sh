@@ -6,8 +6,10 @@
 # it then runs the hardening checks too (README, "Hardening"):
 #   asan  the library, the tool and the whole test suite built with ASan+UBSan (preset `asan`,
 #         build-asan/), every test run under the sanitizers;
-#   fuzz  the libFuzzer targets of the file loaders, 25 s each (scripts/fuzz.sh, build-fuzz/).
-# Usage: scripts/test.sh [suite|asan|fuzz|all]   (no argument: the suite, plus the rest in CI)
+#   fuzz  the libFuzzer targets of the file loaders, 25 s each (scripts/fuzz.sh, build-fuzz/);
+#   lint  clang-format's check, clang-tidy and the size rules over the C++ (scripts/lint.sh,
+#         README, "Code style and lint"), with build/'s compilation database.
+# Usage: scripts/test.sh [suite|asan|fuzz|lint|all]   (no argument: the suite, plus the rest in CI)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -53,6 +55,11 @@ fuzz() {
   bash scripts/fuzz.sh
 }
 
+lint() {
+  ./scripts/setup.sh
+  ./scripts/lint.sh
+}
+
 # Runs one step and reports how long it took.
 step() {
   local start=$SECONDS
@@ -65,14 +72,16 @@ case "${1:-}" in
   suite) step suite ;;
   asan) step asan ;;
   fuzz) step fuzz ;;
-  all) step suite; step asan; step fuzz ;;
+  lint) step lint ;;
+  all) step suite; step asan; step fuzz; step lint ;;
   "")
     step suite
     if [[ "${CI:-}" == "true" || "${PENUMBRA_HARDENING:-}" == "1" ]]; then
       step asan
       step fuzz
+      step lint
     fi
     ;;
-  *) echo "usage: scripts/test.sh [suite|asan|fuzz|all]" >&2; exit 2 ;;
+  *) echo "usage: scripts/test.sh [suite|asan|fuzz|lint|all]" >&2; exit 2 ;;
 esac
 echo "test.sh: all passed in ${SECONDS} s"

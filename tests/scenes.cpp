@@ -252,8 +252,8 @@ double expect_matches_reference(Renderer& renderer, const Scene& scene, Toleranc
     EXPECT_EQ(got[v].silhouette.channels, 1) << tag;
     EXPECT_EQ(got[v].depth.channels, 1) << tag;
     expect_finite(want.color, tag + " reference colour");
-    worst = std::max(worst,
-                     expect_close(got[v].color, want.color, tol.color, false, tag + " colour"));
+    worst =
+        std::max(worst, expect_close(got[v].color, want.color, tol.color, false, tag + " colour"));
     expect_close(got[v].silhouette, want.silhouette, tol.silhouette, false, tag + " silhouette");
     expect_close(got[v].depth, want.depth, tol.depth_rel, true, tag + " depth");
   }
@@ -297,9 +297,8 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
   EXPECT_TRUE(same_bits({a.ambient}, {b.ambient})) << what << " ambient";
   if (!with_light_size) return;
   ASSERT_EQ(a.light_size.size(), b.light_size.size()) << what;
-  EXPECT_TRUE(a.light_size.empty() ||
-              std::memcmp(a.light_size.data(), b.light_size.data(),
-                          a.light_size.size() * sizeof(double)) == 0)
+  EXPECT_TRUE(a.light_size.empty() || std::memcmp(a.light_size.data(), b.light_size.data(),
+                                                  a.light_size.size() * sizeof(double)) == 0)
       << what << " light sizes";
 }
 

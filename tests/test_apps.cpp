@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
-#include "cli_run.hpp"
 
 namespace fs = std::filesystem;
 
@@ -52,13 +52,14 @@ std::string target(const std::string& name, int size, F inside) {
       const double u = (2 * x + 1 - size) / double(size), v = (size - 2 * y - 1) / double(size);
       if (inside(u, v)) im.at(x, y) = 0.0;
     }
-  const std::string path = temp_path(name + ".png");
+  std::string path = temp_path(name + ".png");
   penumbra::save_png(im, path);
   return path;
 }
 
 std::string disc(int size, const std::string& name = "disc") {
-  return target(name + std::to_string(size), size, [](double u, double v) { return u * u + v * v <= 0.6 * 0.6; });
+  return target(name + std::to_string(size), size,
+                [](double u, double v) { return u * u + v * v <= 0.6 * 0.6; });
 }
 std::string square(int size, const std::string& name = "square") {
   return target(name + std::to_string(size), size,
@@ -66,7 +67,7 @@ std::string square(int size, const std::string& name = "square") {
 }
 std::string flat(int size, double value) {
   penumbra::Image im(size, size, 1, value);
-  const std::string path = temp_path("flat" + std::to_string(value) + ".png");
+  std::string path = temp_path("flat" + std::to_string(value) + ".png");
   penumbra::save_png(im, path);
   return path;
 }
@@ -74,7 +75,7 @@ std::string wide() {
   penumbra::Image im(32, 24, 1, 1.0);
   for (int y = 8; y < 16; ++y)
     for (int x = 8; x < 24; ++x) im.at(x, y) = 0.0;
-  const std::string path = temp_path("wide.png");
+  std::string path = temp_path("wide.png");
   penumbra::save_png(im, path);
   return path;
 }
@@ -117,24 +118,24 @@ void expect_outputs(const std::string& dir, bool scene) {
 
 TEST(Apps, FitSilhouetteErrors) {
   const std::string out = " -o " + quote(temp_path("err_sil"));
-  expect_clean_error(run_cli("fit-silhouette --target " + quote(temp_path("missing.png")) +
-                                 " --view front" + out,
-                             "sil_missing"),
-                     "missing.png");
+  expect_clean_error(
+      run_cli("fit-silhouette --target " + quote(temp_path("missing.png")) + " --view front" + out,
+              "sil_missing"),
+      "missing.png");
   expect_clean_error(run_cli("fit-silhouette --target " + quote(flat(32, 1.0)) + out, "sil_white"),
                      "no shape");
   expect_clean_error(run_cli("fit-silhouette --target " + quote(flat(32, 0.0)) + out, "sil_black"),
                      "no background");
   expect_clean_error(run_cli("fit-silhouette --target " + quote(wide()) + out, "sil_wide"),
                      "square");
-  expect_clean_error(run_cli("fit-silhouette --target " + quote(disc(32)) + " --target " +
-                                 quote(square(48)) + out,
-                             "sil_sizes"),
-                     "same size");
-  expect_clean_error(run_cli("fit-silhouette --target " + quote(disc(32)) +
-                                 " --view front --view side" + out,
-                             "sil_fewer"),
-                     "fewer targets");
+  expect_clean_error(
+      run_cli("fit-silhouette --target " + quote(disc(32)) + " --target " + quote(square(48)) + out,
+              "sil_sizes"),
+      "same size");
+  expect_clean_error(
+      run_cli("fit-silhouette --target " + quote(disc(32)) + " --view front --view side" + out,
+              "sil_fewer"),
+      "fewer targets");
   expect_clean_error(run_cli("fit-silhouette --view back" + out, "sil_view"), "back");
   expect_clean_error(run_cli("fit-silhouette --view front --view front" + out, "sil_twice"),
                      "twice");
@@ -144,17 +145,17 @@ TEST(Apps, FitSilhouetteErrors) {
 TEST(Apps, FitShadowsErrors) {
   const std::string out = " -o " + quote(temp_path("err_shd"));
   expect_clean_error(run_cli("fit-shadows --shadows none" + out, "shd_none"), "none");
-  expect_clean_error(run_cli("fit-shadows --target " + quote(temp_path("missing.png")) + out,
-                             "shd_missing"),
-                     "missing.png");
+  expect_clean_error(
+      run_cli("fit-shadows --target " + quote(temp_path("missing.png")) + out, "shd_missing"),
+      "missing.png");
   expect_clean_error(run_cli("fit-shadows --target " + quote(flat(32, 0.0)) + out, "shd_black"),
                      "no background");
-  expect_clean_error(run_cli("fit-shadows --target " + quote(disc(32)) + " --light-dir 1,2" + out,
-                             "shd_dir"),
-                     "three numbers");
-  expect_clean_error(run_cli("fit-shadows --target " + quote(disc(32)) + " --light-dir 0,0,0" + out,
-                             "shd_zero"),
-                     "zero");
+  expect_clean_error(
+      run_cli("fit-shadows --target " + quote(disc(32)) + " --light-dir 1,2" + out, "shd_dir"),
+      "three numbers");
+  expect_clean_error(
+      run_cli("fit-shadows --target " + quote(disc(32)) + " --light-dir 0,0,0" + out, "shd_zero"),
+      "zero");
   expect_clean_error(run_cli("fit-shadows --target " + quote(disc(32)) +
                                  " --light-dir 0,0,-1 --light-dir -1,0,0" + out,
                              "shd_fewer"),
@@ -165,20 +166,21 @@ TEST(Apps, ShadowArtErrors) {
   const std::string out = " -o " + quote(temp_path("err_art"));
   expect_clean_error(run_cli("shadow-art --target " + quote(disc(32)) + out, "art_one"),
                      "two or three");
-  expect_clean_error(run_cli("shadow-art --target " + quote(disc(32)) + " --target " +
-                                 quote(flat(32, 1.0)) + out,
-                             "art_white"),
-                     "no shape");
-  expect_clean_error(run_cli("shadow-art --target " + quote(disc(32)) + " --target " +
-                                 quote(square(64)) + out,
-                             "art_sizes"),
-                     "same size");
+  expect_clean_error(
+      run_cli("shadow-art --target " + quote(disc(32)) + " --target " + quote(flat(32, 1.0)) + out,
+              "art_white"),
+      "no shape");
+  expect_clean_error(
+      run_cli("shadow-art --target " + quote(disc(32)) + " --target " + quote(square(64)) + out,
+              "art_sizes"),
+      "same size");
   // Inconsistent: the front view wants the top half, the side view the bottom half.
   const std::string top = target("top32", 32, [](double, double v) { return v > 0.1; });
   const std::string bottom = target("bottom32", 32, [](double, double v) { return v < -0.1; });
-  expect_clean_error(run_cli("shadow-art --target " + quote(top) + " --target " + quote(bottom) + out,
-                             "art_inconsistent"),
-                     "no object in common");
+  expect_clean_error(
+      run_cli("shadow-art --target " + quote(top) + " --target " + quote(bottom) + out,
+              "art_inconsistent"),
+      "no object in common");
   expect_clean_error(run_cli("shadow-art --target " + quote(disc(32)) + " --target " +
                                  quote(square(32)) + " --light-dir 0,0,-1 --light-dir 0,0,1" + out,
                              "art_parallel"),
@@ -190,9 +192,10 @@ TEST(Apps, ShadowArtErrors) {
 
 TEST(Apps, FitSilhouetteConverges) {
   const std::string dir = temp_path("fit_sil");
-  const RunResult r = run_cli("fit-silhouette --target " + quote(disc(32)) + " --view front --target " +
-                                  quote(square(32)) + " --view side --iterations 160 -o " + quote(dir),
-                              "fit_sil");
+  const RunResult r =
+      run_cli("fit-silhouette --target " + quote(disc(32)) + " --view front --target " +
+                  quote(square(32)) + " --view side --iterations 160 -o " + quote(dir),
+              "fit_sil");
   ASSERT_EQ(r.exit_code, 0) << show(r);
   const auto ious = last_line_ious(r, "fit-silhouette", 160, 2);
   for (double iou : ious) EXPECT_GE(iou, 0.9) << show(r);
@@ -225,10 +228,10 @@ TEST(Apps, ShadowArtObliqueLight) {
   // A light that is not along an axis: the walls of the two lights are not orthogonal, so no
   // scene picture, but the shadows are still fitted.
   const std::string dir = temp_path("art_oblique");
-  const RunResult r = run_cli("shadow-art --target " + quote(disc(32)) + " --target " +
-                                  quote(disc(32)) + " --light-dir 0,0,-1 --light-dir -1,0,-1 " +
-                                  "--iterations 12 -o " + quote(dir),
-                              "art_oblique");
+  const RunResult r =
+      run_cli("shadow-art --target " + quote(disc(32)) + " --target " + quote(disc(32)) +
+                  " --light-dir 0,0,-1 --light-dir -1,0,-1 " + "--iterations 12 -o " + quote(dir),
+              "art_oblique");
   ASSERT_EQ(r.exit_code, 0) << show(r);
   const auto ious = last_line_ious(r, "shadow-art", 12, 2);
   for (double iou : ious) EXPECT_GE(iou, 0.8) << show(r);
@@ -244,7 +247,8 @@ TEST(Apps, Bundled) {
     int iterations;
     size_t views;
   };
-  for (const Case& c : {Case{"fit-silhouette", 8, 2}, Case{"fit-shadows", 4, 2}, Case{"shadow-art", 3, 3}}) {
+  for (const Case& c :
+       {Case{"fit-silhouette", 8, 2}, Case{"fit-shadows", 4, 2}, Case{"shadow-art", 3, 3}}) {
     const std::string dir = temp_path("bundled_" + c.command);
     const RunResult r =
         run_cli(c.command + " --iterations " + std::to_string(c.iterations) + " -o " + quote(dir),

@@ -37,7 +37,7 @@ class ScopedEnv {
 };
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("penumbra_cache_" + name);
+  fs::path dir = fs::path(::testing::TempDir()) / ("penumbra_cache_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -80,7 +80,8 @@ int count(const std::string& text, const std::string& what) {
 TEST(ProgramCache, EntryRoundTripsAndDamageIsDetected) {
   using penumbra::detail::decode_program_entry;
   using penumbra::detail::encode_program_entry;
-  const std::string key(32, 'a'), binary = "a program binary \x01\x02\x00 with bytes";
+  const char bytes[] = "a program binary \x01\x02\x00 with bytes";  // the NUL included
+  const std::string key(32, 'a'), binary(bytes, sizeof bytes - 1);
   const std::string entry = encode_program_entry(key, binary);
   ASSERT_TRUE(decode_program_entry(key, entry).has_value());
   EXPECT_EQ(*decode_program_entry(key, entry), binary);
@@ -216,5 +217,7 @@ TEST(ProgramCache, UnwritableFolderStillRenders) {
   EXPECT_TRUE(fs::exists(dir / "raw" / "color.npy"));
   const std::vector<std::string> err = lines(r.err);
   ASSERT_LE(err.size(), 1u) << r.err;
-  if (!err.empty()) EXPECT_EQ(err[0].rfind("penumbra: warning:", 0), 0u) << r.err;
+  if (!err.empty()) {
+    EXPECT_EQ(err[0].rfind("penumbra: warning:", 0), 0u) << r.err;
+  }
 }

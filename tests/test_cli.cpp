@@ -18,10 +18,10 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
-#include "cli_run.hpp"
 
 namespace fs = std::filesystem;
 
@@ -40,7 +40,7 @@ RunResult run_cli(const std::string& args, const std::string& tag) {
 }
 
 std::string obj_file(const std::string& name, const std::string& text) {
-  const std::string path = temp_path(name + ".obj");
+  std::string path = temp_path(name + ".obj");
   write_text(path, text);
   return path;
 }
@@ -264,10 +264,10 @@ TEST(Cli, BackwardWritesGradients) {
   // float64 on disk: header says <f8.
   EXPECT_NE(read_text(out + "/ambient.npy").find("<f8"), std::string::npos);
   // Soft shadows: the seventh column is dL/dD_L.
-  const RunResult soft = run_cli("backward " + quote(kBundled) + " --width 32 --height 24 " +
-                                     "--shadows soft --light-size 0.5 --grad-in " + quote(in) +
-                                     " -o " + quote(out),
-                                 "backward_soft");
+  const RunResult soft =
+      run_cli("backward " + quote(kBundled) + " --width 32 --height 24 " +
+                  "--shadows soft --light-size 0.5 --grad-in " + quote(in) + " -o " + quote(out),
+              "backward_soft");
   ASSERT_EQ(soft.exit_code, 0) << show(soft);
   EXPECT_NE(penumbra::load_npy(out + "/lights.npy").data[6], 0.0);
 }
@@ -275,11 +275,10 @@ TEST(Cli, BackwardWritesGradients) {
 TEST(Cli, RenderHardShadowsWritesShadowMap) {
   const std::string raw = temp_path("render_shadow_raw");
   fs::remove_all(raw);
-  const RunResult r = run_cli("render " + quote(kBundled) + " -o " +
-                                  quote(temp_path("render_shadow.png")) +
-                                  " --width 32 --height 24 --shadows hard --map-size 20 --raw " +
-                                  quote(raw),
-                              "render_shadow");
+  const RunResult r =
+      run_cli("render " + quote(kBundled) + " -o " + quote(temp_path("render_shadow.png")) +
+                  " --width 32 --height 24 --shadows hard --map-size 20 --raw " + quote(raw),
+              "render_shadow");
   ASSERT_EQ(r.exit_code, 0) << show(r);
   const std::string path = raw + "/shadow_map_0.npy";
   ASSERT_TRUE(fs::exists(path)) << show(r);
@@ -304,11 +303,11 @@ TEST(Cli, RenderHardShadowsWritesShadowMap) {
   // Soft shadows also write the penumbra map P, in [0, 1].
   const std::string soft = temp_path("render_soft_raw");
   fs::remove_all(soft);
-  const RunResult rs = run_cli("render " + quote(kBundled) + " -o " +
-                                   quote(temp_path("render_soft.png")) +
-                                   " --width 32 --height 24 --shadows soft --shadow-model paper --map-size 20 --raw " +
-                                   quote(soft),
-                               "render_soft");
+  const RunResult rs = run_cli(
+      "render " + quote(kBundled) + " -o " + quote(temp_path("render_soft.png")) +
+          " --width 32 --height 24 --shadows soft --shadow-model paper --map-size 20 --raw " +
+          quote(soft),
+      "render_soft");
   ASSERT_EQ(rs.exit_code, 0) << show(rs);
   const penumbra::Image pen = penumbra::load_npy(soft + "/penumbra_map_0.npy");
   EXPECT_EQ(pen.width, 20);
@@ -321,10 +320,10 @@ TEST(Cli, RenderHardShadowsWritesShadowMap) {
   // With shadows off there is no shadow map.
   const std::string off = temp_path("render_noshadow_raw");
   fs::remove_all(off);
-  const RunResult r2 = run_cli("render " + quote(kBundled) + " -o " +
-                                   quote(temp_path("render_noshadow.png")) +
-                                   " --width 32 --height 24 --shadows none --raw " + quote(off),
-                               "render_noshadow");
+  const RunResult r2 =
+      run_cli("render " + quote(kBundled) + " -o " + quote(temp_path("render_noshadow.png")) +
+                  " --width 32 --height 24 --shadows none --raw " + quote(off),
+              "render_noshadow");
   ASSERT_EQ(r2.exit_code, 0) << show(r2);
   EXPECT_TRUE(fs::exists(off + "/color.npy"));
   EXPECT_FALSE(fs::exists(off + "/shadow_map_0.npy"));
@@ -342,11 +341,12 @@ TEST(Cli, ShadowOptionsChangeTheImage) {
   for (const std::string& extra :
        {std::string("--shadows none"), std::string("--shadows hard --sampling truncated"),
         std::string("--shadows hard --sampling exact --light-size 0.3"),
-        std::string("--shadows hard --sampling gemm --shadow-model paper --light-sigma 2e-5 --light-gamma 2e-4 "
+        std::string("--shadows hard --sampling gemm --shadow-model paper --light-sigma 2e-5 "
+                    "--light-gamma 2e-4 "
                     "--weight-eps 1e-8")}) {
     const std::string png = dir + "/" + std::to_string(i) + ".png";
-    const RunResult r = run_cli(common + " " + extra + " -o " + quote(png),
-                                "shadow_images_" + std::to_string(i++));
+    const RunResult r =
+        run_cli(common + " " + extra + " -o " + quote(png), "shadow_images_" + std::to_string(i++));
     ASSERT_EQ(r.exit_code, 0) << show(r);
     images.push_back(penumbra::load_image(png, 3));
   }
@@ -399,11 +399,11 @@ TEST(Cli, FiguresWritesEveryPicture) {
   const std::string dir = temp_path("figures");
   const RunResult r = run_cli("figures -o " + quote(dir), "figures");
   ASSERT_EQ(r.exit_code, 0) << show(r);
-  for (const char* name : {"fig1_a.png", "fig1_b.png", "fig1_c.png", "fig1_d.png",
-                           "fig2_depth_map.png", "fig4_soft_000.png", "fig4_soft_270.png",
-                           "fig5_penumbra_map.png", "soft_size_1.5.png", "model_paper_hard.png",
-                           "model_accurate_hard.png", "model_paper_soft.png",
-                           "model_accurate_soft.png"}) {
+  for (const char* name :
+       {"fig1_a.png", "fig1_b.png", "fig1_c.png", "fig1_d.png", "fig2_depth_map.png",
+        "fig4_soft_000.png", "fig4_soft_270.png", "fig5_penumbra_map.png", "soft_size_1.5.png",
+        "model_paper_hard.png", "model_accurate_hard.png", "model_paper_soft.png",
+        "model_accurate_soft.png"}) {
     const penumbra::Image img = penumbra::load_image(dir + "/" + name);
     EXPECT_GT(img.width, 0) << name;
   }
@@ -413,9 +413,9 @@ TEST(Cli, FiguresWritesEveryPicture) {
 }
 
 TEST(Cli, SceneTooLargeForTheDeviceFailsUpFront) {
-  const RunResult r = run_cli("render -o " + quote(temp_path("huge.png")) +
-                                  " --width 16384 --height 16384 --map-size 8192",
-                              "huge");
+  const RunResult r = run_cli(
+      "render -o " + quote(temp_path("huge.png")) + " --width 16384 --height 16384 --map-size 8192",
+      "huge");
   expect_clean_error(r, "GiB of device memory, more than the ");
 }
 
@@ -432,7 +432,8 @@ std::vector<std::string> subcommands() {
   for (const std::string& line : lines(r.out)) {
     if (line.rfind("Subcommands:", 0) == 0) in_list = true;
     std::smatch m;
-    if (in_list && std::regex_search(line, m, std::regex("^  ([a-z][-a-z]*)\\s"))) out.push_back(m[1]);
+    if (in_list && std::regex_search(line, m, std::regex("^  ([a-z][-a-z]*)\\s")))
+      out.push_back(m[1]);
   }
   return out;
 }
@@ -455,7 +456,8 @@ std::set<std::string> help_options(const std::string& command) {
 std::vector<std::string> code_spans(const std::string& text) {
   std::vector<std::string> out;
   const std::regex span("`([^`]*)`");
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), span); it != std::sregex_iterator(); ++it)
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), span); it != std::sregex_iterator();
+       ++it)
     out.push_back((*it)[1]);
   return out;
 }
@@ -496,7 +498,7 @@ ReadmeOptions readme_options() {
   for (const std::string& line : lines(text)) {
     if (line.rfind("```", 0) == 0) fenced = !fenced;
     if (fenced) continue;
-    if (line.rfind("#", 0) == 0) {
+    if (line.rfind('#', 0) == 0) {
       section.clear();
       if (line.rfind("### ", 0) == 0) {
         const std::regex name("`penumbra ([a-z][-a-z]*)`");
@@ -509,7 +511,7 @@ ReadmeOptions readme_options() {
       paragraph.clear();
       continue;
     }
-    if (line.rfind("|", 0) != 0) {  // text: the paragraph before the next table
+    if (line.rfind('|', 0) != 0) {  // text: the paragraph before the next table
       table.clear();
       if (line.empty())
         ended = true;
@@ -525,7 +527,7 @@ ReadmeOptions readme_options() {
       for (size_t i = 0; i < names.size(); ++i)
         if (names[i].find("commands") != std::string::npos) commands_column = int(i);
       header = true;
-      if (table.empty()) table.push_back("");  // a table of no command (environment variables)
+      if (table.empty()) table.emplace_back();  // a table of no command (environment variables)
       continue;
     }
     header = false;
@@ -557,7 +559,8 @@ TEST(Cli, ReadmeAndHelpNameTheSameOptions) {
   const std::vector<std::string> commands = subcommands();
   EXPECT_GE(commands.size(), 11u);
   for (const std::string& command : commands) {
-    EXPECT_TRUE(doc.sections.count(command)) << "README has no section `penumbra " << command << "`";
+    EXPECT_TRUE(doc.sections.count(command))
+        << "README has no section `penumbra " << command << "`";
     const std::set<std::string> help = help_options(command);
     EXPECT_TRUE(help.count("--help")) << command;
     const std::set<std::string>& documented =
@@ -566,9 +569,8 @@ TEST(Cli, ReadmeAndHelpNameTheSameOptions) {
       EXPECT_TRUE(exempt.count(option) || documented.count(option))
           << "`penumbra " << command << " " << option << "` is not in README's option tables";
     for (const std::string& option : documented)
-      EXPECT_TRUE(help.count(option))
-          << "README documents " << option << " for `penumbra " << command
-          << "`, which its --help does not list";
+      EXPECT_TRUE(help.count(option)) << "README documents " << option << " for `penumbra "
+                                      << command << "`, which its --help does not list";
   }
   for (const std::string& section : doc.sections)
     EXPECT_NE(std::find(commands.begin(), commands.end(), section), commands.end())

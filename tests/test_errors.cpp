@@ -53,7 +53,7 @@ std::string error_of(const std::function<void()>& fn) {
   try {
     fn();
   } catch (const Error& e) {
-    const std::string msg = e.what();
+    std::string msg = e.what();
     EXPECT_EQ(msg.find('\n'), std::string::npos) << "message spans lines: " << msg;
     return msg;
   } catch (const std::exception& e) {
@@ -64,8 +64,9 @@ std::string error_of(const std::function<void()>& fn) {
   return {};
 }
 
-#define EXPECT_CONTAINS(text, needle) \
-  EXPECT_NE(std::string(text).find(needle), std::string::npos) << "\"" << (text) << "\" lacks \"" << (needle) << "\""
+#define EXPECT_CONTAINS(text, needle)                          \
+  EXPECT_NE(std::string(text).find(needle), std::string::npos) \
+      << "\"" << (text) << "\" lacks \"" << (needle) << "\""
 
 // A tetrahedron above a ground quad, one small camera, one point light.
 Scene small_scene(Shadows shadows = Shadows::None) {
@@ -168,7 +169,7 @@ struct TinyKernel {
       "}\n";
   TinyKernel() : env("PENUMBRA_KERNEL_DIR", dir().string()), kernels(ctx, Precision::Float, {}) {}
   static fs::path dir() {
-    const fs::path d = fs::path(::testing::TempDir()) / "penumbra_errors_tiny_kernel";
+    fs::path d = fs::path(::testing::TempDir()) / "penumbra_errors_tiny_kernel";
     fs::create_directories(d);
     std::ofstream(d / "tiny.cl", std::ios::trunc) << kSource;
     return d;
@@ -217,8 +218,9 @@ TEST(ErrorsKernel, FittingArgumentsRun) {
 TEST(ErrorsKernel, ArgumentCountMismatch) {
   TinyKernel t;
   cl::Buffer out = penumbra::detail::alloc_reals(t.ctx, Precision::Float, 8);
-  const std::string msg =
-      error_of([&] { penumbra::detail::bind_args(t.kernels, TinyArgsShort{out, 8}); });
+  const std::string msg = error_of([&] {
+    penumbra::detail::bind_args(t.kernels, TinyArgsShort{out, 8});
+  });
   EXPECT_CONTAINS(msg, "kernel 'tiny' of tiny.cl");
   EXPECT_CONTAINS(msg, "the host binds 2 arguments, the kernel takes 3");
 }
@@ -228,8 +230,9 @@ TEST(ErrorsKernel, ArgumentCountMismatch) {
 TEST(ErrorsKernel, ArgumentKindMismatch) {
   TinyKernel t;
   cl::Buffer out = penumbra::detail::alloc_reals(t.ctx, Precision::Float, 8);
-  const std::string msg =
-      error_of([&] { penumbra::detail::bind_args(t.kernels, TinyArgsSwapped{8, out, 0.5}); });
+  const std::string msg = error_of([&] {
+    penumbra::detail::bind_args(t.kernels, TinyArgsSwapped{8, out, 0.5});
+  });
   EXPECT_CONTAINS(msg, "kernel 'tiny' of tiny.cl");
   EXPECT_CONTAINS(msg, "argument 0");
 }
@@ -380,7 +383,8 @@ TEST(ErrorsFuzz, SceneNumberOverflow) {
   EXPECT_CONTAINS(msg, "number overflow");
   // The same through load_scene, and for a value nested anywhere.
   const std::string path = scene_dir() + "/overflow.json";
-  std::ofstream(path) << R"({"meshes": [{"file": "tetra.obj"}], "cameras": [{}], "ambient": -1e999})";
+  std::ofstream(path)
+      << R"({"meshes": [{"file": "tetra.obj"}], "cameras": [{}], "ambient": -1e999})";
   EXPECT_CONTAINS(error_of([&] { penumbra::load_scene(path); }), "number overflow");
 }
 
@@ -411,14 +415,15 @@ TEST(ErrorsFuzz, NpyHeaderKeyWithLineBreak) {
 // stb_image returned pixels for a PNM header declaring zero rows: a 3x0 image came back.
 TEST(ErrorsFuzz, ImageWithoutPixels) {
   EXPECT_FALSE(error_of([] {
-    penumbra::load_image(fuzz_input("image", "regression-pnm-zero-height.pgm"));
-  }).empty());
+                 penumbra::load_image(fuzz_input("image", "regression-pnm-zero-height.pgm"));
+               }).empty());
   // The same with a format that is read: a GIF whose screen is 0 pixels wide.
   const std::string path = ::testing::TempDir() + "penumbra_errors_zero.gif";
-  std::ofstream(path, std::ios::binary)
-      << std::string("GIF89a\x00\x00\x01\x00\x80\x00\x00\xff\x00\x00\x00\x00\x00"
-                     ",\x00\x00\x00\x00\x00\x00\x01\x00\x00\x02\x02"
-                     "D\x01\x00;", 35);
+  std::ofstream(path, std::ios::binary) << std::string(
+      "GIF89a\x00\x00\x01\x00\x80\x00\x00\xff\x00\x00\x00\x00\x00"
+      ",\x00\x00\x00\x00\x00\x00\x01\x00\x00\x02\x02"
+      "D\x01\x00;",
+      35);
   const std::string msg = error_of([&] { penumbra::load_image(path); });
   EXPECT_CONTAINS(msg, "cannot read image");
 }
@@ -464,15 +469,17 @@ TEST(ErrorsFuzz, ImageDecoderMessageStaysOnOneLine) {
 // IDAT chunk is empty (stb_image would copy it with memcpy(NULL, src, 0), undefined behaviour
 // that UBSan reported in the fuzz build; load_image drops empty IDAT chunks).
 TEST(ErrorsFuzz, ImageSeedsOfReadFormatsLoad) {
-  for (const char* name : {"grey_1x1.png", "rgb_2x2.png", "rgba_2x1.png", "grey16_2x2.png",
-                           "palette_3x1.png", "rgb_2x2.bmp", "rgb_1x1.gif", "flat_2x1.hdr",
-                           "regression-png-empty-idat.png"}) {
+  for (const char* name :
+       {"grey_1x1.png", "rgb_2x2.png", "rgba_2x1.png", "grey16_2x2.png", "palette_3x1.png",
+        "rgb_2x2.bmp", "rgb_1x1.gif", "flat_2x1.hdr", "regression-png-empty-idat.png"}) {
     SCOPED_TRACE(name);
     for (int channels = 0; channels <= 4; ++channels) {
       const Image im = penumbra::load_image(fuzz_input("image", name), channels);
       EXPECT_GT(im.width, 0);
       EXPECT_GT(im.height, 0);
-      if (channels) EXPECT_EQ(im.channels, channels);
+      if (channels) {
+        EXPECT_EQ(im.channels, channels);
+      }
       EXPECT_EQ(im.data.size(), size_t(im.width) * im.height * im.channels);
     }
   }

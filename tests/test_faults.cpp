@@ -5,7 +5,6 @@
 // destination folder, checked writes and close, renamed into place — so that a failure leaves
 // nothing at the destination and an earlier file there untouched.
 #include <gtest/gtest.h>
-#include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -14,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -44,7 +44,7 @@ namespace {
 
 // A fresh, empty folder for one test.
 std::string fresh_dir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "penumbra_faults_" + name;
+  std::string dir = ::testing::TempDir() + "penumbra_faults_" + name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -240,8 +240,8 @@ TEST(OutputFile, SeveralFilesAreWrittenAllOrNone) {
   EXPECT_NE(message.find("blocker/c.txt"), std::string::npos) << message;
   EXPECT_EQ(read_text(dir + "/a.txt"), "old a");
   EXPECT_EQ(names_in(dir), (std::vector<std::string>{"a.txt", "blocker"}));
-  penumbra::write_files({{dir + "/a.txt", "new a", "text file"},
-                         {dir + "/b.txt", "new b", "text file"}});
+  penumbra::write_files(
+      {{dir + "/a.txt", "new a", "text file"}, {dir + "/b.txt", "new b", "text file"}});
   EXPECT_EQ(read_text(dir + "/a.txt"), "new a");
   EXPECT_EQ(read_text(dir + "/b.txt"), "new b");
 }
@@ -269,9 +269,9 @@ TEST(FaultsCli, RenderToDevFullFails) {
 TEST(FaultsCli, RenderWritesNoPngWhenTheRawArraysCannotBeWritten) {
   const std::string dir = fresh_dir("raw_fails");
   write_text(dir + "/file", "x");
-  const RunResult r = run_cli("render -o " + quote(dir + "/out.png") + " --raw " +
-                                  quote(dir + "/file/raw") + kSmall,
-                              "raw_fails");
+  const RunResult r = run_cli(
+      "render -o " + quote(dir + "/out.png") + " --raw " + quote(dir + "/file/raw") + kSmall,
+      "raw_fails");
   expect_clean_error(r, dir + "/file/raw");
   EXPECT_EQ(names_in(dir), std::vector<std::string>{"file"});
 }
@@ -282,8 +282,8 @@ TEST(FaultsCli, RenderWritesNoPngWhenTheRawArraysCannotBeWritten) {
 std::string read_only_wrapper(const std::string& dir, const std::string& command) {
   const std::string mount = "mount --bind " + quote(dir) + " " + quote(dir) +
                             " && mount -o remount,bind,ro " + quote(dir) + " && ";
-  const std::string probe = "unshare -Urm sh -c " +
-                            quote(mount + "! touch " + quote(dir + "/probe")) + " 2>/dev/null";
+  const std::string probe =
+      "unshare -Urm sh -c " + quote(mount + "! touch " + quote(dir + "/probe")) + " 2>/dev/null";
   if (std::system(probe.c_str()) != 0) return "";
   return "unshare -Urm sh -c " + quote(mount + "exec " + command);
 }
@@ -374,21 +374,24 @@ TEST(FaultsInput, DuplicateJsonKeysAreRefusedWithTheirPath) {
       {R"({"meshes": [], "meshes": [], "cameras": [{}]})", "duplicate key 'meshes'"},
       {R"({"meshes": [{"file": "tetra.obj", "file": "x.obj"}], "cameras": [{}]})",
        "duplicate key 'meshes[0].file'"},
-      {"{\"meshes\": [" + mesh + "], \"cameras\": [{}, {\"eye\": [0, 0, 3], \"up\": [0, 1, 0], "
-       "\"eye\": [0, 0, 4]}]}",
+      {"{\"meshes\": [" + mesh +
+           "], \"cameras\": [{}, {\"eye\": [0, 0, 3], \"up\": [0, 1, 0], "
+           "\"eye\": [0, 0, 4]}]}",
        "duplicate key 'cameras[1].eye'"},
-      {"{\"meshes\": [" + mesh + "], \"cameras\": [{}], \"render\": {\"sigma\": 1e-4, "
-       "\"shadows\": \"hard\", \"sigma\": 1e-3}}",
+      {"{\"meshes\": [" + mesh +
+           "], \"cameras\": [{}], \"render\": {\"sigma\": 1e-4, "
+           "\"shadows\": \"hard\", \"sigma\": 1e-3}}",
        "duplicate key 'render.sigma'"}};
   for (const auto& [text, message] : cases) {
     write_text(dir + "/scene.json", text);
     const std::string error = error_of([&] { penumbra::load_scene(dir + "/scene.json"); });
-    EXPECT_NE(error.find("'" + dir + "/scene.json': " + message), std::string::npos)
-        << text << "\n" << error;
+    EXPECT_NE(error.find("'" + dir + "/scene.json': " + message), std::string::npos) << text << "\n"
+                                                                                     << error;
   }
   // The same keys in different objects are not duplicates.
-  write_text(dir + "/scene.json", "{\"meshes\": [" + mesh + ", " + mesh +
-                                      "], \"cameras\": [{\"eye\": [0, 0, 3]}, {\"eye\": [0, 0, 4]}]}");
+  write_text(dir + "/scene.json",
+             "{\"meshes\": [" + mesh + ", " + mesh +
+                 "], \"cameras\": [{\"eye\": [0, 0, 3]}, {\"eye\": [0, 0, 4]}]}");
   EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }), "");
 }
 
@@ -396,20 +399,23 @@ TEST(FaultsInput, MissingKeyNamesTheFileTheKeyAndWhatItHolds) {
   const std::string dir = fresh_dir("missing_key");
   write_text(dir + "/scene.json", R"({"meshes": []})");
   EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }),
-            "'" + dir + "/scene.json': the required key 'cameras' is missing (expected an array "
-            "of cameras, each an object such as {\"eye\": [0, 0, 3]})");
+            "'" + dir +
+                "/scene.json': the required key 'cameras' is missing (expected an array "
+                "of cameras, each an object such as {\"eye\": [0, 0, 3]})");
   write_text(dir + "/scene.json", R"({"meshes": [{"name": "a"}], "cameras": [{}]})");
   EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }),
-            "'" + dir + "/scene.json': the required key 'meshes[0].file' is missing (expected "
-            "the path of an OBJ file)");
+            "'" + dir +
+                "/scene.json': the required key 'meshes[0].file' is missing (expected "
+                "the path of an OBJ file)");
 }
 
 TEST(FaultsInput, FaceCornerWithoutItsTextureIndexIsNamed) {
   const std::string dir = fresh_dir("face_corner");
   write_text(dir + "/a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/ 2/ 3/\n");
   EXPECT_EQ(error_of([&] { penumbra::load_obj(dir + "/a.obj"); }),
-            "OBJ file '" + dir + "/a.obj' line 4: face corner '1/' is not v, v/vt, v/vt/vn or "
-            "v//vn (integer indices)");
+            "OBJ file '" + dir +
+                "/a.obj' line 4: face corner '1/' is not v, v/vt, v/vt/vn or "
+                "v//vn (integer indices)");
   write_text(dir + "/b.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n");
   EXPECT_EQ(error_of([&] { penumbra::load_obj(dir + "/b.obj"); }), "");
 }
@@ -448,8 +454,7 @@ TEST(FaultsInput, DegenerateFacesAreFoundAtEveryScale) {
               std::string::npos)
         << scale;
     const penumbra::Mesh point = triangle_mesh({{scale, scale, 0}, {scale, scale, 0}, {0, 0, 0}});
-    EXPECT_NE(error_of([&] { penumbra::validate(point); }).find("is degenerate"),
-              std::string::npos)
+    EXPECT_NE(error_of([&] { penumbra::validate(point); }).find("is degenerate"), std::string::npos)
         << scale;
   }
 }
@@ -515,10 +520,11 @@ TEST(FaultsTuning, UpdatingOneEntryKeepsTheOthersByteIdentical) {
 }
 
 TEST(FaultsTuning, AnythingButADatabaseIsRefused) {
-  for (const std::string text : {std::string("\x89PNG\r\n"), std::string(R"({"entries": 3})"),
-                                 std::string(R"({"entries": {"a": {}, "a": {}}})")}) {
-    const std::string message = error_of(
-        [&] { penumbra::TuningDatabase::updated_text(text, "db.json", "Mine", penumbra::Tuning()); });
+  for (const std::string& text : {std::string("\x89PNG\r\n"), std::string(R"({"entries": 3})"),
+                                  std::string(R"({"entries": {"a": {}, "a": {}}})")}) {
+    const std::string message = error_of([&] {
+      penumbra::TuningDatabase::updated_text(text, "db.json", "Mine", penumbra::Tuning());
+    });
     EXPECT_NE(message.find("cannot update the tuning database db.json: "), std::string::npos)
         << message;
     for (char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << message;  // printable
@@ -588,8 +594,8 @@ TEST(FaultsCli, FitKilledMidWayResumesToTheSameResult) {
 
   const pid_t child = ::fork();
   if (child == 0) {
-    const std::string command = "exec " + quote(PENUMBRA_CLI) + fit + " -o " + quote(killed) +
-                                " >/dev/null 2>&1";
+    const std::string command =
+        "exec " + quote(PENUMBRA_CLI) + fit + " -o " + quote(killed) + " >/dev/null 2>&1";
     ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
     ::_exit(127);
   }
@@ -632,8 +638,9 @@ TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
       "was written by another run (fit-silhouette iterations=20 ");
   write_text(dir + "/checkpoint.json", read_text(dir + "/checkpoint.json").substr(0, 100));
   expect_clean_error(run_cli(fit + " --resume", "resume_cut"), "is not a checkpoint");
-  expect_clean_error(run_cli(" fit-silhouette --checkpoint-every -1 -o " + quote(dir), "resume_every"),
-                     "--checkpoint-every must be 0");
+  expect_clean_error(
+      run_cli(" fit-silhouette --checkpoint-every -1 -o " + quote(dir), "resume_every"),
+      "--checkpoint-every must be 0");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -703,9 +710,10 @@ TEST(FaultsCli, MemoryLimitRefusesTooLargeARenderAtOnce) {
 
 TEST(FaultsCli, MaxMemoryMustBeASize) {
   for (const char* bad : {"0", "-1GiB", "12 apples", "GiB", "1e30"})
-    expect_clean_error(run_cli(std::string("render -o /dev/null --max-memory '") + bad + "'" + kSmall,
-                               "max_memory"),
-                       "--max-memory must be a positive size such as 512MiB");
+    expect_clean_error(
+        run_cli(std::string("render -o /dev/null --max-memory '") + bad + "'" + kSmall,
+                "max_memory"),
+        "--max-memory must be a positive size such as 512MiB");
   const RunResult ok = run_cli("render -o /dev/null --max-memory 0.5GiB" + kSmall, "max_memory_ok");
   EXPECT_EQ(ok.exit_code, 0) << show(ok);
 }
@@ -716,12 +724,13 @@ penumbra::Context& context() {
 }
 
 TEST(FaultsMemory, TheLimitIsTheEstimate) {
-  penumbra::Scene scene = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) +
-                                               "/scenes/turnaround.json");
+  penumbra::Scene scene =
+      penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
   for (penumbra::Camera& c : scene.cameras) c.width = c.height = 48;
   scene.params.shadow_map_size = 64;
   for (const bool backward : {false, true}) {
-    const size_t need = penumbra::estimate_device_memory(scene, penumbra::Precision::Float, backward);
+    const size_t need =
+        penumbra::estimate_device_memory(scene, penumbra::Precision::Float, backward);
     penumbra::Renderer renderer(context());
     context().set_memory_limit(need - 1, "the test's limit");
     const std::string message = error_of([&] {
@@ -740,8 +749,8 @@ TEST(FaultsMemory, TheLimitIsTheEstimate) {
 }
 
 TEST(FaultsMemory, EstimateGrowsWithEveryPartOfTheWork) {
-  penumbra::Scene scene = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) +
-                                               "/scenes/turnaround.json");
+  penumbra::Scene scene =
+      penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
   const auto estimate = [&](const penumbra::Scene& s) {
     return penumbra::estimate_device_memory(s, penumbra::Precision::Float);
   };
@@ -839,9 +848,11 @@ TEST(FaultsDoc, EveryTestTheTableNamesExistsAndEveryFaultTestIsInIt) {
     EXPECT_TRUE(found) << "docs/faults.md names " << suite << "." << name << ", which is no test";
   }
   EXPECT_GT(rows, 30);
-  for (const std::string& t : registered)
-    if (t.rfind("Faults", 0) == 0 && t.rfind("FaultsDoc.", 0) != 0)
+  for (const std::string& t : registered) {
+    if (t.rfind("Faults", 0) == 0 && t.rfind("FaultsDoc.", 0) != 0) {
       EXPECT_NE(doc.find("`" + t + "`"), std::string::npos) << t << " is not in docs/faults.md";
+    }
+  }
 }
 
 }  // namespace

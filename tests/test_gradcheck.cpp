@@ -214,7 +214,7 @@ TEST(GradCheck, Float) {
   REQUIRE_CONTEXT(ctx);
   std::vector<std::pair<std::string, Scene>> scenes = {{"turnaround 64x64", small_turnaround(64)}};
   for (uint64_t seed = 1; seed <= 3; ++seed)
-    scenes.push_back({"random scene " + std::to_string(seed), penumbra::random_scene(seed)});
+    scenes.emplace_back("random scene " + std::to_string(seed), penumbra::random_scene(seed));
   for (const auto& [name, scene] : scenes) {
     GradCheckOptions options;
     options.precision = Precision::Float;

@@ -122,10 +122,8 @@ TEST(IoObj, Errors) {
                "is not v, v/vt, v/vt/vn or v//vn");
   expect_error([] { obj_mesh("empty", "# nothing here\n"); }, "contains no faces");
   expect_error([] { obj_mesh("nofaces", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"); }, "contains no faces");
-  expect_error([] { obj_mesh("nan", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"); },
-               "non-finite");
-  expect_error([] { obj_mesh("range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"); },
-               "out of range");
+  expect_error([] { obj_mesh("nan", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"); }, "non-finite");
+  expect_error([] { obj_mesh("range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"); }, "out of range");
   expect_error([] { obj_mesh("relrange", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n"); },
                "out of range");
   expect_error([] { obj_mesh("degenerate", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"); },
@@ -212,19 +210,23 @@ TEST(IoValidate, Scene) {
   check([](Scene& s) { s.cameras[0].width = 0; }, "image size");
   check([](Scene& s) { s.cameras[0].height = 20000; }, "image size");
   check([](Scene& s) { s.cameras[0].fov_deg = 180; }, "fov");
-  check([](Scene& s) {
-    s.cameras[0].projection = Projection::Orthographic;
-    s.cameras[0].half_height = 0;
-  }, "half_height");
+  check(
+      [](Scene& s) {
+        s.cameras[0].projection = Projection::Orthographic;
+        s.cameras[0].half_height = 0;
+      },
+      "half_height");
   check([](Scene& s) { s.cameras[0].near = 0; }, "near");
   check([](Scene& s) { s.cameras[0].far = s.cameras[0].near; }, "far");
   check([](Scene& s) { s.cameras[0].target = s.cameras[0].eye; }, "same point");
   check([](Scene& s) { s.cameras[0].up = {0, 0, -2}; }, "parallel");
   check([nan](Scene& s) { s.lights[0].position.x = nan; }, "light 0: position");
-  check([](Scene& s) {
-    s.lights[0].type = LightType::Directional;
-    s.lights[0].direction = glm::dvec3(0);
-  }, "zero direction");
+  check(
+      [](Scene& s) {
+        s.lights[0].type = LightType::Directional;
+        s.lights[0].direction = glm::dvec3(0);
+      },
+      "zero direction");
   check([](Scene& s) { s.lights[0].color.y = -1; }, "negative");
   check([](Scene& s) { s.lights[0].size = -0.5; }, "size");
   check([](Scene& s) { s.params.sigma = 0; }, "sigma");
@@ -338,7 +340,8 @@ TEST(IoScene, DefaultsAndOptions) {
     "lights": [{"type": "directional", "direction": [0, -1, 0], "color": [1, 0.5, 0],
                 "intensity": 2}],
     "render": {"cull_backfaces": true}
-  })", kMeshes);
+  })",
+                              kMeshes);
   const Mesh& m = s.meshes[0];
   EXPECT_EQ(m.name, "icosphere");
   EXPECT_NEAR(glm::length(m.vertices[0]), 2.0, 1e-6);
@@ -408,12 +411,10 @@ TEST(IoScene, Errors) {
                "'cameras[0].width' must be an integer");
   expect_error(parse("{" + mesh + R"(, "cameras": [{"eye": [0, 1]}]})"),
                "'cameras[0].eye' must be an array of 3 numbers");
-  expect_error(parse("{" + mesh + R"(, "cameras": [{"projection": "fisheye"}]})"),
-               "fisheye");
+  expect_error(parse("{" + mesh + R"(, "cameras": [{"projection": "fisheye"}]})"), "fisheye");
   expect_error(parse("{" + mesh + ", " + cam + R"(, "render": {"cull_backfaces": 1}})"),
                "'render.cull_backfaces' must be true or false");
-  expect_error(parse("{" + mesh + ", " + cam + R"(, "lights": {}})"),
-               "'lights' must be an array");
+  expect_error(parse("{" + mesh + ", " + cam + R"(, "lights": {}})"), "'lights' must be an array");
   expect_error(parse("{" + cam + "}"), "the required key 'meshes' is missing");
   expect_error(parse("{" + mesh + ", " + cam + ", }"), "JSON syntax error");
   expect_error(parse(R"({"meshes": [{"file": "nope.obj"}], )" + cam + "}"), "nope.obj");
@@ -436,8 +437,7 @@ Image ramp(int w, int h, int c) {
   return im;
 }
 
-void check_npy_header(const std::string& path, const std::string& descr,
-                      const std::string& shape) {
+void check_npy_header(const std::string& path, const std::string& descr, const std::string& shape) {
   const std::string b = read_bytes(path);
   ASSERT_GE(b.size(), 10u);
   EXPECT_EQ(b.substr(0, 6), std::string("\x93NUMPY", 6));

@@ -224,8 +224,7 @@ const std::vector<Case>& cases() {
 // Cases that once failed (see the header); NumericsRegressions.Finite runs them.
 const std::vector<Case>& regressions() {
   static const std::vector<Case> table = {
-      {"light_inside", 1,
-       [](Scene& s, double k) { s.lights[0].position = dvec3(0, 1, 0) * k; }},
+      {"light_inside", 1, [](Scene& s, double k) { s.lights[0].position = dvec3(0, 1, 0) * k; }},
       {"vertex_on_eye_plane", 1,
        [](Scene& s, double k) {
          // Looking along −z from z = 2: the ground's vertices at z = 2 have view depth 0.
@@ -255,8 +254,9 @@ struct FiniteCheck {
   void values(const std::string& label, const std::vector<double>& v) {
     size_t n = 0;
     for (double x : v) n += !std::isfinite(x);
-    if (n) problems.push_back(label + ": " + std::to_string(n) + " of " +
-                              std::to_string(v.size()) + " not finite");
+    if (n)
+      problems.push_back(label + ": " + std::to_string(n) + " of " + std::to_string(v.size()) +
+                         " not finite");
   }
   void vecs(const std::string& label, const std::vector<dvec3>& v) {
     std::vector<double> flat;
@@ -268,7 +268,7 @@ struct FiniteCheck {
 // Renders and differentiates; returns the problems found (empty: all finite) and the largest
 // |gradient| in `max_grad`.
 std::vector<std::string> check_case(const Case& c, Precision precision, Shadows shadows,
-                                   double* max_grad) {
+                                    double* max_grad) {
   const Scene scene = case_scene(c, shadows);
   Renderer renderer(context(), precision);
   FiniteCheck check;
@@ -383,9 +383,9 @@ void expect_matches_reference(const Case& c) {
 }
 
 TEST(NumericsReference, ExtremesMatchTheReference) {
-  for (const char* name : {"sigma_1e-8", "sigma_0.9", "gamma_0.9", "gamma_s_1e-8", "gamma_s_1e2",
-                           "dist_eps_1e-8", "huge_1e4", "tiny_1e-4", "coincident_vertices",
-                           "edge_on_camera", "edge_on_light"})
+  for (const char* name :
+       {"sigma_1e-8", "sigma_0.9", "gamma_0.9", "gamma_s_1e-8", "gamma_s_1e2", "dist_eps_1e-8",
+        "huge_1e4", "tiny_1e-4", "coincident_vertices", "edge_on_camera", "edge_on_light"})
     for (const Case& c : cases())
       if (std::string(c.name) == name) expect_matches_reference(c);
 }
@@ -395,9 +395,8 @@ TEST(NumericsReference, ExtremesMatchTheReference) {
 // boxes once took the square root of that negative number: NaN, every box empty, nothing drawn.)
 TEST(NumericsReference, CoverageCutoffAboveOneHalfMatchesTheReference) {
   for (double dist_eps : {0.6, 0.9}) {
-    const Case c{"dist_eps_above_half", 1, [dist_eps](Scene& s, double) {
-                   s.params.dist_eps = dist_eps;
-                 }};
+    const Case c{"dist_eps_above_half", 1,
+                 [dist_eps](Scene& s, double) { s.params.dist_eps = dist_eps; }};
     expect_matches_reference(c);
   }
 }
@@ -477,11 +476,10 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
     bool brute_force;
     int penumbra_tile;
   };
-  const std::vector<Variant> variants = {{16, 8, false, 16}, {8, 1, false, 16},
-                                         {8, 8, false, 8},   {16, 1, false, 16},
-                                         {16, 4, false, 4},  {16, 16, false, 32},
-                                         {32, 2, false, 16}, {32, 8, false, 64},
-                                         {16, 8, true, 16}};
+  const std::vector<Variant> variants = {
+      {16, 8, false, 16}, {8, 1, false, 16},  {8, 8, false, 8},
+      {16, 1, false, 16}, {16, 4, false, 4},  {16, 16, false, 32},
+      {32, 2, false, 16}, {32, 8, false, 64}, {16, 8, true, 16}};
   for (Precision p : {Precision::Float, Precision::Double})
     for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
       const std::string label = std::string(p == Precision::Float ? "float" : "double") +

@@ -27,7 +27,6 @@
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
 
-namespace fs = std::filesystem;
 using namespace penumbra;
 using namespace penumbra::optim;
 
@@ -63,12 +62,11 @@ void expect_close(double analytic, double numeric, double rtol, double atol,
 Mesh jittered_icosahedron(unsigned seed) {
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
   Mesh m;
-  m.vertices = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  m.faces = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-             {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-             {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-             {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  m.vertices = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  m.faces = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+             {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+             {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-0.15, 0.15);
   for (glm::dvec3& v : m.vertices) v = glm::normalize(v) + glm::dvec3(u(rng), u(rng), u(rng));
@@ -77,15 +75,15 @@ Mesh jittered_icosahedron(unsigned seed) {
 }
 
 // Checks the gradient of a vertex function against central differences at every coordinate.
-void check_vertex_gradient(
-    Mesh mesh,
-    const std::function<double(const Mesh&, std::vector<glm::dvec3>*)>& term,
-    const std::string& name) {
+void check_vertex_gradient(Mesh mesh,
+                           const std::function<double(const Mesh&, std::vector<glm::dvec3>*)>& term,
+                           const std::string& name) {
   std::vector<glm::dvec3> grad;
   term(mesh, &grad);
   ASSERT_EQ(grad.size(), mesh.vertices.size()) << name;
   double largest = 0;
-  for (const glm::dvec3& g : grad) largest = std::max({largest, std::abs(g.x), std::abs(g.y), std::abs(g.z)});
+  for (const glm::dvec3& g : grad)
+    largest = std::max({largest, std::abs(g.x), std::abs(g.y), std::abs(g.z)});
   ASSERT_GT(largest, 0) << name << ": zero gradient";
   for (size_t v = 0; v < mesh.vertices.size(); ++v)
     for (int k = 0; k < 3; ++k) {
@@ -96,14 +94,9 @@ void check_vertex_gradient(
     }
 }
 
-// A grey PNG from a mask: shape dark (0), background light (1).
-void write_target(const Image& mask, const std::string& path) {
-  Image im(mask.width, mask.height, 1);
-  for (size_t i = 0; i < im.data.size(); ++i) im.data[i] = mask.data[i] > 0.5 ? 0.0 : 1.0;
-  save_png(im, path);
+std::string temp(const std::string& name) {
+  return ::testing::TempDir() + "penumbra_optim_" + name;
 }
-
-std::string temp(const std::string& name) { return ::testing::TempDir() + "penumbra_optim_" + name; }
 
 std::string error_of(const std::function<void()>& f) {
   try {
@@ -149,7 +142,8 @@ TEST(OptimLoss, SoftIouGradient) {
   }
   EXPECT_NEAR(value, 1.7 * (1 - inter / uni), 1e-14);
   for (size_t i = 0; i < a.data.size(); ++i) {
-    const double numeric = central([&] { return soft_iou_loss(a, t, nullptr, 1.7); }, a.data[i], 1e-6);
+    const double numeric =
+        central([&] { return soft_iou_loss(a, t, nullptr, 1.7); }, a.data[i], 1e-6);
     expect_close(grad.data[i], numeric, 1e-6, 1e-12, "pixel " + std::to_string(i));
   }
 }
@@ -174,7 +168,8 @@ TEST(OptimLoss, MseGradient) {
   Image grad;
   const double value = mse_loss(a, t, &grad, 0.5);
   double sum = 0;
-  for (size_t i = 0; i < a.data.size(); ++i) sum += (a.data[i] - t.data[i]) * (a.data[i] - t.data[i]);
+  for (size_t i = 0; i < a.data.size(); ++i)
+    sum += (a.data[i] - t.data[i]) * (a.data[i] - t.data[i]);
   EXPECT_NEAR(value, 0.5 * sum / 36, 1e-15);
   for (size_t i = 0; i < a.data.size(); ++i) {
     const double numeric = central([&] { return mse_loss(a, t, nullptr, 0.5); }, a.data[i], 1e-6);
@@ -198,7 +193,10 @@ TEST(OptimRegulariser, LaplacianGradient) {
   const Mesh m = jittered_icosahedron(3);
   const Topology topo = topology(m.faces, m.vertices.size());
   check_vertex_gradient(
-      m, [&](const Mesh& x, std::vector<glm::dvec3>* g) { return laplacian_loss(x.vertices, topo, g, 1.3); },
+      m,
+      [&](const Mesh& x, std::vector<glm::dvec3>* g) {
+        return laplacian_loss(x.vertices, topo, g, 1.3);
+      },
       "laplacian");
   // Its value by definition, at one vertex of a flat fan: a vertex at the mean of its
   // neighbours costs nothing.
@@ -216,7 +214,9 @@ TEST(OptimRegulariser, EdgeLengthGradients) {
   for (EdgeLoss kind : {EdgeLoss::Variance, EdgeLoss::SquaredLength})
     check_vertex_gradient(
         m,
-        [&](const Mesh& x, std::vector<glm::dvec3>* g) { return edge_loss(x.vertices, topo, kind, g, 0.7); },
+        [&](const Mesh& x, std::vector<glm::dvec3>* g) {
+          return edge_loss(x.vertices, topo, kind, g, 0.7);
+        },
         kind == EdgeLoss::Variance ? "edge variance" : "edge squared length");
   // A regular tetrahedron's edges all have the same length: no variance.
   const std::vector<glm::dvec3> tet = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
@@ -238,8 +238,10 @@ TEST(OptimRegulariser, NormalConsistencyGradient) {
   const std::vector<glm::ivec3> faces = {{0, 1, 2}, {0, 2, 3}};
   const Topology st = topology(faces, 4);
   ASSERT_EQ(st.hinges.size(), 1u);
-  EXPECT_NEAR(normal_consistency_loss({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, faces, st), 0.0, 1e-15);
-  EXPECT_NEAR(normal_consistency_loss({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 1}}, faces, st), 1.0, 1e-12);
+  EXPECT_NEAR(normal_consistency_loss({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, faces, st), 0.0,
+              1e-15);
+  EXPECT_NEAR(normal_consistency_loss({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 1}}, faces, st), 1.0,
+              1e-12);
 }
 
 TEST(OptimRegulariser, CombinedAddsTheTerms) {
@@ -299,7 +301,9 @@ namespace {
 double signed_volume(const Mesh& m) {
   double v = 0;
   for (const glm::ivec3& f : m.faces)
-    v += glm::dot(m.vertices[size_t(f.x)], glm::cross(m.vertices[size_t(f.y)], m.vertices[size_t(f.z)])) / 6.0;
+    v += glm::dot(m.vertices[size_t(f.x)],
+                  glm::cross(m.vertices[size_t(f.y)], m.vertices[size_t(f.z)])) /
+         6.0;
   return v;
 }
 
@@ -365,17 +369,19 @@ TEST(OptimMesh, VisualHullOfADiscAndASquare) {
       square.at(x, y) = std::abs(u) <= 0.5 && std::abs(v) <= 0.5 ? 1 : 0;
     }
   const int n = 32;
-  const auto occ = visual_hull({disc, square}, {named_view("front"), named_view("side")}, 1.0, n, 1.0);
+  const auto occ =
+      visual_hull({disc, square}, {named_view("front"), named_view("side")}, 1.0, n, 1.0);
   auto voxel = [&](double x, double y, double z) {
     auto idx = [&](double c) { return std::clamp(int(std::floor((c + 1) / 2 * n)), 0, n - 1); };
     return occ[(size_t(idx(z)) * n + idx(y)) * n + idx(x)] != 0;
   };
   EXPECT_TRUE(voxel(0, 0, 0));
   EXPECT_TRUE(voxel(0.3, 0.3, 0.45));
-  EXPECT_FALSE(voxel(0.4, 0.4, 0));   // outside the disc
-  EXPECT_FALSE(voxel(0, 0, 0.6));     // outside the square (|z| > 0.5)
+  EXPECT_FALSE(voxel(0.4, 0.4, 0));  // outside the disc
+  EXPECT_FALSE(voxel(0, 0, 0.6));    // outside the square (|z| > 0.5)
   const Mesh m = surface_nets(occ, n, 1.0, 2);
-  const auto hs = hard_silhouettes(renderer(), m, {named_view("front"), named_view("side")}, 1.0, size);
+  const auto hs =
+      hard_silhouettes(renderer(), m, {named_view("front"), named_view("side")}, 1.0, size);
   EXPECT_GT(binary_iou(hs[0], disc), 0.8);
   EXPECT_GT(binary_iou(hs[1], square), 0.8);
 }
@@ -407,7 +413,8 @@ TEST(OptimTargets, Errors) {
   save_png(Image(8, 8, 1, 1.0), temp("white.png"));
   EXPECT_NE(error_of([] { load_target(temp("white.png")); }).find("no shape"), std::string::npos);
   save_png(Image(8, 8, 1, 0.0), temp("black.png"));
-  EXPECT_NE(error_of([] { load_target(temp("black.png")); }).find("no background"), std::string::npos);
+  EXPECT_NE(error_of([] { load_target(temp("black.png")); }).find("no background"),
+            std::string::npos);
   const std::string msg = error_of([] {
     check_targets({Image(8, 8, 1), Image(16, 16, 1)}, {"a.png", "b.png"});
   });
@@ -447,6 +454,7 @@ TEST(OptimScenes, BundledSilhouettesAreThoseOfTheirMesh) {
   const Mesh shape = load_obj(kData + "/targets/silhouette_shape.obj");
   const std::vector<std::string> views = {"front", "side", "top"};
   std::vector<glm::dvec3> dirs;
+  dirs.reserve(views.size());
   for (const std::string& v : views) dirs.push_back(named_view(v));
   const auto sil = hard_silhouettes(renderer(), shape, dirs, 1.0, 128);
   for (size_t v = 0; v < views.size(); ++v) {
@@ -466,10 +474,12 @@ TEST(OptimScenes, BundledLettersAreNearlyConsistent) {
   // The visual hull of G, E, B (front, side, top) at the targets' resolution reproduces each
   // letter almost entirely: one object can cast all three.
   std::vector<Image> letters;
-  for (const char* l : {"g", "e", "b"}) letters.push_back(load_target(kData + "/targets/letter_" + l + ".png"));
+  for (const char* l : {"g", "e", "b"})
+    letters.push_back(load_target(kData + "/targets/letter_" + l + ".png"));
   const std::vector<glm::dvec3> dirs = {named_view("front"), named_view("side"), named_view("top")};
   const int n = 64;
   std::vector<Image> coarse;
+  coarse.reserve(letters.size());
   for (const Image& t : letters) coarse.push_back(binarize(downsample(t, 128 / n)));
   const Mesh hull = surface_nets(visual_hull(coarse, dirs, 1.0, n, 1.0), n, 1.0, 0);
   const auto sil = hard_silhouettes(renderer(), hull, dirs, 1.0, 128);
@@ -527,7 +537,8 @@ TEST(OptimScenes, ShortSilhouetteFitImproves) {
   SilhouetteProblem problem;
   problem.half_height = 1.0;
   for (const char* v : {"front", "side"}) {
-    problem.targets.push_back(downsample(load_target(kData + "/targets/silhouette_" + std::string(v) + ".png"), 4));
+    problem.targets.push_back(
+        downsample(load_target(kData + "/targets/silhouette_" + std::string(v) + ".png"), 4));
     problem.targets.back() = binarize(problem.targets.back());
     problem.directions.push_back(named_view(v));
   }
@@ -539,13 +550,14 @@ TEST(OptimScenes, ShortSilhouetteFitImproves) {
   stage.weights = {1.0, 0.0, 0.01, EdgeLoss::Variance};
   std::vector<double> first, last;
   int calls = 0;
-  const Mesh out = fit_silhouettes(renderer(), sphere(0.75), problem, {stage}, [&](const FitProgress& p) {
-    ++calls;
-    EXPECT_EQ(p.total, 80);
-    EXPECT_EQ(p.images->size(), 2u);
-    if (p.iteration == 1) first = p.ious;
-    last = p.ious;
-  });
+  const Mesh out =
+      fit_silhouettes(renderer(), sphere(0.75), problem, {stage}, [&](const FitProgress& p) {
+        ++calls;
+        EXPECT_EQ(p.total, 80);
+        EXPECT_EQ(p.images->size(), 2u);
+        if (p.iteration == 1) first = p.ious;
+        last = p.ious;
+      });
   EXPECT_EQ(calls, 80);
   EXPECT_EQ(out.vertices.size(), 642u);
   for (size_t v = 0; v < 2; ++v) {
@@ -575,18 +587,21 @@ TEST(OptimScenes, FitResumedFromAnyCheckpointEndsBitIdentical) {
   const Mesh whole = fit_silhouettes(renderer(), sphere(0.75), problem, stages, nullptr, every);
   ASSERT_EQ(saved.size(), 6u);
   for (size_t k = 0; k < saved.size(); ++k) {
-    const FitState state = parse_checkpoint(saved[k], "checkpoint " + std::to_string(k), "test run");
+    const FitState state =
+        parse_checkpoint(saved[k], "checkpoint " + std::to_string(k), "test run");
     EXPECT_EQ(state.iteration, int(k) + 1);
     FitCheckpoints resume;
     resume.resume = &state;
     int observed = 0;
-    const Mesh out = fit_silhouettes(renderer(), sphere(0.75), problem, stages,
-                                     [&](const FitProgress& p) { observed = p.iteration; }, resume);
+    const Mesh out = fit_silhouettes(
+        renderer(), sphere(0.75), problem, stages,
+        [&](const FitProgress& p) { observed = p.iteration; }, resume);
     EXPECT_EQ(out.vertices, whole.vertices) << "resumed after iteration " << k + 1;
     EXPECT_EQ(out.faces, whole.faces);
     EXPECT_EQ(observed, k + 1 < saved.size() ? 6 : 0) << k;
   }
-  EXPECT_NE(error_of([&] { parse_checkpoint(saved[0], "c.json", "another run"); })
-                .find("checkpoint c.json was written by another run (test run)"),
+  EXPECT_NE(error_of([&] {
+              parse_checkpoint(saved[0], "c.json", "another run");
+            }).find("checkpoint c.json was written by another run (test run)"),
             std::string::npos);
 }

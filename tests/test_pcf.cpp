@@ -89,8 +89,8 @@ TEST_P(PcfCase, KernelsMatchReference) {
     for (Layout layout : {Layout::Point, Layout::Directional, Layout::Two}) {
       const Scene scene = pcf_scene(layout, shadows, sampling);
       const Tolerance tol = precision == Precision::Double ? kDoubleTol : kFloatTol;
-      const std::string tag = case_name(GetParam()) + " " + name_of(layout) + " " +
-                              penumbra_tests::name_of(precision);
+      const std::string tag =
+          case_name(GetParam()) + " " + name_of(layout) + " " + penumbra_tests::name_of(precision);
       const double worst = expect_matches_reference(r, scene, tol, tag);
       std::cout << "[pcf reference] " << tag << ": max colour error " << worst << std::endl;
     }
@@ -115,11 +115,12 @@ TEST_P(PcfCase, GradCheckDouble) {
     EXPECT_TRUE(result.passed()) << tag << "\n" << describe(result);
     for (size_t l = 0; l < scene.lights.size(); ++l) {
       const std::string light = "light" + std::to_string(l);
-      EXPECT_TRUE(has_entry(result, light + (scene.lights[l].type == LightType::Point
-                                                 ? ".position"
-                                                 : ".direction")))
+      EXPECT_TRUE(has_entry(
+          result, light + (scene.lights[l].type == LightType::Point ? ".position" : ".direction")))
           << tag;
-      if (shadows == Shadows::Soft) EXPECT_TRUE(has_entry(result, light + ".size")) << tag;
+      if (shadows == Shadows::Soft) {
+        EXPECT_TRUE(has_entry(result, light + ".size")) << tag;
+      }
     }
   }
 }
@@ -140,8 +141,8 @@ TEST(PcfGradCheck, FloatWithinTolerance) {
     options.precision = Precision::Float;
     GradCheckResult result;
     ASSERT_NO_THROW(result = gradcheck(*ctx, scene, options));
-    std::cout << "[pcf gradcheck float] " << name_of(shadows) << ": failed=" << result.failed
-              << "/" << result.checked << " max_rel_err=" << result.max_rel_err << std::endl;
+    std::cout << "[pcf gradcheck float] " << name_of(shadows) << ": failed=" << result.failed << "/"
+              << result.checked << " max_rel_err=" << result.max_rel_err << std::endl;
     EXPECT_TRUE(result.passed()) << name_of(shadows) << "\n" << describe(result);
   }
 }
@@ -162,8 +163,10 @@ TEST(PcfLit, LitReceiversAreFullyLit) {
       for (int x = 0; x < plain.color.width; ++x) {
         const double a = plain.color.at(x, y, 1), b = got.color.at(x, y, 1);
         EXPECT_LE(b, a + 1e-12) << name_of(shadows) << " pixel " << x << "," << y;
-        if (std::abs(a - b) <= 1e-12) ++lit;
-        else ++darker;
+        if (std::abs(a - b) <= 1e-12)
+          ++lit;
+        else
+          ++darker;
       }
     const int pixels = plain.color.width * plain.color.height;
     EXPECT_GT(lit, pixels / 2) << name_of(shadows) << ": most of the ground is lit exactly";
@@ -172,7 +175,7 @@ TEST(PcfLit, LitReceiversAreFullyLit) {
 }
 
 // Σ over the image of (unshadowed − shadowed) green: the darkness a shadow takes away.
-double darkness(Renderer& r, Scene scene) {
+double darkness(Renderer& r, const Scene& scene) {
   Scene none = scene;
   none.params.shadows = Shadows::None;
   const Image a = r.render(none)[0].color, b = r.render(scene)[0].color;

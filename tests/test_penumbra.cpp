@@ -56,8 +56,10 @@ using namespace penumbra_tests;
 Mesh square(double half, double h, double x = 0.0, double z = 0.0) {
   Mesh mesh;
   mesh.name = "square";
-  mesh.vertices = {{x - half, h, z - half}, {x + half, h, z - half},
-                   {x - half, h, z + half}, {x + half, h, z + half}};
+  mesh.vertices = {{x - half, h, z - half},
+                   {x + half, h, z - half},
+                   {x - half, h, z + half},
+                   {x + half, h, z + half}};
   mesh.faces = {{0, 2, 1}, {1, 2, 3}};
   mesh.albedo = {dvec3(0.5, 0.45, 0.4), dvec3(0.5, 0.45, 0.4)};
   mesh.albedo_mode = AlbedoMode::PerFace;
@@ -185,8 +187,8 @@ TEST(PenumbraMaps, MatchReference) {
       const std::vector<Image> maps = r.penumbra_maps();
       ASSERT_EQ(maps.size(), scene.lights.size()) << name;
       for (size_t l = 0; l < maps.size(); ++l) {
-        const std::string tag = std::string(name_of(precision)) + " " + name + " light " +
-                                std::to_string(l);
+        const std::string tag =
+            std::string(name_of(precision)) + " " + name + " light " + std::to_string(l);
         const Image want = penumbra::reference::penumbra_map(scene, l);
         ASSERT_EQ(maps[l].width, 32) << tag;
         ASSERT_EQ(maps[l].height, 32) << tag;
@@ -239,8 +241,8 @@ TEST_P(PenumbraKernels, MatchReference) {
       worst_depth = std::max(worst_depth, max_error(got[0].depth, want.depth));
     }
     std::cout << "[penumbra] soft " << name_of(GetParam()) << " " << name_of(precision)
-              << ": max colour error " << worst << " (tolerance " << tol
-              << "), silhouette " << worst_sil << ", depth " << worst_depth << std::endl;
+              << ": max colour error " << worst << " (tolerance " << tol << "), silhouette "
+              << worst_sil << ", depth " << worst_depth << std::endl;
   }
 }
 
@@ -330,8 +332,8 @@ std::vector<int> overlap_texels(const Scene& scene, double* both_max = nullptr) 
   double m = 0;
   for (size_t i = 0; i < P.data.size(); ++i) {
     // Ground texels: neither occluder shows, nor the background (depth at the far plane).
-    const bool on_ground = std::abs(S.data[i] - Sg.data[i]) < 1e-6 &&
-                           Sg.data[i] < scene.lights[0].frustum.far - 1e-6;
+    const bool on_ground =
+        std::abs(S.data[i] - Sg.data[i]) < 1e-6 && Sg.data[i] < scene.lights[0].frustum.far - 1e-6;
     const bool in_both = Pl.data[i] < 0.95 && Ph.data[i] < 0.95;
     const double change =
         std::min(std::abs(P.data[i] - Pl.data[i]), std::abs(P.data[i] - Ph.data[i]));
@@ -374,12 +376,14 @@ std::vector<GradCase> gradient_cases(Sampling sampling) {
 void expect_entries(const GradCheckResult& result, const Scene& scene, const std::string& tag) {
   for (size_t m = 0; m < scene.meshes.size(); ++m)
     EXPECT_TRUE(has_entry(result, "mesh" + std::to_string(m) + ".v"))
-        << tag << ": no vertex of mesh " << m << "\n" << describe(result);
+        << tag << ": no vertex of mesh " << m << "\n"
+        << describe(result);
   for (size_t l = 0; l < scene.lights.size(); ++l)
-    EXPECT_TRUE(has_entry(result, "light" + std::to_string(l) +
-                                      (scene.lights[l].type == LightType::Point ? ".position"
-                                                                                : ".direction")))
-        << tag << ": light " << l << " not checked\n" << describe(result);
+    EXPECT_TRUE(has_entry(
+        result, "light" + std::to_string(l) +
+                    (scene.lights[l].type == LightType::Point ? ".position" : ".direction")))
+        << tag << ": light " << l << " not checked\n"
+        << describe(result);
 }
 
 class PenumbraGradCheck : public ::testing::TestWithParam<Sampling> {};
@@ -447,8 +451,8 @@ TEST_P(PenumbraGradCheck, OverlappingPenumbraeOnly) {
   options.samples = 24;
   options.seed = 31;
   GradCheckResult result;
-  ASSERT_NO_THROW(result = penumbra::compare_with_finite_differences(r, scene, weights, analytic,
-                                                                     options))
+  ASSERT_NO_THROW(
+      result = penumbra::compare_with_finite_differences(r, scene, weights, analytic, options))
       << tag;
   std::cout << "[penumbra gradcheck] " << tag << " (" << pixels
             << " px): checked=" << result.checked << " failed=" << result.failed
@@ -514,8 +518,7 @@ TEST(PenumbraLightSize, GradientMatchesCentralDifference) {
       const double analytic = grads.light_size[l];
       std::cout << "[penumbra] dL/dD_L " << name << " light " << l << ": analytic " << analytic
                 << ", numeric " << numeric << ", relative error "
-                << std::abs(analytic - numeric) / std::max(std::abs(numeric), 1e-300)
-                << std::endl;
+                << std::abs(analytic - numeric) / std::max(std::abs(numeric), 1e-300) << std::endl;
       // The penumbra matters: the loss changes with the light's size.
       EXPECT_GT(std::abs(numeric), 1e-2) << name << " light " << l;
       EXPECT_TRUE(penumbra::gradients_agree(analytic, numeric, 1e-6, 1e-4))

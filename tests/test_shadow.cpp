@@ -46,26 +46,11 @@ using namespace penumbra;
 
 // Shared device, builders and comparisons (scenes.hpp).
 using namespace penumbra_tests;
-using penumbra_tests::name_of;  // overloaded below for Lighting
 
 // ---------------------------------------------------------------------------------------------
 // Scenes.
 
 enum class Lighting { Point, Directional, Two, Overhead };
-
-const char* name_of(Lighting l) {
-  switch (l) {
-    case Lighting::Point:
-      return "point";
-    case Lighting::Directional:
-      return "directional";
-    case Lighting::Two:
-      return "two lights";
-    case Lighting::Overhead:
-      return "overhead";
-  }
-  return "?";
-}
 
 // Mesh 0: an icosphere of radius 0.5 centred 1.0 above the ground (a gap of 0.5 below it);
 // mesh 1: a 4×4 ground grid over [−2, 2]². A 48×40 camera sees both from the front and above
@@ -118,7 +103,8 @@ constexpr Tolerance kDoubleTol{1e-9, 1e-9, 1e-9};
 constexpr Tolerance kFloatTol{1e-4, 1e-4, 1e-5};
 
 // Largest |a − b| over every colour value of every view.
-double max_colour_difference(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
+double max_colour_difference(const std::vector<RenderOutput>& a,
+                             const std::vector<RenderOutput>& b) {
   double m = 0;
   for (size_t v = 0; v < a.size() && v < b.size(); ++v)
     m = std::max(m, max_error(a[v].color, b[v].color, false, nullptr));
@@ -127,7 +113,8 @@ double max_colour_difference(const std::vector<RenderOutput>& a, const std::vect
 
 double luminance(const Image& color, std::pair<int, int> p) {
   return (color.at(p.first, p.second, 0) + color.at(p.first, p.second, 1) +
-          color.at(p.first, p.second, 2)) / 3;
+          color.at(p.first, p.second, 2)) /
+         3;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -159,7 +146,7 @@ TEST(ShadowReference, FlatGroundDepthFromAbove) {
   EXPECT_NEAR(S.at(11, 11), 4.0, 1e-9);
   EXPECT_NEAR(S.at(12, 13), 4.0, 1e-9);
   EXPECT_NEAR(S.at(5, 18), 4.0, 1e-9);  // centre 1.625 off both axes: on the ground
-  EXPECT_NEAR(S.at(0, 0), 8.0, 1e-9);    // centre 2.875 off both axes: beyond it
+  EXPECT_NEAR(S.at(0, 0), 8.0, 1e-9);   // centre 2.875 off both axes: beyond it
   EXPECT_NEAR(S.at(23, 23), 8.0, 1e-9);
 }
 
@@ -190,7 +177,8 @@ TEST(ShadowReference, NoneAndHardAgreeAwayFromShadowsSoftGemmThrows) {
   Scene hard = shadow_scene(Lighting::Overhead);
   Scene none = hard;
   none.params.shadows = Shadows::None;
-  const RenderOutput a = penumbra::reference::render(hard, 0), b = penumbra::reference::render(none, 0);
+  const RenderOutput a = penumbra::reference::render(hard, 0),
+                     b = penumbra::reference::render(none, 0);
   const auto lit = pixel_of(hard.cameras[0], {1.3, 0.0, 1.1});
   const double s = 1 / (1 + std::exp(-*hard.params.beta / *hard.params.gamma_s));
   // colour = a·I_a + s·a·I_L·cos, so None − Hard = (1 − s)·(direct part) ≤ (1 − s)·None; the
@@ -274,8 +262,9 @@ TEST_P(ShadowKernels, DoubleMatchesReference) {
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   double worst = 0;
   for (const auto& [name, scene] : comparison_scenes(GetParam()))
-    worst = std::max(worst, expect_matches_reference(r, scene, kDoubleTol,
-                                                     std::string(name_of(GetParam())) + " " + name));
+    worst =
+        std::max(worst, expect_matches_reference(r, scene, kDoubleTol,
+                                                 std::string(name_of(GetParam())) + " " + name));
   std::cout << "[shadow] double " << name_of(GetParam()) << ": max colour error " << worst
             << std::endl;
 }
@@ -285,8 +274,9 @@ TEST_P(ShadowKernels, FloatMatchesReference) {
   Renderer& r = shared_renderer(*ctx, Precision::Float);
   double worst = 0;
   for (const auto& [name, scene] : comparison_scenes(GetParam()))
-    worst = std::max(worst, expect_matches_reference(r, scene, kFloatTol,
-                                                     std::string(name_of(GetParam())) + " " + name));
+    worst =
+        std::max(worst, expect_matches_reference(r, scene, kFloatTol,
+                                                 std::string(name_of(GetParam())) + " " + name));
   std::cout << "[shadow] float " << name_of(GetParam()) << ": max colour error " << worst
             << std::endl;
 }
@@ -301,9 +291,8 @@ TEST(ShadowDouble, ShadowsChangeTheImage) {
   for (const auto& [name, scene] : comparison_scenes(Method::Truncated)) {
     Scene none = scene;
     none.params.shadows = Shadows::None;
-    const double diff =
-        max_error(penumbra::reference::render(scene, 0).color,
-                  penumbra::reference::render(none, 0).color, false, nullptr);
+    const double diff = max_error(penumbra::reference::render(scene, 0).color,
+                                  penumbra::reference::render(none, 0).color, false, nullptr);
     EXPECT_GT(diff, 0.2) << name << ": the shadow does not show";
   }
 }
@@ -466,7 +455,8 @@ TEST_P(ShadowGradCheck, ThroughTheMapOnly) {
     int pixels = 0;
     for (int y = 0; y < h.color.height; ++y)
       for (int x = 0; x < h.color.width; ++x) {
-        const bool ground = std::abs(h.depth.at(x, y) - g.depth.at(x, y)) <= 1e-9 * g.depth.at(x, y);
+        const bool ground =
+            std::abs(h.depth.at(x, y) - g.depth.at(x, y)) <= 1e-9 * g.depth.at(x, y);
         double shadow = 0;
         for (int c = 0; c < 3; ++c)
           shadow = std::max(shadow, std::abs(h.color.at(x, y, c) - n.color.at(x, y, c)));
@@ -482,8 +472,8 @@ TEST_P(ShadowGradCheck, ThroughTheMapOnly) {
     options.samples = 40;
     options.seed = seed + 100;
     GradCheckResult result;
-    ASSERT_NO_THROW(result = penumbra::compare_with_finite_differences(r, scene, weights,
-                                                                       analytic, options))
+    ASSERT_NO_THROW(
+        result = penumbra::compare_with_finite_differences(r, scene, weights, analytic, options))
         << tag;
     std::cout << "[shadow gradcheck] " << tag << ", shadow region only (" << pixels
               << " px): checked=" << result.checked << " failed=" << result.failed
@@ -530,8 +520,8 @@ TEST(ShadowVisible, GroundUnderOccluderIsDark) {
     const double dark_h = luminance(h[0].color, dark), lit_h = luminance(h[0].color, lit);
     const double dark_n = luminance(n[0].color, dark), lit_n = luminance(n[0].color, lit);
     std::cout << "[shadow] visible (" << name_of(sampling) << "): shadowed pixel " << dark_h
-              << " (unshadowed " << dark_n << "), lit pixel " << lit_h << " (unshadowed "
-              << lit_n << ")" << std::endl;
+              << " (unshadowed " << dark_n << "), lit pixel " << lit_h << " (unshadowed " << lit_n
+              << ")" << std::endl;
     // In the umbra only the ambient term remains (≈ 0.2·0.7 = 0.14); lit ground ≈ 0.7·(0.2 + cos).
     EXPECT_LT(dark_h, 0.2) << name_of(sampling);
     EXPECT_GT(lit_h, dark_h + 0.4) << name_of(sampling);
@@ -558,8 +548,8 @@ TEST(ShadowDeterminism, BackwardIsBitIdentical) {
     for (Method sampling : {Method::Truncated, Method::Gemm, Method::Exact}) {
       const Scene scene = shadow_scene(Lighting::Two, sampling);
       const auto weights = penumbra::random_loss_weights(scene, 11);
-      const std::string tag = std::string(name_of(sampling)) +
-                              (precision == Precision::Double ? " double" : " float");
+      const std::string tag =
+          std::string(name_of(sampling)) + (precision == Precision::Double ? " double" : " float");
       ASSERT_NO_THROW(r.render(scene)) << tag;
       SceneGrads a, b, c;
       ASSERT_NO_THROW(a = r.backward(scene, weights)) << tag;

@@ -22,17 +22,17 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-#include <stdexcept>
 #include <regex>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
-#include "cli_run.hpp"
 
 namespace fs = std::filesystem;
 
@@ -43,10 +43,10 @@ namespace {
 
 struct DecodedGif {
   int width = 0, height = 0;
-  std::vector<std::array<int, 3>> palette;  // global colour table
-  bool loops_forever = false;               // NETSCAPE2.0 with loop count 0
-  std::vector<int> delays;                  // centiseconds, one per frame
-  std::vector<std::vector<uint8_t>> frames; // palette indices, row-major
+  std::vector<std::array<int, 3>> palette;   // global colour table
+  bool loops_forever = false;                // NETSCAPE2.0 with loop count 0
+  std::vector<int> delays;                   // centiseconds, one per frame
+  std::vector<std::vector<uint8_t>> frames;  // palette indices, row-major
   bool trailer = false;
 };
 
@@ -261,7 +261,7 @@ TEST(Gif, NearestColour) {
   const DecodedGif g = decode_gif(path);
   ASSERT_EQ(g.frames.size(), 1u);
   EXPECT_EQ(g.delays[0], 10);  // the default: 10 frames per second
-  int worst = 0;  // largest squared distance to the chosen colour
+  int worst = 0;               // largest squared distance to the chosen colour
   for (int y = 0; y < im.height; ++y)
     for (int x = 0; x < im.width; ++x) {
       const int r = to_byte(im.at(x, y, 0)), gg = to_byte(im.at(x, y, 1)),

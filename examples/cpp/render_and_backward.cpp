@@ -26,9 +26,11 @@ int main(int argc, char** argv) try {
   double largest = 0;
   for (const glm::dvec3& g : grads.vertices[0]) largest = std::max(largest, glm::length(g));
   const glm::dvec3 light = grads.light_position[0];
-  std::printf("penumbra %s rendered %dx%d on %s; |dL/dvertex| up to %.3g; dL/dlight = (%.3g, %.3g, "
-              "%.3g)\n", PENUMBRA_VERSION, color.width, color.height, context.info().name.c_str(),
-              largest, light.x, light.y, light.z);
+  std::printf(
+      "penumbra %s rendered %dx%d on %s; |dL/dvertex| up to %.3g; dL/dlight = (%.3g, %.3g, "
+      "%.3g)\n",
+      PENUMBRA_VERSION, color.width, color.height, context.info().name.c_str(), largest, light.x,
+      light.y, light.z);
   return 0;
 } catch (const penumbra::Error& e) {
   std::fprintf(stderr, "example: error: %s\n", e.what());

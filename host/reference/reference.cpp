@@ -38,230 +38,13 @@
 #include <vector>
 
 #include "penumbra/error.hpp"
+#include "reference/raster.hpp"
 
 namespace penumbra::reference {
+
+using namespace detail;  // the rasterizer (raster.hpp)
+
 namespace {
-
-using glm::dvec2;
-using glm::dvec3;
-
-constexpr double kPi = 3.14159265358979323846;
-// Faces whose projected doubled area is at most this times the sum of their squared edges
-// (from corner 0) are skipped: degenerate on screen, edge-on to the view (the kernels' rule).
-constexpr double kMinScreenArea = std::numeric_limits<double>::epsilon();
-
-// Logistic function, evaluated without overflow for any |u|.
-double sigmoid(double u) {
-  if (u >= 0.0) return 1.0 / (1.0 + std::exp(-u));
-  const double e = std::exp(u);
-  return e / (1.0 + e);
-}
-
-// log(1 − sigmoid(u)) = −softplus(u), evaluated without overflow for any |u|.
-double log_one_minus_sigmoid(double u) {
-  if (u > 0.0) return -u - std::log1p(std::exp(-u));
-  return -std::log1p(std::exp(u));
-}
-
-double cross2(dvec2 a, dvec2 b) { return a.x * b.y - a.y * b.x; }
-
-// Squared distance from point q to segment [a, b].
-double point_segment_dist2(dvec2 q, dvec2 a, dvec2 b) {
-  const dvec2 ab = b - a;
-  const double len2 = glm::dot(ab, ab);
-  double t = len2 > 0.0 ? glm::dot(q - a, ab) / len2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
-  const dvec2 p = a + t * ab - q;
-  return glm::dot(p, p);
-}
-
-// The view transform of one camera or light.
-struct View {
-  dvec3 eye, f, r, u;
-  bool perspective;
-  double scale;  // tan(fov/2) (perspective) or the half-height (orthographic)
-  double near, far;
-  int width, height;
-
-  // eye, viewing direction `fwd` (any length), up hint; scale as above.
-  View(const dvec3& eye_, const dvec3& fwd, const dvec3& up_hint, bool perspective_,
-       double scale_, double near_, double far_, int width_, int height_)
-      : eye(eye_),
-        perspective(perspective_),
-        scale(scale_),
-        near(near_),
-        far(far_),
-        width(width_),
-        height(height_) {
-    f = glm::normalize(fwd);
-    r = glm::normalize(glm::cross(f, up_hint));
-    u = glm::cross(r, f);
-  }
-
-  static double tan_half(double fov_deg) { return std::tan(0.5 * fov_deg * kPi / 180.0); }
-
-  static View of_camera(const Camera& cam) {
-    const bool persp = cam.projection == Projection::Perspective;
-    return View(cam.eye, cam.target - cam.eye, cam.up, persp,
-                persp ? tan_half(cam.fov_deg) : cam.half_height, cam.near, cam.far, cam.width,
-                cam.height);
-  }
-
-  // The frame a light renders its shadow map with (SPEC §3), map_size² texels.
-  static View of_light(const Light& light, int map_size) {
-    const LightFrustum& fr = light.frustum;
-    if (light.type == LightType::Point)
-      return View(light.position, fr.target - light.position, fr.up, true, tan_half(fr.fov_deg),
-                  fr.near, fr.far, map_size, map_size);
-    const dvec3 d = glm::normalize(light.direction);
-    return View(fr.target - fr.distance * d, d, fr.up, false, fr.half_size, fr.near, fr.far,
-                map_size, map_size);
-  }
-
-  double depth(const dvec3& p) const { return glm::dot(p - eye, f); }
-
-  dvec2 screen(const dvec3& p) const {
-    const dvec3 c = p - eye;
-    const double denom = perspective ? glm::dot(c, f) * scale : scale;
-    return {glm::dot(c, r) / denom, glm::dot(c, u) / denom};
-  }
-
-  dvec2 pixel_center(int px, int py) const {
-    return {(2.0 * px + 1.0 - width) / height, (height - 2.0 * py - 1.0) / height};
-  }
-};
-
-// One face, set up for the view: world and screen positions, depths, albedo, normal.
-struct Face {
-  std::array<dvec3, 3> V;       // world positions
-  std::array<dvec2, 3> p;       // screen positions
-  std::array<double, 3> z;      // view depths
-  std::array<dvec3, 3> albedo;  // per vertex (all three equal for per-face albedo)
-  dvec3 normal;                 // unflipped geometric normal, normalize((V1−V0)×(V2−V0))
-  double area2;                 // signed doubled screen area
-};
-
-// Faces that survive the per-view tests (near plane, degenerate projection, culling).
-std::vector<Face> setup_faces(const Scene& scene, const View& view) {
-  std::vector<Face> faces;
-  for (const Mesh& mesh : scene.meshes) {
-    for (size_t fi = 0; fi < mesh.faces.size(); ++fi) {
-      const glm::ivec3 idx = mesh.faces[fi];
-      Face face;
-      bool behind = false;
-      for (int k = 0; k < 3; ++k) {
-        face.V[k] = mesh.vertices[size_t(idx[k])];
-        face.z[k] = view.depth(face.V[k]);
-        if (face.z[k] < view.near) behind = true;
-        face.albedo[k] = mesh.albedo_mode == AlbedoMode::PerVertex ? mesh.albedo[size_t(idx[k])]
-                                                                   : mesh.albedo[fi];
-      }
-      if (behind) continue;  // any vertex in front of the near plane: dropped (no clipping)
-      for (int k = 0; k < 3; ++k) face.p[k] = view.screen(face.V[k]);
-      const dvec2 e1 = face.p[1] - face.p[0], e2 = face.p[2] - face.p[0];
-      face.area2 = cross2(e1, e2);
-      if (std::abs(face.area2) <= kMinScreenArea * (glm::dot(e1, e1) + glm::dot(e2, e2))) continue;
-      face.normal = glm::normalize(glm::cross(face.V[1] - face.V[0], face.V[2] - face.V[0]));
-      if (scene.params.cull_backfaces) {
-        const dvec3 to_camera = view.perspective ? view.eye - face.V[0] : -view.f;
-        if (glm::dot(face.normal, to_camera) <= 0.0) continue;
-      }
-      faces.push_back(face);
-    }
-  }
-  return faces;
-}
-
-// Colour of a fragment of `face` at perspective-correct barycentrics b.
-using Shader = std::function<dvec3(const Face& face, const dvec3& b)>;
-
-// Soft rasterization of one view (SPEC §1) with coverage sharpness σ and aggregation
-// sharpness γ; the background has colour `background` and depth view.far.
-RenderOutput raster(const Scene& scene, const View& view, double sigma, double gamma,
-                    const dvec3& background, const Shader& shader) {
-  const RenderParams& params = scene.params;
-  const std::vector<Face> faces = setup_faces(scene, view);
-  const int W = view.width, H = view.height;
-
-  // Outside faces at or beyond this squared distance have D < ε_D and are skipped.
-  const double cutoff2 = sigma * std::log(1.0 / params.dist_eps - 1.0);
-
-  RenderOutput out;
-  out.color = Image(W, H, 3);
-  out.silhouette = Image(W, H, 1);
-  out.depth = Image(W, H, 1);
-
-  // Per-pixel list of faces contributing colour and depth.
-  struct Fragment {
-    double D, ztilde, z;
-    dvec3 color;
-  };
-  std::vector<Fragment> fragments;
-
-  for (int py = 0; py < H; ++py) {
-    for (int px = 0; px < W; ++px) {
-      const dvec2 q = view.pixel_center(px, py);
-      fragments.clear();
-      double log_transparency = 0.0;  // log Π(1 − D_f) over all non-skipped faces
-
-      for (const Face& face : faces) {
-        // Screen barycentrics (signed-area ratios; positive inside for either winding).
-        const double w0 = cross2(face.p[1] - q, face.p[2] - q) / face.area2;
-        const double w1 = cross2(face.p[2] - q, face.p[0] - q) / face.area2;
-        const double w2 = cross2(face.p[0] - q, face.p[1] - q) / face.area2;
-        const bool inside = w0 > 0.0 && w1 > 0.0 && w2 > 0.0;
-
-        const double d2 = std::min({point_segment_dist2(q, face.p[0], face.p[1]),
-                                    point_segment_dist2(q, face.p[1], face.p[2]),
-                                    point_segment_dist2(q, face.p[2], face.p[0])});
-        if (!inside && d2 >= cutoff2) continue;  // SoftRas cut-off: D treated as exactly 0
-
-        const double u = (inside ? 1.0 : -1.0) * d2 / sigma;
-        const double D = sigmoid(u);
-        log_transparency += log_one_minus_sigmoid(u);
-
-        // Clamped, renormalised screen barycentrics, then depth and perspective-correct b.
-        dvec3 wc(std::max(w0, 0.0), std::max(w1, 0.0), std::max(w2, 0.0));
-        wc /= wc[0] + wc[1] + wc[2];
-        double z;
-        dvec3 b;
-        if (view.perspective) {
-          const double inv_z = wc[0] / face.z[0] + wc[1] / face.z[1] + wc[2] / face.z[2];
-          z = 1.0 / inv_z;
-          for (int k = 0; k < 3; ++k) b[k] = z * wc[k] / face.z[k];
-        } else {
-          z = wc[0] * face.z[0] + wc[1] * face.z[1] + wc[2] * face.z[2];
-          b = wc;
-        }
-        if (z < view.near || z > view.far) continue;  // silhouette only
-
-        const double ztilde = (view.far - z) / (view.far - view.near);
-        fragments.push_back({D, ztilde, z, shader(face, b)});
-      }
-
-      // Soft aggregation (SPEC §1, SoftRas's stable form).
-      double m = params.eps;
-      for (const Fragment& fr : fragments) m = std::max(m, fr.ztilde);
-      const double e_bg = std::exp((params.eps - m) / gamma);
-      double Z = e_bg;
-      dvec3 color = e_bg * background;
-      double depth = e_bg * view.far;
-      for (const Fragment& fr : fragments) {
-        const double weight = fr.D * std::exp((fr.ztilde - m) / gamma);
-        Z += weight;
-        color += weight * fr.color;
-        depth += weight * fr.z;
-      }
-      color /= Z;
-      depth /= Z;
-
-      for (int c = 0; c < 3; ++c) out.color.at(px, py, c) = color[c];
-      out.depth.at(px, py) = depth;
-      out.silhouette.at(px, py) = 0.0 - std::expm1(log_transparency);  // +0 when empty
-    }
-  }
-  return out;
-}
 
 // The scene as the renderer sees it: light frusta not given are fitted (SPEC §3).
 Scene fitted(const Scene& scene) {
@@ -322,12 +105,12 @@ Image penumbra(const Scene& scene, const ShadowMap& map, double light_size) {
                              ? 1.0 / (wc[0] / face.z[0] + wc[1] / face.z[1] + wc[2] / face.z[2])
                              : wc[0] * face.z[0] + wc[1] * face.z[1] + wc[2] * face.z[2];
         if (!(z < Sq) || !(light_size > 0.0)) continue;  // only occluders in front count
-        const double d =
-            inside ? 0.0
-                   : std::sqrt(std::min({point_segment_dist2(q, face.p[0], face.p[1]),
-                                         point_segment_dist2(q, face.p[1], face.p[2]),
-                                         point_segment_dist2(q, face.p[2], face.p[0])}));
-        const double b = light_size * (Sq - z) / Sq;                   // cone width
+        const double d = inside
+                             ? 0.0
+                             : std::sqrt(std::min({point_segment_dist2(q, face.p[0], face.p[1]),
+                                                   point_segment_dist2(q, face.p[1], face.p[2]),
+                                                   point_segment_dist2(q, face.p[2], face.p[0])}));
+        const double b = light_size * (Sq - z) / Sq;                            // cone width
         const double r = d * (view.perspective ? z * view.scale : view.scale);  // world units
         const double tau = r / b;
         if (!(tau < 1.0)) continue;  // q outside t's cone
@@ -400,8 +183,7 @@ dvec2 receiver_gradient(const ShadowMap& map, const Face& face, double d) {
   }
   const dvec2 e1 = mu[1] - mu[0], e2 = mu[2] - mu[0];
   const double A = cross2(e1, e2);
-  if (std::abs(A) <= std::numeric_limits<double>::epsilon() *
-                         (glm::dot(e1, e1) + glm::dot(e2, e2)))
+  if (std::abs(A) <= std::numeric_limits<double>::epsilon() * (glm::dot(e1, e1) + glm::dot(e2, e2)))
     return dvec2(0.0);
   dvec2 G(0.0);
   for (int k = 0; k < 3; ++k) {
@@ -455,7 +237,8 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
 
 // The accurate model (kernels/pcf.cl): c = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
 double lit_step(double delta, const RenderParams& p) {
-  const double t = std::clamp((delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
+  const double t = std::clamp(
+      (delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
   return 1 - t * t * (3 - 2 * t);
 }
 
@@ -496,8 +279,8 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   if (!(mu.x >= -0.5 && mu.x < Ws - 0.5 && mu.y >= -0.5 && mu.y < Hs - 0.5)) return 1.0;
   dvec2 grad = receiver_gradient(map, face, d);
   const bool ortho = light.type == LightType::Directional;
-  const double k = Hs / (2 * (ortho ? light.frustum.half_size
-                                    : std::tan(light.frustum.fov_deg * M_PI / 360)));
+  const double k =
+      Hs / (2 * (ortho ? light.frustum.half_size : std::tan(light.frustum.fov_deg * M_PI / 360)));
   // Slope limit: a face within 1° of edge-on extrapolates as if at 1° (texel size over tan 1°).
   const double limit = (ortho ? 1.0 : std::abs(d)) / (k * 0.017455), len = glm::length(grad);
   if (len > limit) grad *= limit / len;
@@ -548,35 +331,36 @@ void require_light(const Scene& scene, size_t light) {
 
 }  // namespace
 
-RenderOutput render(const Scene& given, size_t camera_index) {
-  validate(given);
-  const Camera& cam = given.cameras.at(camera_index);
-  const Scene scene = given.params.shadows == Shadows::None ? given : fitted(given);
+RenderOutput render(const Scene& scene, size_t camera_index) {
+  validate(scene);
+  const Camera& cam = scene.cameras.at(camera_index);
+  const Scene work =  // frusta fitted when shadows need them
+      scene.params.shadows == Shadows::None ? scene : fitted(scene);
   const View view = View::of_camera(cam);
 
   std::vector<ShadowMap> maps;
-  const bool penumbra_maps = scene.params.shadows == Shadows::Soft &&
-                             scene.params.shadow_model == ShadowModel::Paper;
-  if (scene.params.shadows != Shadows::None && !penumbra_maps)
-    for (size_t l = 0; l < scene.lights.size(); ++l) maps.push_back(light_pass(scene, l));
+  const bool penumbra_maps =
+      work.params.shadows == Shadows::Soft && work.params.shadow_model == ShadowModel::Paper;
+  if (work.params.shadows != Shadows::None && !penumbra_maps)
+    for (size_t l = 0; l < work.lights.size(); ++l) maps.push_back(light_pass(work, l));
   if (penumbra_maps)
-    for (size_t l = 0; l < scene.lights.size(); ++l)
-      maps.push_back(light_pass_with_penumbra(scene, l));
+    for (size_t l = 0; l < work.lights.size(); ++l)
+      maps.push_back(light_pass_with_penumbra(work, l));
 
   const Shader shader = [&](const Face& face, const dvec3& b) {
-    return shade(scene, view, maps, face, b);
+    return shade(work, view, maps, face, b);
   };
-  return raster(scene, view, scene.params.sigma, scene.params.gamma, scene.background, shader);
+  return raster(work, view, work.params.sigma, work.params.gamma, work.background, shader);
 }
 
-Image shadow_map(const Scene& given, size_t light) {
-  require_light(given, light);
-  return light_pass(fitted(given), light).S;
+Image shadow_map(const Scene& scene, size_t light) {
+  require_light(scene, light);
+  return light_pass(fitted(scene), light).S;
 }
 
-Image penumbra_map(const Scene& given, size_t light) {
-  require_light(given, light);
-  return light_pass_with_penumbra(fitted(given), light).P;
+Image penumbra_map(const Scene& scene, size_t light) {
+  require_light(scene, light);
+  return light_pass_with_penumbra(fitted(scene), light).P;
 }
 
 }  // namespace penumbra::reference

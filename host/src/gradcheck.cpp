@@ -21,8 +21,15 @@ constexpr const char* kChannel[3] = {"r", "g", "b"};
 
 // One scalar parameter of the scene.
 struct Param {
-  enum Kind { Vertex, Albedo, LightPosition, LightDirection, LightColor, LightSize, Ambient } kind =
-      Ambient;
+  enum Kind {
+    Vertex,
+    Albedo,
+    LightPosition,
+    LightDirection,
+    LightColor,
+    LightSize,
+    Ambient
+  } kind = Ambient;
   int mesh = 0;   // Vertex, Albedo
   int index = 0;  // vertex / albedo entry / light
   int axis = 0;   // coordinate or colour channel
@@ -177,6 +184,7 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
 
   auto uniform = [&rng](size_t n) { return std::uniform_int_distribution<size_t>(0, n - 1)(rng); };
   std::vector<int> meshes_with_faces;
+  meshes_with_faces.reserve(faces_of_mesh.size());
   for (const auto& kv : faces_of_mesh) meshes_with_faces.push_back(kv.first);
 
   std::vector<Param> chosen;
@@ -188,7 +196,7 @@ std::vector<Param> choose_parameters(const Scene& scene, int samples, std::mt199
       if (mesh.faces.empty()) continue;
       const auto it = faces_of_mesh.find(int(m));
       const int face = it != faces_of_mesh.end() ? it->second[uniform(it->second.size())].face
-                                                  : int(uniform(mesh.faces.size()));
+                                                 : int(uniform(mesh.faces.size()));
       Param p;
       p.kind = Param::Vertex;
       p.mesh = int(m);
@@ -447,135 +455,6 @@ GradCheckResult gradcheck(Context& context, const Scene& scene, const GradCheckO
   const SceneGrads analytic = renderer.backward(work, weights);
   Renderer reference(context, Precision::Double, options.tuning);
   return compare_with_finite_differences(reference, work, weights, analytic, options);
-}
-
-// --- random scenes ---------------------------------------------------------------------------
-
-namespace {
-
-// Icosahedron subdivided once: 42 vertices, 80 faces, counter-clockwise seen from outside.
-Mesh unit_icosphere() {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<glm::dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                               {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                               {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  for (auto& p : v) p = glm::normalize(p);
-  std::vector<glm::ivec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                               {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                               {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                               {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  std::map<std::pair<int, int>, int> midpoint;
-  auto mid = [&](int a, int b) {
-    const auto key = std::make_pair(std::min(a, b), std::max(a, b));
-    const auto it = midpoint.find(key);
-    if (it != midpoint.end()) return it->second;
-    v.push_back(glm::normalize(v[a] + v[b]));
-    return midpoint[key] = int(v.size()) - 1;
-  };
-  std::vector<glm::ivec3> g;
-  for (const auto& F : f) {
-    const int a = mid(F.x, F.y), b = mid(F.y, F.z), c = mid(F.z, F.x);
-    g.push_back({F.x, a, c});
-    g.push_back({F.y, b, a});
-    g.push_back({F.z, c, b});
-    g.push_back({a, b, c});
-  }
-  Mesh mesh;
-  mesh.vertices = std::move(v);
-  mesh.faces = std::move(g);
-  return mesh;
-}
-
-}  // namespace
-
-Scene random_scene(uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  auto U = [&rng](double lo, double hi) {
-    return std::uniform_real_distribution<double>(lo, hi)(rng);
-  };
-  auto chance = [&rng](double p) { return std::uniform_real_distribution<double>(0, 1)(rng) < p; };
-  auto random_colour = [&U](double lo, double hi) {
-    const double r = U(lo, hi), g = U(lo, hi), b = U(lo, hi);
-    return glm::dvec3(r, g, b);
-  };
-
-  Scene scene;
-  // Occluder: a jittered icosphere floating a little above the ground.
-  Mesh ball = unit_icosphere();
-  ball.name = "occluder";
-  const double radius = U(0.4, 0.7);
-  const glm::dvec3 centre(U(-0.3, 0.3), radius + U(0.05, 0.3), U(-0.3, 0.3));
-  for (auto& p : ball.vertices) p = centre + radius * U(0.95, 1.05) * p;
-  ball.albedo_mode = AlbedoMode::PerVertex;
-  ball.albedo.clear();
-  for (size_t i = 0; i < ball.vertices.size(); ++i) ball.albedo.push_back(random_colour(0.2, 0.9));
-
-  // Ground: a quad in y = 0, normal +y.
-  Mesh ground;
-  ground.name = "ground";
-  const double s = U(1.2, 1.8);
-  ground.vertices = {{-s, 0, -s}, {-s, 0, s}, {s, 0, s}, {s, 0, -s}};
-  ground.faces = {{0, 1, 2}, {0, 2, 3}};
-  if (chance(0.5)) {
-    ground.albedo_mode = AlbedoMode::PerFace;
-    for (size_t i = 0; i < ground.faces.size(); ++i)
-      ground.albedo.push_back(random_colour(0.3, 0.9));
-  } else {
-    ground.albedo_mode = AlbedoMode::PerVertex;
-    for (size_t i = 0; i < ground.vertices.size(); ++i)
-      ground.albedo.push_back(random_colour(0.3, 0.9));
-  }
-  scene.meshes = {std::move(ball), std::move(ground)};
-
-  // Camera: looks at the occluder from a random direction above the ground, far enough that
-  // every vertex lies well in front of the near plane.
-  Camera cam;
-  const double elevation = glm::radians(U(15.0, 55.0));
-  const double azimuth = U(0.0, 2.0 * glm::pi<double>());
-  const double dist = U(4.0, 6.0);
-  cam.target = glm::dvec3(0.0, U(0.3, 0.6), 0.0);
-  cam.eye =
-      cam.target + dist * glm::dvec3(std::cos(elevation) * std::sin(azimuth), std::sin(elevation),
-                                     std::cos(elevation) * std::cos(azimuth));
-  cam.up = {0, 1, 0};
-  if (chance(0.6)) {
-    cam.projection = Projection::Perspective;
-    cam.fov_deg = U(35.0, 50.0);
-  } else {
-    cam.projection = Projection::Orthographic;
-    cam.half_height = U(1.2, 1.8);
-  }
-  cam.near = 0.1;
-  cam.far = 20.0;
-  cam.width = 40 + int(U(0, 16));
-  cam.height = 32 + int(U(0, 16));
-  scene.cameras = {cam};
-
-  // One or two lights above the scene.
-  const int lights = chance(0.5) ? 1 : 2;
-  for (int l = 0; l < lights; ++l) {
-    Light light;
-    const double el = glm::radians(U(30.0, 75.0));
-    const double az = U(0.0, 2.0 * glm::pi<double>());
-    const glm::dvec3 dir(std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az));
-    if (chance(0.65)) {
-      light.type = LightType::Point;
-      light.position = U(4.0, 8.0) * dir;
-    } else {
-      light.type = LightType::Directional;
-      light.direction = -dir;
-    }
-    light.color = random_colour(0.4, 1.0);
-    light.size = U(0.1, 0.5);
-    scene.lights.push_back(light);
-  }
-  scene.ambient = random_colour(0.05, 0.3);
-  scene.background = random_colour(0.0, 1.0);
-
-  scene.params.sigma = 3e-4 * U(0.7, 1.3);
-  scene.params.gamma = 3e-3 * U(0.7, 1.3);
-  fit_light_frusta(scene);
-  return scene;
 }
 
 }  // namespace penumbra

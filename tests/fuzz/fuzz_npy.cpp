@@ -11,8 +11,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = fuzz::write_input(data, size, "input.npy");
   try {
     const Image image = load_npy(path);
-    if (image.width < 0 || image.height < 0 || image.channels < 0)
-      fuzz::broken("negative shape");
+    if (image.width < 0 || image.height < 0 || image.channels < 0) fuzz::broken("negative shape");
     if (image.data.size() != size_t(image.width) * image.height * image.channels)
       fuzz::broken("data size != product of the shape");
   } catch (const Error& e) {

@@ -54,16 +54,14 @@ struct Palette {
     for (int k = 0; k < kGreyCount; ++k) {
       grey[k] = int(std::lround((k + 0.5) * 255.0 / kGreyCount));
       const uint8_t v = uint8_t(grey[k]);
-      rgb[size_t(kCubeSize + k)] = {v, v, v};
+      rgb[size_t(kCubeSize) + size_t(k)] = {v, v, v};
     }
     fill_nearest(r_level.data(), kRedLevels, nearest_r);
     fill_nearest(g_level.data(), kGreenLevels, nearest_g);
     fill_nearest(b_level.data(), kBlueLevels, nearest_b);
   }
 
-  static int index(int r, int g, int b) {
-    return (r * kGreenLevels + g) * kBlueLevels + b;
-  }
+  static int index(int r, int g, int b) { return (r * kGreenLevels + g) * kBlueLevels + b; }
 
   static void fill_nearest(const int* levels, int n, std::array<uint8_t, 256>& out) {
     for (int v = 0; v < 256; ++v) {

@@ -38,19 +38,18 @@ std::vector<glm::dvec3> vectors(const std::vector<double>& values) {
 std::string checkpoint_text(const FitState& s, const std::string& run) {
   std::vector<int> faces;
   for (const glm::ivec3& f : s.mesh.faces) faces.insert(faces.end(), {f.x, f.y, f.z});
-  const json doc = {
-      {"format", kFormat},
-      {"version", 1},
-      {"run", run},
-      {"iteration", s.iteration},
-      {"stage", s.stage},
-      {"mesh",
-       {{"name", s.mesh.name},
-        {"vertices", flat(s.mesh.vertices)},
-        {"faces", faces},
-        {"albedo", flat(s.mesh.albedo)},
-        {"per_vertex", s.mesh.albedo_mode == AlbedoMode::PerVertex}}},
-      {"adam", {{"t", s.adam.t}, {"m", s.adam.m}, {"v", s.adam.v}}}};
+  const json doc = {{"format", kFormat},
+                    {"version", 1},
+                    {"run", run},
+                    {"iteration", s.iteration},
+                    {"stage", s.stage},
+                    {"mesh",
+                     {{"name", s.mesh.name},
+                      {"vertices", flat(s.mesh.vertices)},
+                      {"faces", faces},
+                      {"albedo", flat(s.mesh.albedo)},
+                      {"per_vertex", s.mesh.albedo_mode == AlbedoMode::PerVertex}}},
+                    {"adam", {{"t", s.adam.t}, {"m", s.adam.m}, {"v", s.adam.v}}}};
   return doc.dump() + "\n";
 }
 
@@ -78,10 +77,10 @@ FitState parse_checkpoint(const std::string& text, const std::string& path,
     const std::vector<int> faces = m.at("faces").get<std::vector<int>>();
     if (faces.size() % 3 != 0) throw Error("the faces are not triples");
     for (size_t i = 0; i < faces.size(); i += 3)
-      s.mesh.faces.push_back({faces[i], faces[i + 1], faces[i + 2]});
+      s.mesh.faces.emplace_back(faces[i], faces[i + 1], faces[i + 2]);
     s.mesh.albedo = vectors(m.at("albedo").get<std::vector<double>>());
-    s.mesh.albedo_mode = m.at("per_vertex").get<bool>() ? AlbedoMode::PerVertex
-                                                        : AlbedoMode::PerFace;
+    s.mesh.albedo_mode =
+        m.at("per_vertex").get<bool>() ? AlbedoMode::PerVertex : AlbedoMode::PerFace;
     const json& a = doc.at("adam");
     s.adam = {a.at("m").get<std::vector<double>>(), a.at("v").get<std::vector<double>>(),
               a.at("t").get<long>()};
@@ -117,8 +116,7 @@ int enter_stage(const FitCheckpoints& c, size_t stage, int iteration, int iterat
   if (first < 0 || first > iterations)
     throw Error("the checkpoint's iteration " + std::to_string(c.resume->iteration) +
                 " is not in its stage " + std::to_string(stage) + " (iterations " +
-                std::to_string(iteration) + " to " + std::to_string(iteration + iterations) +
-                ")");
+                std::to_string(iteration) + " to " + std::to_string(iteration + iterations) + ")");
   mesh = c.resume->mesh;
   return first;
 }
@@ -129,8 +127,8 @@ Adam stage_optimiser(const FitCheckpoints& c, size_t stage, size_t values, doubl
   return adam;
 }
 
-void after_step(const FitCheckpoints& c, int iteration, int total, size_t stage,
-                const Mesh& mesh, const Adam& adam) {
+void after_step(const FitCheckpoints& c, int iteration, int total, size_t stage, const Mesh& mesh,
+                const Adam& adam) {
   if (c.every <= 0 || !c.save || (iteration % c.every != 0 && iteration != total)) return;
   c.save(FitState{iteration, int(stage), mesh, adam.state()});
 }

@@ -49,14 +49,14 @@ Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& pro
       iteration += iterations;
       continue;
     }
-    const int first =
-        enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
+    const int first = enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
     iteration += first;
     const Topology topo = topology(mesh.faces, mesh.vertices.size());
     std::vector<Image> targets;
-    for (const Image& t : problem.targets) targets.push_back(downsample(t, full / stage.resolution));
-    Scene scene = silhouette_scene(mesh, problem.directions, problem.half_height,
-                                   stage.resolution, stage.sigma);
+    for (const Image& t : problem.targets)
+      targets.push_back(downsample(t, full / stage.resolution));
+    Scene scene = silhouette_scene(mesh, problem.directions, problem.half_height, stage.resolution,
+                                   stage.sigma);
     Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
     std::vector<OutputGrads> grads(targets.size());
     std::vector<Image> silhouettes(targets.size());
@@ -87,8 +87,8 @@ Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& pro
 }
 
 std::vector<Image> hard_silhouettes(Renderer& renderer, const Mesh& mesh,
-                                    const std::vector<glm::dvec3>& directions,
-                                    double half_height, int size) {
+                                    const std::vector<glm::dvec3>& directions, double half_height,
+                                    int size) {
   const Scene scene = silhouette_scene(mesh, directions, half_height, size, 1e-9);
   std::vector<Image> masks;
   for (const RenderOutput& o : renderer.render(scene)) masks.push_back(binarize(o.silhouette));

@@ -119,8 +119,9 @@ Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int
         int crossings = 0;
         for (const auto& e : edge) {
           if (in[e[0]] == in[e[1]]) continue;
-          sum += 0.5 * glm::dvec3(corner[e[0]][0] + corner[e[1]][0], corner[e[0]][1] + corner[e[1]][1],
-                                  corner[e[0]][2] + corner[e[1]][2]);
+          sum +=
+              0.5 * glm::dvec3(corner[e[0]][0] + corner[e[1]][0], corner[e[0]][1] + corner[e[1]][1],
+                               corner[e[0]][2] + corner[e[1]][2]);
           ++crossings;
         }
         const glm::dvec3 local = sum / double(crossings);  // in [0, 1]³ of the cell

@@ -122,7 +122,8 @@ double normal_consistency_loss(const std::vector<glm::dvec3>& v,
   std::vector<double> len(nf);
   for (size_t f = 0; f < nf; ++f) {
     const glm::ivec3 F = faces[f];
-    const glm::dvec3 c = glm::cross(v[size_t(F.y)] - v[size_t(F.x)], v[size_t(F.z)] - v[size_t(F.x)]);
+    const glm::dvec3 c =
+        glm::cross(v[size_t(F.y)] - v[size_t(F.x)], v[size_t(F.z)] - v[size_t(F.x)]);
     len[f] = glm::length(c);
     n[f] = len[f] > 0 ? c / len[f] : glm::dvec3(0.0);
   }

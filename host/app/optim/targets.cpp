@@ -53,8 +53,8 @@ void check_targets(const std::vector<Image>& targets, const std::vector<std::str
   auto name = [&](size_t i) { return i < names.size() ? names[i] : "target " + std::to_string(i); };
   for (size_t i = 1; i < targets.size(); ++i)
     if (targets[i].width != targets[0].width || targets[i].height != targets[0].height)
-      throw Error("targets differ in size: " + name(0) + " is " + size_text(targets[0]) +
-                  " but " + name(i) + " is " + size_text(targets[i]) +
+      throw Error("targets differ in size: " + name(0) + " is " + size_text(targets[0]) + " but " +
+                  name(i) + " is " + size_text(targets[i]) +
                   "; all targets must have the same size");
 }
 
@@ -65,8 +65,7 @@ int stage_resolution(int size, int cap) {
 }
 
 Image downsample(const Image& image, int factor) {
-  if (factor < 1 || image.width % factor != 0 || image.height % factor != 0 ||
-      image.channels != 1)
+  if (factor < 1 || image.width % factor != 0 || image.height % factor != 0 || image.channels != 1)
     throw Error("downsample: " + size_text(image) + " one-channel image by " +
                 std::to_string(factor) + " (the factor must divide both sides)");
   if (factor == 1) return image;
@@ -148,7 +147,8 @@ Image upscale(const Image& image, int factor) {
   Image out(image.width * factor, image.height * factor, image.channels);
   for (int y = 0; y < out.height; ++y)
     for (int x = 0; x < out.width; ++x)
-      for (int c = 0; c < image.channels; ++c) out.at(x, y, c) = image.at(x / factor, y / factor, c);
+      for (int c = 0; c < image.channels; ++c)
+        out.at(x, y, c) = image.at(x / factor, y / factor, c);
   return out;
 }
 

@@ -155,8 +155,7 @@ Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
       iteration += iterations;
       continue;
     }
-    const int first =
-        enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
+    const int first = enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
     iteration += first;
     const Topology topo = topology(mesh.faces, mesh.vertices.size());
     RenderParams params = problem.params;
@@ -166,12 +165,12 @@ Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
     std::vector<Image> targets, references;
     for (size_t l = 0; l < nl; ++l) {
       targets.push_back(downsample(problem.targets[l], full / stage.resolution));
-      Scene wall = wall_scene(mesh, problem.directions[l], stage.resolution, params,
-                              problem.setup, false);
+      Scene wall =
+          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, false);
       wall.lights.front().size = stage.light_size;
       references.push_back(renderer.render(wall).front().color);
-      scenes.push_back(wall_scene(mesh, problem.directions[l], stage.resolution, params,
-                                  problem.setup, true));
+      scenes.push_back(
+          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, true));
       scenes.back().lights.front().size = stage.light_size;
     }
     Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);

@@ -13,9 +13,7 @@ struct Image {
   Image(int w, int h, int c, double fill = 0.0)
       : width(w), height(h), channels(c), data(size_t(w) * h * c, fill) {}
   double& at(int x, int y, int c = 0) { return data[(size_t(y) * width + x) * channels + c]; }
-  double at(int x, int y, int c = 0) const {
-    return data[(size_t(y) * width + x) * channels + c];
-  }
+  double at(int x, int y, int c = 0) const { return data[(size_t(y) * width + x) * channels + c]; }
   size_t size() const { return data.size(); }
 };
 

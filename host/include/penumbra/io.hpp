@@ -65,8 +65,8 @@ Scene parse_scene(const std::string& json_text, const std::string& base_dir);
 void save_npy(const Image& image, const std::string& path, bool f64 = false);
 Image load_npy(const std::string& path);
 // Plain arrays of N×K values (vertex gradients and the like), shape (N, K).
-void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
-              const std::string& path, bool f64 = false);
+void save_npy(const std::vector<double>& values, size_t rows, size_t cols, const std::string& path,
+              bool f64 = false);
 // The bytes the save_npy above write; `path` only names the file in error messages.
 std::string npy_bytes(const Image& image, const std::string& path, bool f64 = false);
 std::string npy_bytes(const std::vector<double>& values, size_t rows, size_t cols,

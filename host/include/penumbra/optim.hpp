@@ -131,8 +131,8 @@ Image binarize(const Image& image, double threshold = 0.5);
 // the side view (direction −x) has −z right and +y up.
 glm::dvec3 view_up(const glm::dvec3& direction);
 Camera ortho_camera(const glm::dvec3& direction, double half_height, int size,
-                    const glm::dvec3& center = {0, 0, 0}, double distance = 10.0,
-                    double near = 0.1, double far = 100.0);
+                    const glm::dvec3& center = {0, 0, 0}, double distance = 10.0, double near = 0.1,
+                    double far = 100.0);
 // Direction of a named view: front (−z, the camera at +z), side (−x, the camera at +x),
 // top (−y, the camera above). Throws for other names.
 glm::dvec3 named_view(const std::string& name);
@@ -181,11 +181,11 @@ double regularise(const Mesh& mesh, const Topology& topo, const RegulariserWeigh
 // Fitting a mesh to orthographic silhouettes (fit-silhouette, shadow-art): the vertices move by
 // Adam on Σ_views soft IoU(silhouette, target) + the regularisers, in stages from coarse to fine.
 struct SilhouetteStage {
-  int resolution = 64;      // view size in pixels; the targets are box-filtered to it
+  int resolution = 64;  // view size in pixels; the targets are box-filtered to it
   int iterations = 100;
-  double sigma = 1e-4;      // coverage sharpness σ of the views (screen units²)
-  double lr = 0.01;         // Adam step (world units)
-  int subdivisions = 0;     // midpoint subdivisions of the mesh before the stage
+  double sigma = 1e-4;   // coverage sharpness σ of the views (screen units²)
+  double lr = 0.01;      // Adam step (world units)
+  int subdivisions = 0;  // midpoint subdivisions of the mesh before the stage
   RegulariserWeights weights;
 };
 
@@ -197,13 +197,13 @@ struct SilhouetteProblem {
 
 // Reported after every iteration.
 struct FitProgress {
-  int iteration = 0, total = 0;   // 1-based iteration over all stages
+  int iteration = 0, total = 0;  // 1-based iteration over all stages
   int stage = 0;
-  double loss = 0.0;              // image loss (Σ over the views)
-  double regulariser = 0.0;       // the regularisers' weighted sum
-  std::vector<double> ious;       // binary IoU of each view against its target, at the stage's
-                                  // resolution, `images` thresholded at 0.5
-  const Mesh* mesh = nullptr;     // the mesh that was rendered
+  double loss = 0.0;           // image loss (Σ over the views)
+  double regulariser = 0.0;    // the regularisers' weighted sum
+  std::vector<double> ious;    // binary IoU of each view against its target, at the stage's
+                               // resolution, `images` thresholded at 0.5
+  const Mesh* mesh = nullptr;  // the mesh that was rendered
   // What the loss compared with the targets: the soft silhouettes (fit_silhouettes) or the
   // shadow images (fit_shadows), 1 on the shape or in shadow.
   const std::vector<Image>* images = nullptr;
@@ -212,10 +212,10 @@ using FitObserver = std::function<void(const FitProgress&)>;
 
 // A fit between two iterations: what it takes to go on exactly where it stopped.
 struct FitState {
-  int iteration = 0;   // iterations done, over all stages
-  int stage = 0;       // the stage the last of them belongs to
-  Mesh mesh;           // the mesh after them, subdivided as that stage has it
-  Adam::State adam;    // that stage's optimiser
+  int iteration = 0;  // iterations done, over all stages
+  int stage = 0;      // the stage the last of them belongs to
+  Mesh mesh;          // the mesh after them, subdivided as that stage has it
+  Adam::State adam;   // that stage's optimiser
 };
 // Checkpoints of a fit: `save` gets the state after every `every`-th iteration and after the
 // last (0: never); with `resume` the fit starts from that state instead of the beginning, and
@@ -241,8 +241,8 @@ Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& pro
 // The mesh's hard silhouettes (binary: 1 where the coverage exceeds 0.5, rendered with a tiny σ
 // so that a pixel is 1 exactly when its centre is covered), `size` pixels.
 std::vector<Image> hard_silhouettes(Renderer& renderer, const Mesh& mesh,
-                                    const std::vector<glm::dvec3>& directions,
-                                    double half_height, int size);
+                                    const std::vector<glm::dvec3>& directions, double half_height,
+                                    int size);
 
 // ---------------------------------------------------------------------------------------------
 // Shadows on walls (fit-shadows, shadow-art): the scene of one directional light. The shape
@@ -297,14 +297,14 @@ bool orthogonal(const std::vector<glm::dvec3>& directions);
 // the vertices move by Adam on the sum plus the regularisers, in stages from coarse to fine.
 // The shape is never seen by the cameras: every gradient reaches it through the shadows.
 struct ShadowStage {
-  int resolution = 48;        // camera image size; the targets are box-filtered to it
+  int resolution = 48;  // camera image size; the targets are box-filtered to it
   int iterations = 100;
   int map_size = 64;          // shadow-map size (texels)
   double light_sigma = 3e-4;  // σ_L of the light pass (light screen units²)
   double lr = 0.01;           // Adam step (world units)
   int subdivisions = 0;       // midpoint subdivisions of the mesh before the stage
   RegulariserWeights weights;
-  double light_size = 0.0;    // D_L of every light (soft shadows)
+  double light_size = 0.0;  // D_L of every light (soft shadows)
 };
 
 struct ShadowProblem {

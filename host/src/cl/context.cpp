@@ -113,8 +113,9 @@ std::vector<DeviceInfo> list_devices() {
     }
   }
   if (out.empty())
-    throw Error("no OpenCL device found (is an OpenCL driver installed? on Debian: "
-                "apt-get install pocl-opencl-icd)");
+    throw Error(
+        "no OpenCL device found (is an OpenCL driver installed? on Debian: "
+        "apt-get install pocl-opencl-icd)");
   return out;
 }
 
@@ -208,7 +209,7 @@ std::vector<std::pair<std::string, std::string>> Context::programs() const {
   std::vector<std::pair<std::string, std::string>> out;
   for (const auto& [key, program] : programs_) {
     const size_t cut = key.find('\n');
-    out.push_back({key.substr(0, cut), build_options(key.substr(cut + 1))});
+    out.emplace_back(key.substr(0, cut), build_options(key.substr(cut + 1)));
   }
   return out;
 }

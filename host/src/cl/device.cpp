@@ -86,8 +86,7 @@ void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<d
   ctx.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, values.size() * real_size(p), bytes.data());
 }
 
-std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf,
-                                   size_t count) {
+std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count) {
   std::vector<double> out(count);
   if (count == 0) return out;
   if (p == Precision::Double) {
@@ -152,7 +151,7 @@ struct Profile {
   ~Profile() {
     if (!on) return;
     std::vector<std::pair<double, std::string>> rows;
-    for (auto& [name, t] : ms) rows.push_back({t.first, name});
+    for (auto& [name, t] : ms) rows.emplace_back(t.first, name);
     std::sort(rows.rbegin(), rows.rend());
     std::fprintf(stderr, "penumbra profile (device ms, launches):\n");
     for (auto& [total, name] : rows)
@@ -183,14 +182,15 @@ void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) 
     ctx.queue().enqueueNDRangeKernel(k, cl::NullRange, padded, local, nullptr, &ev);
     ev.wait();
     double ms = (ev.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
-                 ev.getProfilingInfo<CL_PROFILING_COMMAND_START>()) * 1e-6;
+                 ev.getProfilingInfo<CL_PROFILING_COMMAND_START>()) *
+                1e-6;
     std::lock_guard<std::mutex> lock(profile().mutex);
     auto& row = profile().ms[k.getInfo<CL_KERNEL_FUNCTION_NAME>()];
     row.first += ms;
     row.second += 1;
   } catch (const cl::Error& e) {
-    throw Error("launch of kernel " + k.getInfo<CL_KERNEL_FUNCTION_NAME>() + " failed: " +
-                e.what() + " (" + std::to_string(e.err()) + ")");
+    throw Error("launch of kernel " + k.getInfo<CL_KERNEL_FUNCTION_NAME>() +
+                " failed: " + e.what() + " (" + std::to_string(e.err()) + ")");
   }
 }
 

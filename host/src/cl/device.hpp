@@ -18,8 +18,7 @@ inline std::string precision_define(Precision p) {
 // Device buffer holding `values` converted to the precision's real type.
 cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& values);
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values);
-std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf,
-                                   size_t count);
+std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count);
 cl::Buffer upload_ints(Context& ctx, const std::vector<int>& values);
 std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count);
 // Uninitialised device buffer of `count` reals (at least one element).

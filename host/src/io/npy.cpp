@@ -178,8 +178,10 @@ class HeaderParser {
       }
       out.push_back(v);
       skip();
-      if (peek() == ',') ++i_;
-      else if (peek() != ')') fail("malformed header (shape must be a tuple of integers)");
+      if (peek() == ',')
+        ++i_;
+      else if (peek() != ')')
+        fail("malformed header (shape must be a tuple of integers)");
     }
   }
 
@@ -220,8 +222,8 @@ void save_npy(const Image& image, const std::string& path, bool f64) {
   write_file(path, npy_bytes(image, path, f64), "NumPy file");
 }
 
-void save_npy(const std::vector<double>& values, size_t rows, size_t cols,
-              const std::string& path, bool f64) {
+void save_npy(const std::vector<double>& values, size_t rows, size_t cols, const std::string& path,
+              bool f64) {
   write_file(path, npy_bytes(values, rows, cols, path, f64), "NumPy file");
 }
 

@@ -70,8 +70,8 @@ bool is_face_corner(const std::string& tok) {
   size_t start = 0;
   for (;;) {
     size_t slash = tok.find('/', start);
-    parts.push_back(tok.substr(start, slash == std::string::npos ? std::string::npos
-                                                                 : slash - start));
+    parts.push_back(
+        tok.substr(start, slash == std::string::npos ? std::string::npos : slash - start));
     if (slash == std::string::npos) break;
     start = slash + 1;
   }
@@ -179,8 +179,8 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
   const size_t nv = attrib.vertices.size() / 3;
   mesh.vertices.resize(nv);
   for (size_t i = 0; i < nv; ++i)
-    mesh.vertices[i] = glm::dvec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1],
-                                  attrib.vertices[3 * i + 2]);
+    mesh.vertices[i] =
+        glm::dvec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]);
 
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const tinyobj::mesh_t& m = shape.mesh;
@@ -188,8 +188,7 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
     for (size_t f = 0; f < m.num_face_vertices.size(); ++f) {
       const size_t n = m.num_face_vertices[f];
       if (n == 3)
-        mesh.faces.emplace_back(m.indices[offset].vertex_index,
-                                m.indices[offset + 1].vertex_index,
+        mesh.faces.emplace_back(m.indices[offset].vertex_index, m.indices[offset + 1].vertex_index,
                                 m.indices[offset + 2].vertex_index);
       offset += n;
     }
@@ -227,8 +226,8 @@ std::string obj_text(const Mesh& mesh) {
     const glm::dvec3& v = mesh.vertices[i];
     if (colors) {
       const glm::dvec3& c = mesh.albedo[i];
-      put(std::snprintf(line, sizeof line, "v %.9g %.9g %.9g %.9g %.9g %.9g\n", v.x, v.y, v.z,
-                        c.x, c.y, c.z));
+      put(std::snprintf(line, sizeof line, "v %.9g %.9g %.9g %.9g %.9g %.9g\n", v.x, v.y, v.z, c.x,
+                        c.y, c.z));
     } else {
       put(std::snprintf(line, sizeof line, "v %.9g %.9g %.9g\n", v.x, v.y, v.z));
     }

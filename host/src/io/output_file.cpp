@@ -37,8 +37,8 @@ std::string rename_target(const std::string& path) {
 std::string temporary_name(const std::string& target) {
   static std::atomic<unsigned> counter{0};
   const fs::path p(target);
-  return (p.parent_path() / ("." + p.filename().string() + "." + std::to_string(::getpid()) +
-                             "." + std::to_string(counter++) + ".tmp"))
+  return (p.parent_path() / ("." + p.filename().string() + "." + std::to_string(::getpid()) + "." +
+                             std::to_string(counter++) + ".tmp"))
       .string();
 }
 

@@ -31,15 +31,22 @@ struct SceneError {
 
 const char* type_name(const json& j) {
   switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "a boolean";
+    case json::value_t::null:
+      return "null";
+    case json::value_t::boolean:
+      return "a boolean";
     case json::value_t::number_integer:
     case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
-    default: return "an unsupported value";
+    case json::value_t::number_float:
+      return "a number";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::array:
+      return "an array";
+    case json::value_t::object:
+      return "an object";
+    default:
+      return "an unsupported value";
   }
 }
 
@@ -142,8 +149,8 @@ std::string item(const char* key, size_t i) {
 
 Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::path& base) {
   check_object(j, where, {"file", "name", "translate", "scale", "albedo"});
-  const std::string file = get_string(require(j, where, "file", "the path of an OBJ file"),
-                                       child(where, "file"));
+  const std::string file =
+      get_string(require(j, where, "file", "the path of an OBJ file"), child(where, "file"));
   if (file.empty()) fail("'" + child(where, "file") + "' is empty");
   std::filesystem::path path(file);
   if (path.is_relative()) path = base / path;
@@ -179,8 +186,9 @@ Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::
 }
 
 Camera parse_camera(const json& j, const std::string& where) {
-  check_object(j, where, {"eye", "target", "up", "projection", "fov", "half_height", "near",
-                          "far", "width", "height"});
+  check_object(j, where,
+               {"eye", "target", "up", "projection", "fov", "half_height", "near", "far", "width",
+                "height"});
   Camera c;
   opt(j, where, "eye", c.eye, get_vec3);
   opt(j, where, "target", c.target, get_vec3);
@@ -304,8 +312,8 @@ Scene parse_document(const json& doc, const std::filesystem::path& base) {
   for (size_t i = 0; i < meshes.size(); ++i)
     scene.meshes.push_back(parse_mesh(meshes[i], item("meshes", i), base));
   const json& cameras = require_array(doc, "", "cameras",
-                                     "an array of cameras, each an object such as "
-                                     "{\"eye\": [0, 0, 3]}");
+                                      "an array of cameras, each an object such as "
+                                      "{\"eye\": [0, 0, 3]}");
   for (size_t i = 0; i < cameras.size(); ++i)
     scene.cameras.push_back(parse_camera(cameras[i], item("cameras", i)));
   if (doc.contains("lights")) {

@@ -21,8 +21,8 @@ void check(cl::Kernel& kernel, const char* file, const char* name, const bool* b
     cl_kernel_arg_address_qualifier q = 0;
     // Without -cl-kernel-arg-info an OpenCL 1.2 device may report nothing: then only the count
     // is checked.
-    if (clGetKernelArgInfo(kernel(), i, CL_KERNEL_ARG_ADDRESS_QUALIFIER, sizeof q, &q,
-                           nullptr) != CL_SUCCESS)
+    if (clGetKernelArgInfo(kernel(), i, CL_KERNEL_ARG_ADDRESS_QUALIFIER, sizeof q, &q, nullptr) !=
+        CL_SUCCESS)
       return;
     const bool pointer = q == CL_KERNEL_ARG_ADDRESS_GLOBAL || q == CL_KERNEL_ARG_ADDRESS_CONSTANT;
     if (pointer != buffer[i])

@@ -49,7 +49,7 @@ struct BinLists {
 
 // The head of every per-fragment lookup of a light's map (shadow.cl, pcf.cl).
 struct MapLookup {
-  const cl::Buffer& P;  // the camera view's parameters
+  const cl::Buffer& P;             // the camera view's parameters
   cl_int nrec, light, nl, Wm, Hm;  // fragments, the light and lights, the map's size
   auto fields() const { return std::tie(P, nrec, light, nl, Wm, Hm); }
 };

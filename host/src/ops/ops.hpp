@@ -96,13 +96,13 @@ inline int shadow_row_width(const DeviceInfo& d) { return d.is_gpu ? 8 : 16; }
 // Per-view device state (a camera, or a light rendering its shadow map).
 struct ViewState {
   int W = 0, H = 0;
-  int nlights = 0;              // lights shaded in this view (0 for a light's own view)
-  cl::Buffer P;                 // per-view parameters (kernels/common/layout.h)
-  cl::Buffer vscreen;           // nv × real4
-  cl::Buffer fbbox, fnormal;    // nf × int4, nf × real4
+  int nlights = 0;            // lights shaded in this view (0 for a light's own view)
+  cl::Buffer P;               // per-view parameters (kernels/common/layout.h)
+  cl::Buffer vscreen;         // nv × real4
+  cl::Buffer fbbox, fnormal;  // nf × int4, nf × real4
   Bins bins;
   // Kept fragments (raster_fragments), see kernels/raster.cl.
-  size_t nrec = 0;              // capacity: Σ pix_count
+  size_t nrec = 0;  // capacity: Σ pix_count
   cl::Buffer pix_count, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
   cl::Buffer rec_wg, rec_lgrad, rec_lgrad2;  // backward
@@ -142,11 +142,9 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& 
 // Row-major products by matmul.cl or (clblast) by CLBlast:
 // C (m × n) = A (m × k)·Bᵀ (B is n × k) + beta·C, and C (m × n) = Aᵀ (A is k × m)·B + beta·C.
 void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
-               size_t ldc);
+               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc);
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
-               size_t ldc);
+               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc);
 
 // Shadow terms of every fragment of camera view `v` for light `light`, sampled from the
 // light's shadow map `lv.depth` (and penumbra map `lv.pen_map` for soft shadows).

@@ -46,7 +46,7 @@ struct PcfGatherArgs {
 int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const ViewState& v,
                  int light) {
   double sigma = shadow_sigma_s(p), r2 = 0;  // hard shadows: every filter has σ_s
-  if (p.shadows == Shadows::Soft) {  // the widest filter the forward chose (rec_light2.z)
+  if (p.shadows == Shadows::Soft) {          // the widest filter the forward chose (rec_light2.z)
     auto rec = download_reals(k.ctx(), k.precision(), v.rec_light2, v.nrec * v.nlights * 4);
     for (size_t r = 0; r < v.nrec; ++r)
       sigma = std::max(sigma, rec[(r * v.nlights + light) * 4 + 2]);

@@ -28,8 +28,8 @@ struct TexelFaces {
 
 TexelFaces texel_faces(const DeviceGeometry& g, const ViewState& lv) {
   const Bins& b = lv.pen_bins;
-  return {lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, lv.W, lv.H, lv.depth, b.tile,
-          b.tiles_x, b};
+  return {lv.vscreen, g.faces,  lv.fnormal, lv.pen_boxes, lv.P, lv.W,
+          lv.H,       lv.depth, b.tile,     b.tiles_x,    b};
 }
 
 struct PenumbraFwdArgs {
@@ -83,7 +83,8 @@ cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewSta
                                     const cl::Buffer& gP, double* gsize) {
   Context& ctx = k.ctx();
   const size_t ntex = size_t(lv.W) * lv.H;
-  cl::Buffer gS = alloc_reals(ctx, k.precision(), ntex), gDL = alloc_reals(ctx, k.precision(), ntex);
+  cl::Buffer gS = alloc_reals(ctx, k.precision(), ntex),
+             gDL = alloc_reals(ctx, k.precision(), ntex);
   auto& pb =
       bind_args(k, PenumbraBwdTexelArgs{texel_faces(g, lv), lv.pen_map, lv.pen_sums, gP, gS, gDL});
   const int lanes = penumbra_lanes(ctx.info(), k.tuning());

@@ -41,8 +41,7 @@ struct RasterResolveArgs {
   cl_int W, H;
   const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux, &depth;
   auto fields() const {
-    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux,
-                    depth);
+    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux, depth);
   }
 };
 
@@ -54,8 +53,8 @@ struct RasterResolveBwdArgs {
   const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux;
   const cl::Buffer &gimage, &gdepth, &rec_wg, &rec_lgrad;
   auto fields() const {
-    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux,
-                    gimage, gdepth, rec_wg, rec_lgrad);
+    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux, gimage,
+                    gdepth, rec_wg, rec_lgrad);
   }
 };
 
@@ -69,8 +68,8 @@ struct RasterBwdArgs {
   const cl::Buffer &gface_screen, &gface_world, &gface_albedo, &gface_light;
   auto fields() const {
     return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, aux, gimage,
-                    gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad,
-                    rec_lgrad2, gface_screen, gface_world, gface_albedo, gface_light);
+                    gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad, rec_lgrad2,
+                    gface_screen, gface_world, gface_albedo, gface_light);
   }
 };
 
@@ -87,7 +86,8 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   Context& ctx = k.ctx();
   const Precision p = k.precision();
   const size_t npix = size_t(v.W) * v.H;
-  if (k.tuning().raster.brute_force) {  // the kernels ignore the bins; give them valid empty buffers
+  if (k.tuning()
+          .raster.brute_force) {  // the kernels ignore the bins; give them valid empty buffers
     v.bins = Bins{};
     v.bins.tiles_x = 1;
     v.bins.offsets = v.bins.counts = v.bins.items = alloc_ints(ctx, 1);
@@ -114,7 +114,8 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   if (total > size_t(INT32_MAX))
     throw Error("the view keeps " + std::to_string(total) + " fragments, more than 2^31");
   // Fragment storage, forward and backward: face, weight, shading terms, light terms.
-  const size_t per_fragment = sizeof(int) + real_size(p) * 4 * (1 + (1 + v.nlights) + 4 * v.nlights + 1);
+  const size_t per_fragment =
+      sizeof(int) + real_size(p) * 4 * (1 + (1 + v.nlights) + 4 * v.nlights + 1);
   check_memory(ctx, total * per_fragment + npix * 13 * real_size(p),
                "a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view keeping " +
                    std::to_string(total) + " fragments");
@@ -127,10 +128,11 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
   v.rec_light = alloc_reals(ctx, p, total * 4 * v.nlights);
   v.rec_light2 = alloc_reals(ctx, p, total * 4 * v.nlights);
   auto& frag = bind_args(
-      k, RasterFragmentsArgs{v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W,
-                             v.H, g.nf, v.bins.tiles_x, v.bins, v.aux, v.pix_count, run_hits,
-                             v.pix_offset, v.pix_n, v.rec_face, v.rec_frag, v.rec_shade,
-                             v.rec_light, v.rec_light2});
+      k, RasterFragmentsArgs{v.vscreen,      g.vworld,    g.faces,    v.fbbox,     v.fnormal,
+                             g.albedo,       v.P,         v.W,        v.H,         g.nf,
+                             v.bins.tiles_x, v.bins,      v.aux,      v.pix_count, run_hits,
+                             v.pix_offset,   v.pix_n,     v.rec_face, v.rec_frag,  v.rec_shade,
+                             v.rec_light,    v.rec_light2});
   launch_tiled(k, frag, v);
 }
 
@@ -163,10 +165,10 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& 
   fg.albedo = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.light = alloc_reals(ctx, k.precision(), size_t(g.nf) * (6 * v.nlights + 1) * 4);
   auto& rb = bind_args(
-      k, RasterBwdArgs{v.vscreen, g.vworld, g.faces, v.fbbox, v.fnormal, g.albedo, v.P, v.W, v.H,
-                       g.nf, v.aux, gimage, gdepth, v.pix_offset, v.pix_n, v.rec_face,
-                       v.rec_light, v.rec_wg, v.rec_lgrad, v.rec_lgrad2, fg.screen, fg.world,
-                       fg.albedo, fg.light});
+      k, RasterBwdArgs{v.vscreen,   g.vworld,     g.faces,   v.fbbox,    v.fnormal,   g.albedo,
+                       v.P,         v.W,          v.H,       g.nf,       v.aux,       gimage,
+                       gdepth,      v.pix_offset, v.pix_n,   v.rec_face, v.rec_light, v.rec_wg,
+                       v.rec_lgrad, v.rec_lgrad2, fg.screen, fg.world,   fg.albedo,   fg.light});
   launch_1d(ctx, rb, g.nf, 16);
   return fg;
 }

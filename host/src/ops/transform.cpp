@@ -30,8 +30,8 @@ struct TransformBwdArgs {
   cl_int nv;
   const cl::Buffer &adj_offsets, &adj, &gface_screen, &gface_world, &gvworld, &gframe;
   auto fields() const {
-    return std::tie(vworld, vscreen, P, nv, adj_offsets, adj, gface_screen, gface_world,
-                    gvworld, gframe);
+    return std::tie(vworld, vscreen, P, nv, adj_offsets, adj, gface_screen, gface_world, gvworld,
+                    gframe);
   }
 };
 
