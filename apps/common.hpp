@@ -55,7 +55,7 @@ struct RenderOptions {
          beta = 0, gamma_p = 0;
   std::string shadows, sampling;  // none|hard|soft, truncated|exact|gemm
   std::string exact_backend;      // auto|kernels|clblast
-  std::string shadow_model;      // accurate|paper
+  std::string shadow_model;       // accurate|paper
   int map_size = 0;               // shadow_map_size
   double light_size = 0, light_sigma = 0, light_gamma = 0, weight_eps = 0;
   int width = 0, height = 0;
@@ -64,9 +64,10 @@ struct RenderOptions {
   CLI::Option *o_sigma = nullptr, *o_gamma = nullptr, *o_eps = nullptr, *o_dist_eps = nullptr,
               *o_sigma_s = nullptr, *o_lambda_eps = nullptr, *o_gamma_s = nullptr,
               *o_beta = nullptr, *o_gamma_p = nullptr, *o_width = nullptr, *o_height = nullptr,
-              *o_shadows = nullptr, *o_sampling = nullptr, *o_exact_backend = nullptr, *o_shadow_model = nullptr, *o_map_size = nullptr,
-              *o_light_size = nullptr, *o_light_sigma = nullptr, *o_light_gamma = nullptr,
-              *o_weight_eps = nullptr, *o_max_memory = nullptr;
+              *o_shadows = nullptr, *o_sampling = nullptr, *o_exact_backend = nullptr,
+              *o_shadow_model = nullptr, *o_map_size = nullptr, *o_light_size = nullptr,
+              *o_light_sigma = nullptr, *o_light_gamma = nullptr, *o_weight_eps = nullptr,
+              *o_max_memory = nullptr;
 };
 void add_render_options(CLI::App& cmd, RenderOptions& options);
 // Applies the given overrides to every camera / the scene parameters; throws penumbra::Error for

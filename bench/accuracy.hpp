@@ -15,8 +15,9 @@
 // and none, sphere light for soft), over ground pixels (the rays of the pixel and of every
 // pixel within the silhouette margin hit the ground: silhouettes, where the soft rasterizer
 // blends a nearer surface in, are left out; the margin is how far that blend reaches,
-// √(σ ln(1/ε_D − 1)) screen units — 1.2 px at the default σ — rounded up to whole pixels). penumbra's visibility is its per-pixel shadow term, recovered from three renders of
-// the same scene: s = (C − C_ambient) / (C_unshadowed − C_ambient), channels summed.
+// √(σ ln(1/ε_D − 1)) screen units — 1.2 px at the default σ — rounded up to whole pixels).
+// penumbra's visibility is its per-pixel shadow term, recovered from three renders of the same
+// scene: s = (C − C_ambient) / (C_unshadowed − C_ambient), channels summed.
 //   area_ratio   ground pixels with s < 0.5 over ground pixels with truth visibility < 0.5;
 //   lit_error    mean relative colour error Σ_k|C_k − T_k| / Σ_k T_k over ground pixels the
 //                truth lights fully (visibility 1);

@@ -81,8 +81,9 @@ void run_accuracy(benchmark::State& state, const AccuracyCase& c) {
 
 std::string name_of(const AccuracyCase& c, bool large) {
   std::ostringstream o;
-  o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/' << word(c.sampling, c.exact_backend)
-    << "/img:256/map:" << c.map << "/faces:" << total_faces(accuracy_scene(c))
+  o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/'
+    << word(c.sampling, c.exact_backend) << "/img:256/map:" << c.map
+    << "/faces:" << total_faces(accuracy_scene(c))
     << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params)
     << "/lights:1/model:" << word(c.model) << "/scene:" << c.scene;
   return o.str();

@@ -1,7 +1,7 @@
 // Whole-frame cost of Renderer::render (forward) and Renderer::backward, each timed alone
 // (both calls are synchronous: they return host images / gradients), over shadows
-// none / hard / soft × sampling truncated / exact / gemm (exact on CLBlast), image size, shadow-map size, face
-// count, σ_s and the number of lights. Every case is the bundled turnaround scene
+// none / hard / soft × sampling truncated / exact / gemm (exact on CLBlast), image size, shadow-map
+// size, face count, σ_s and the number of lights. Every case is the bundled turnaround scene
 // (data/scenes/turnaround.json) with one setting changed from the reference point
 //   image 256², map 256², 1312 faces (1280-face sphere + 32-face ground), σ_s = 2, 1 light.
 //
@@ -56,8 +56,8 @@ using Key = std::tuple<bool, int, int, int, int, int, int, double, int>;
 
 void add(bool backward, const Case& c, bool large = false) {
   static std::set<Key> seen;  // a case shared by several sweeps runs once
-  const Key key{backward, int(c.shadows), int(c.sampling), int(c.exact_backend), c.image, c.map, c.frequency,
-                c.sigma_s, c.lights};
+  const Key key{backward,    int(c.shadows), int(c.sampling), int(c.exact_backend), c.image, c.map,
+                c.frequency, c.sigma_s,      c.lights};
   if (!seen.insert(key).second) return;
   const std::string name = (large ? "large/" : "") + case_name("", backward, c).substr(1);
   benchmark::RegisterBenchmark(name.c_str(),

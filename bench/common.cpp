@@ -279,8 +279,8 @@ std::string case_name(const std::string& group, bool backward, const Case& c) {
   static const int others = total_faces(turnaround_scene()) - bundled_sphere;
   const int faces = (c.frequency > 0 ? 20 * c.frequency * c.frequency : bundled_sphere) + others;
   o << group << '/' << (backward ? "bwd" : "fwd") << '/' << word(c.shadows) << '/'
-    << word(c.sampling, c.exact_backend) << "/img:" << c.image << "/map:" << c.map << "/faces:" << faces
-    << "/sigma_s:" << c.sigma_s << "/lights:" << c.lights;
+    << word(c.sampling, c.exact_backend) << "/img:" << c.image << "/map:" << c.map
+    << "/faces:" << faces << "/sigma_s:" << c.sigma_s << "/lights:" << c.lights;
   return o.str();
 }
 

@@ -32,11 +32,11 @@ struct Case {
   Sampling sampling = Sampling::Truncated;
   // Exact sampling of hard shadows: penumbra's kernels (`exact`) or CLBlast (`gemm`).
   ExactBackend exact_backend = ExactBackend::Kernels;
-  int image = 256;         // W = H
-  int map = 256;           // W_s = H_s
-  int frequency = 0;       // 0: the bundled 1280-face sphere; else an icosphere of this frequency
-  double sigma_s = 2.0;    // texel²
-  int lights = 1;          // 1 to 3
+  int image = 256;       // W = H
+  int map = 256;         // W_s = H_s
+  int frequency = 0;     // 0: the bundled 1280-face sphere; else an icosphere of this frequency
+  double sigma_s = 2.0;  // texel²
+  int lights = 1;        // 1 to 3
   ShadowModel model = ShadowModel::Accurate;
 };
 

@@ -53,8 +53,8 @@ const char* name_of(Method m) {
 
 void set_method(RenderParams& p, Method m) {
   p.sampling = m == Method::Truncated ? Sampling::Truncated : Sampling::Exact;
-  p.exact_backend = m == Method::Gemm ? penumbra::ExactBackend::CLBlast
-                                      : penumbra::ExactBackend::Auto;
+  p.exact_backend =
+      m == Method::Gemm ? penumbra::ExactBackend::CLBlast : penumbra::ExactBackend::Auto;
 }
 
 const char* name_of(Precision p) { return p == Precision::Double ? "double" : "float"; }

@@ -132,8 +132,10 @@ TEST(Cli, BadShadowOptions) {
       {"render -o " + png + " --shadows", "--shadows"},
       {"render -o " + png + " --sampling bogus", "--sampling"},
       {"render -o " + png + " --exact-backend blas", "--exact-backend"},
-      {"render -o " + png + " --shadows hard --shadow-model paper --sampling gemm "
-       "--exact-backend kernels", "--sampling gemm"},
+      {"render -o " + png +
+           " --shadows hard --shadow-model paper --sampling gemm "
+           "--exact-backend kernels",
+       "--sampling gemm"},
       {"render -o " + png + " --shadows hard --sampling truncated --exact-backend clblast",
        "exact backend 'clblast'"},
       {"render -o " + png + " --map-size 0", "--map-size"},
@@ -177,10 +179,11 @@ TEST(Cli, Help) {
   const RunResult sub = run_cli("render --help", "help_render");
   EXPECT_EQ(sub.exit_code, 0) << show(sub);
   for (const char* option :
-       {"--sigma", "--gamma", "--eps", "--dist-eps", "--sigma-s", "--lambda-eps", "--gamma-s",
-        "--beta", "--gamma-p", "--width", "--height", "--device", "--raw", "--precision", "--mesh",
-        "--shadows", "--sampling", "--exact-backend", "--map-size", "--light-size", "--light-sigma",
-        "--light-gamma", "--weight-eps"})
+       {"--sigma",       "--gamma",       "--eps",           "--dist-eps",  "--sigma-s",
+        "--lambda-eps",  "--gamma-s",     "--beta",          "--gamma-p",   "--width",
+        "--height",      "--device",      "--raw",           "--precision", "--mesh",
+        "--shadows",     "--sampling",    "--exact-backend", "--map-size",  "--light-size",
+        "--light-sigma", "--light-gamma", "--weight-eps"})
     EXPECT_NE(sub.out.find(option), std::string::npos) << option;
   for (const char* command : {"gradcheck", "backward", "turnaround"}) {
     const RunResult help = run_cli(std::string(command) + " --help", "help_shadows");

@@ -18,8 +18,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <regex>
 #include <iostream>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -650,7 +650,8 @@ TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
 void expect_progress(const RunResult& r, const std::string& prefix, const std::string& stage) {
   const auto err = lines(r.err);
   EXPECT_FALSE(err.empty()) << "no progress on stderr\n" << show(r);
-  for (const std::string& line : err) EXPECT_EQ(line.rfind(prefix, 0), 0u) << line << "\n" << show(r);
+  for (const std::string& line : err)
+    EXPECT_EQ(line.rfind(prefix, 0), 0u) << line << "\n" << show(r);
   EXPECT_NE(r.err.find(stage), std::string::npos) << show(r);
 }
 
@@ -783,8 +784,8 @@ TEST(FaultsMemory, EstimateGrowsWithEveryPartOfTheWork) {
 // shadows only). The estimate must cover the peak
 // and stay within 25 % above it. Prints one line per configuration.
 TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
-  penumbra::Scene base = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) +
-                                              "/scenes/turnaround.json");
+  penumbra::Scene base =
+      penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
   for (const int size : {64, 512})
     for (const auto model : {penumbra::ShadowModel::Accurate, penumbra::ShadowModel::Paper})
       for (const auto shadows : {penumbra::Shadows::Hard, penumbra::Shadows::Soft})
@@ -807,14 +808,13 @@ TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
               penumbra::Renderer renderer(context());
               penumbra::reset_device_memory_peak();
               renderer.render(scene);
-              if (backward)
-                renderer.backward(scene, penumbra::random_loss_weights(scene, 3));
+              if (backward) renderer.backward(scene, penumbra::random_loss_weights(scene, 3));
               context().queue().finish();
               used = penumbra::device_memory_use().peak;
             }
             std::ostringstream label;
-            label << size << "² " << penumbra::word(model) << " " << penumbra::word(shadows)
-                  << " " << penumbra::word(sampling) << (backward ? " + backward" : "");
+            label << size << "² " << penumbra::word(model) << " " << penumbra::word(shadows) << " "
+                  << penumbra::word(sampling) << (backward ? " + backward" : "");
             const double ratio = double(estimate) / double(used);
             std::cout << "memory | " << label.str() << " | allocated " << used << " | estimate "
                       << estimate << " | ratio " << ratio << std::endl;

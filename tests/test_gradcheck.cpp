@@ -319,22 +319,22 @@ TEST(GradCheck, HardShadowsBundledScene) {
   scene.params.shadows = penumbra::Shadows::Hard;
   scene.params.shadow_map_size = 32;
   for (auto model : {penumbra::ShadowModel::Accurate, penumbra::ShadowModel::Paper})
-  for (auto sampling : {Method::Truncated, Method::Exact, Method::Gemm}) {
-    if (model == penumbra::ShadowModel::Accurate && sampling == Method::Gemm) continue;
-    set_method(scene.params, sampling);
-    scene.params.shadow_model = model;
-    penumbra::refit_light_frusta(scene);
-    GradCheckOptions options;
-    options.samples = 12;
-    options.seed = 2;
-    const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
-    const std::string what = "turnaround 40x40 hard, " + penumbra::word(model) +
-                             ", sampling " + name_of(sampling);
-    report(what, r);
-    EXPECT_EQ(r.checked, 12);
-    EXPECT_TRUE(r.passed()) << what << "\n" << describe(r);
-    expect_shadow_coverage(scene, r, what);
-  }
+    for (auto sampling : {Method::Truncated, Method::Exact, Method::Gemm}) {
+      if (model == penumbra::ShadowModel::Accurate && sampling == Method::Gemm) continue;
+      set_method(scene.params, sampling);
+      scene.params.shadow_model = model;
+      penumbra::refit_light_frusta(scene);
+      GradCheckOptions options;
+      options.samples = 12;
+      options.seed = 2;
+      const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
+      const std::string what =
+          "turnaround 40x40 hard, " + penumbra::word(model) + ", sampling " + name_of(sampling);
+      report(what, r);
+      EXPECT_EQ(r.checked, 12);
+      EXPECT_TRUE(r.passed()) << what << "\n" << describe(r);
+      expect_shadow_coverage(scene, r, what);
+    }
 }
 
 TEST(GradCheck, HardShadowsRandomScenesWithUnfittedFrusta) {

@@ -393,7 +393,8 @@ TEST(IoScene, SamplingAndExactBackend) {
   expect_error(parse(R"({"sampling": "gemm", "shadows": "soft", "shadow_model": "paper"})"),
                "soft shadows");
   expect_error(parse(R"({"sampling": "gemm", "shadows": "hard"})"), "accurate shadow model");
-  EXPECT_NO_THROW(params(R"({"sampling": "exact", "exact_backend": "kernels", "shadows": "soft"})"));
+  EXPECT_NO_THROW(
+      params(R"({"sampling": "exact", "exact_backend": "kernels", "shadows": "soft"})"));
 }
 
 TEST(IoScene, Errors) {

@@ -83,9 +83,10 @@ Scene shadow_scene(Lighting lighting, Method sampling = Method::Truncated, bool 
 
 // The scenes every comparison runs on.
 std::vector<NamedScene> comparison_scenes(Method sampling) {
-  return {{"point", shadow_scene(Lighting::Point, sampling)},
-          {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true)},
-          {"two lights", shadow_scene(Lighting::Two, sampling)}};
+  return {
+      {"point", shadow_scene(Lighting::Point, sampling)},
+      {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true)},
+      {"two lights", shadow_scene(Lighting::Two, sampling)}};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -303,10 +304,10 @@ TEST(ShadowDouble, ShadowsChangeTheImage) {
 // Exact on penumbra's kernels (exact backend `kernels`, named here so that the tuning's `auto`
 // cannot pick CLBlast for both) and gemm (exact backend `clblast`) evaluate the same sum
 // v = Σ g·S / Σ g, both as Σ_j (Σ_i gx_i·S_ij)·gy_j / (Σgx·Σgy) through matrix products, in
-// matmul.cl's and CLBlast's different orders. In double they agree to rounding (~1e-16 relative in v, times 1/γ_s = 25 in the logit): 1e-11. In float the
-// reordering costs ~1e-7 relative in v (≈ 5e-7 absolute at depth ≈ 5), ≈ 1e-5 in the logit
-// after 1/γ_s, so ≤ s(1 − s)·1e-5 ≤ 3e-6 of a light's colour, besides the raster's own float
-// rounding being the same in both: 1e-5.
+// matmul.cl's and CLBlast's different orders. In double they agree to rounding (~1e-16 relative in
+// v, times 1/γ_s = 25 in the logit): 1e-11. In float the reordering costs ~1e-7 relative in v (≈
+// 5e-7 absolute at depth ≈ 5), ≈ 1e-5 in the logit after 1/γ_s, so ≤ s(1 − s)·1e-5 ≤ 3e-6 of a
+// light's colour, besides the raster's own float rounding being the same in both: 1e-5.
 TEST(ShadowSampling, ExactEqualsGemm) {
   REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
@@ -393,9 +394,10 @@ TEST(ShadowSampling, TruncatedApproachesExact) {
 // (e) Gradients.
 
 std::vector<GradCase> gradient_cases(Method sampling) {
-  return {{"point", shadow_scene(Lighting::Point, sampling), 3},
-          {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true), 5},
-          {"two lights", shadow_scene(Lighting::Two, sampling), 7}};
+  return {
+      {"point", shadow_scene(Lighting::Point, sampling), 3},
+      {"directional (orthographic camera)", shadow_scene(Lighting::Directional, sampling, true), 5},
+      {"two lights", shadow_scene(Lighting::Two, sampling), 7}};
 }
 
 class ShadowGradCheck : public ::testing::TestWithParam<Method> {};

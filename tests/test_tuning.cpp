@@ -76,17 +76,18 @@ TEST(Tuning, KernelVariantsListEveryProgramTheRendererBuilds) {
     for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
       for (Shadows shadows : {Shadows::None, Shadows::Hard, Shadows::Soft})
         for (Sampling sampling : {Sampling::Truncated, Sampling::Exact})
-        for (ExactBackend backend : {ExactBackend::Auto, ExactBackend::Kernels, ExactBackend::CLBlast}) {
-          if (backend != ExactBackend::Auto && sampling != Sampling::Exact) continue;
-          if (backend == ExactBackend::CLBlast &&
-              (shadows != Shadows::Hard || model != ShadowModel::Paper))
-            continue;
-          Scene s = small_scene(shadows, sampling);
-          s.params.exact_backend = backend;
-          s.params.shadow_model = model;
-          refit_light_frusta(s);
-          run(renderer, s);
-        }
+          for (ExactBackend backend :
+               {ExactBackend::Auto, ExactBackend::Kernels, ExactBackend::CLBlast}) {
+            if (backend != ExactBackend::Auto && sampling != Sampling::Exact) continue;
+            if (backend == ExactBackend::CLBlast &&
+                (shadows != Shadows::Hard || model != ShadowModel::Paper))
+              continue;
+            Scene s = small_scene(shadows, sampling);
+            s.params.exact_backend = backend;
+            s.params.shadow_model = model;
+            refit_light_frusta(s);
+            run(renderer, s);
+          }
   }
   Tuning brute;
   brute.raster.brute_force = true;

@@ -2,6 +2,7 @@
 // frames are mapped to it here, so every frame shares it), the NETSCAPE2.0 looping extension
 // and a graphic control extension (delay) per frame. giflib writes through a callback into an
 // OutputFile, so the file appears only when complete.
+#include <gif_lib.h>
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -10,7 +11,6 @@
 #include <cstring>
 #include <exception>
 #include <fstream>
-#include <gif_lib.h>
 #include <vector>
 
 #include "io/text.hpp"
@@ -228,23 +228,23 @@ void GifWriter::close() {
   m.file->commit();
 }
 
-void save_gif(const std::vector<Image>& frames, const std::string& path,
-              int delay_centiseconds) {
+void save_gif(const std::vector<Image>& frames, const std::string& path, int delay_centiseconds) {
   if (frames.empty()) throw Error("cannot write GIF " + quoted_path(path) + ": no frames");
   const Image& first = frames.front();
   for (size_t i = 0; i < frames.size(); ++i) {
     const Image& f = frames[i];
     if (f.width != first.width || f.height != first.height)
-      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) + " is " +
-                  std::to_string(f.width) + "x" + std::to_string(f.height) + ", frame 0 is " +
-                  std::to_string(first.width) + "x" + std::to_string(first.height));
+      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) +
+                  " is " + std::to_string(f.width) + "x" + std::to_string(f.height) +
+                  ", frame 0 is " + std::to_string(first.width) + "x" +
+                  std::to_string(first.height));
     if (f.channels != 1 && f.channels != 3 && f.channels != 4)
-      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) + " has " +
-                  std::to_string(f.channels) + " channels (expected 1, 3 or 4)");
+      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) +
+                  " has " + std::to_string(f.channels) + " channels (expected 1, 3 or 4)");
     if (f.data.size() != size_t(f.width) * f.height * f.channels)
-      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) + " has " +
-                  std::to_string(f.data.size()) + " values, " + frame_shape(f) + " needs " +
-                  std::to_string(size_t(f.width) * f.height * f.channels));
+      throw Error("cannot write GIF " + quoted_path(path) + ": frame " + std::to_string(i) +
+                  " has " + std::to_string(f.data.size()) + " values, " + frame_shape(f) +
+                  " needs " + std::to_string(size_t(f.width) * f.height * f.channels));
   }
   GifWriter writer(path, first.width, first.height, delay_centiseconds);
   for (const Image& f : frames) writer.add_frame(f);

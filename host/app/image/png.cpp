@@ -30,8 +30,8 @@ namespace {
 // and so is anything whose first bytes name no format (stb would try it as TGA, its only
 // format without a signature). The formats read are recognised by their signature.
 constexpr const char* kImageFormats = "PNG, BMP, GIF, PSD, HDR";
-constexpr int kMaxImageSide = 16384;            // as for rendered images (scene.hpp)
-constexpr double kMaxImagePixels = 1 << 24;     // 16 Mi pixels: 512 MiB as a 4-channel Image
+constexpr int kMaxImageSide = 16384;         // as for rendered images (scene.hpp)
+constexpr double kMaxImagePixels = 1 << 24;  // 16 Mi pixels: 512 MiB as a 4-channel Image
 
 bool starts_with(const unsigned char* p, size_t n, const char* magic, size_t m) {
   return n >= m && std::memcmp(p, magic, m) == 0;
@@ -121,8 +121,8 @@ void save_png(const Image& image, const std::string& path) {
 
 Image load_image(const std::string& path, int channels) {
   if (channels < 0 || channels > 4)
-    throw Error("cannot read image " + quoted_path(path) + ": requested " + std::to_string(channels) +
-                " channels (0 for the file's own, or 1 to 4)");
+    throw Error("cannot read image " + quoted_path(path) + ": requested " +
+                std::to_string(channels) + " channels (0 for the file's own, or 1 to 4)");
   auto fail = [&](const std::string& why) {
     return Error("cannot read image " + quoted_path(path) + ": " + why);
   };
@@ -137,8 +137,7 @@ Image load_image(const std::string& path, int channels) {
   if (bytes.size() > size_t(std::numeric_limits<int>::max())) throw fail("file too large");
 
   const char* refused = refused_format(p, bytes.size());
-  if (refused)
-    throw fail(std::string(refused) + " files are not read (" + kImageFormats + " are)");
+  if (refused) throw fail(std::string(refused) + " files are not read (" + kImageFormats + " are)");
   if (!known_format(p, bytes.size()))
     throw fail(std::string("unknown image format (") + kImageFormats + " are read)");
   if (p[0] == 0x89) {  // PNG

@@ -14,8 +14,8 @@ namespace penumbra::optim {
 // every stage's resolution dividing the target size. Gives `mesh` per-vertex albedo when it has
 // none, and returns the iterations over all stages.
 template <class Stage>
-int prepare_fit(const char* fit, const std::vector<Image>& targets, size_t views,
-                const char* unit, const std::vector<Stage>& stages, Mesh& mesh) {
+int prepare_fit(const char* fit, const std::vector<Image>& targets, size_t views, const char* unit,
+                const std::vector<Stage>& stages, Mesh& mesh) {
   check_targets(targets, {});
   if (targets.size() != views)
     throw Error(std::string(fit) + ": " + std::to_string(targets.size()) + " targets for " +

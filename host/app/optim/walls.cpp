@@ -142,8 +142,8 @@ RenderParams ShadowProblem::default_shadow_fit_params(ShadowModel model) {
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
                  const std::vector<ShadowStage>& stages, const FitObserver& observer,
                  const FitCheckpoints& checkpoints) {
-  const int total = prepare_fit("fit_shadows", problem.targets, problem.directions.size(),
-                                "lights", stages, mesh);
+  const int total = prepare_fit("fit_shadows", problem.targets, problem.directions.size(), "lights",
+                                stages, mesh);
   const int full = problem.targets.front().width;
   const size_t nl = problem.directions.size();
   check_resume(checkpoints, stages.size(), total);

@@ -105,7 +105,8 @@ size_t prescan(const std::string& text, const std::string& path) {
     ++line_no;
     std::vector<std::string> tok = split_ws(line);
     if (tok.empty()) continue;
-    const std::string where = "file " + quoted_path(path) + " line " + std::to_string(line_no) + ": ";
+    const std::string where =
+        "file " + quoted_path(path) + " line " + std::to_string(line_no) + ": ";
     if (tok[0] == "v") {
       // x y z, x y z w, or x y z r g b (vertex colours).
       if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)

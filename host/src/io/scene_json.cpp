@@ -262,9 +262,10 @@ Light parse_light(const json& j, const std::string& where) {
 }
 
 RenderParams parse_render(const json& j, const std::string& where) {
-  check_object(j, where, {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps",
-                          "gamma_s", "beta", "gamma_p", "cull_backfaces", "shadows", "sampling", "exact_backend",
-                          "shadow_model", "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
+  check_object(j, where,
+               {"sigma", "gamma", "eps", "dist_eps", "sigma_s", "lambda_eps", "gamma_s", "beta",
+                "gamma_p", "cull_backfaces", "shadows", "sampling", "exact_backend", "shadow_model",
+                "shadow_map_size", "light_sigma", "light_gamma", "weight_eps"});
   RenderParams p;
   opt(j, where, "sigma", p.sigma, get_number);
   opt(j, where, "gamma", p.gamma, get_number);
@@ -276,8 +277,7 @@ RenderParams parse_render(const json& j, const std::string& where) {
   opt(j, where, "beta", p.beta, get_number);
   opt(j, where, "gamma_p", p.gamma_p, get_number);
   opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
-  if (j.contains("shadows"))
-    p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
+  if (j.contains("shadows")) p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
   std::optional<ExactBackend> implied;  // by "sampling": "gemm"
   if (j.contains("sampling")) {
     const std::string w = get_string(j["sampling"], child(where, "sampling"));
