@@ -349,8 +349,9 @@ TEST(ShadowSampling, ExactEqualsGemmGradients) {
     const double scale = penumbra::max_abs_gradient(a);
     ASSERT_GT(scale, 0) << name;
     double worst = 0;
+    const std::string label = name;  // a lambda may not capture a structured binding (C++17)
     auto compare = [&](const std::vector<glm::dvec3>& x, const std::vector<glm::dvec3>& y) {
-      ASSERT_EQ(x.size(), y.size()) << name;
+      ASSERT_EQ(x.size(), y.size()) << label;
       for (size_t i = 0; i < x.size(); ++i)
         for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(x[i][k] - y[i][k]) / scale);
     };
