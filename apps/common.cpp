@@ -1,13 +1,13 @@
 #include "common.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cerrno>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -84,17 +84,17 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
                      "blocker search, PCSS) or paper (filter then compare; the penumbra map)")
           ->check(one_of<ShadowModel>())
           ->group(shadow_group);
-  o.o_map_size = cmd.add_option("--map-size", o.map_size,
-                                "shadow-map size W_s = H_s in texels (1 to 8192)")
-                     ->group(shadow_group);
-  o.o_light_size =
-      cmd.add_option("--light-size", o.light_size,
-                     "diameter D_L of every light (world units, >= 0; soft shadows)")
+  o.o_map_size =
+      cmd.add_option("--map-size", o.map_size, "shadow-map size W_s = H_s in texels (1 to 8192)")
           ->group(shadow_group);
-  o.o_light_sigma = cmd.add_option("--light-sigma", o.light_sigma,
-                                   "coverage sharpness σ_L of the light pass, in [0, 1) "
-                                   "(0: σ/32 with the accurate shadow model, σ/10 with the paper's)")
-                        ->group(shadow_group);
+  o.o_light_size = cmd.add_option("--light-size", o.light_size,
+                                  "diameter D_L of every light (world units, >= 0; soft shadows)")
+                       ->group(shadow_group);
+  o.o_light_sigma =
+      cmd.add_option("--light-sigma", o.light_sigma,
+                     "coverage sharpness σ_L of the light pass, in [0, 1) "
+                     "(0: σ/32 with the accurate shadow model, σ/10 with the paper's)")
+          ->group(shadow_group);
   o.o_light_gamma = cmd.add_option("--light-gamma", o.light_gamma,
                                    "aggregation sharpness γ_L of the light pass, in [0, 1) "
                                    "(0: the same as γ)")
@@ -135,10 +135,17 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
 }
 
 size_t parse_bytes(const std::string& text, const std::string& option) {
-  static const std::pair<const char*, double> units[] = {
-      {"", 1},           {"B", 1},          {"KiB", 1024.0},   {"MiB", 1048576.0},
-      {"GiB", 1073741824.0}, {"TiB", 1099511627776.0}, {"kB", 1e3}, {"KB", 1e3},
-      {"MB", 1e6},       {"GB", 1e9},       {"TB", 1e12}};
+  static const std::pair<const char*, double> units[] = {{"", 1},
+                                                         {"B", 1},
+                                                         {"KiB", 1024.0},
+                                                         {"MiB", 1048576.0},
+                                                         {"GiB", 1073741824.0},
+                                                         {"TiB", 1099511627776.0},
+                                                         {"kB", 1e3},
+                                                         {"KB", 1e3},
+                                                         {"MB", 1e6},
+                                                         {"GB", 1e9},
+                                                         {"TB", 1e12}};
   const char* begin = text.c_str();
   char* end = nullptr;
   const double value = std::strtod(begin, &end);
@@ -147,8 +154,7 @@ size_t parse_bytes(const std::string& text, const std::string& option) {
   for (const auto& [name, scale] : units)
     if (unit == name && std::isfinite(value) && value * scale >= 1 && value * scale < 1.8e19)
       return size_t(value * scale);
-  throw Error(option + " must be a positive size such as 512MiB, 2GiB or 1e9 (got '" + text +
-              "')");
+  throw Error(option + " must be a positive size such as 512MiB, 2GiB or 1e9 (got '" + text + "')");
 }
 
 void limit_memory(const RenderOptions& o, Context& context) {
@@ -246,8 +252,7 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
     p.light_gamma = o.light_gamma;
   }
   if (given(o.o_weight_eps)) {
-    require(positive(o.weight_eps) && o.weight_eps < 1, "--weight-eps", "in (0, 1)",
-            o.weight_eps);
+    require(positive(o.weight_eps) && o.weight_eps < 1, "--weight-eps", "in (0, 1)", o.weight_eps);
     p.weight_eps = o.weight_eps;
   }
   constexpr int kMaxSize = 16384;
@@ -293,7 +298,7 @@ std::string data_dir() {
 #endif
 #ifdef PENUMBRA_SOURCE_DIR
   {
-    const std::string compiled = std::string(PENUMBRA_SOURCE_DIR) + "/data";
+    std::string compiled = std::string(PENUMBRA_SOURCE_DIR) + "/data";
     std::error_code ec;
     if (fs::is_directory(compiled, ec)) return compiled;
   }
@@ -446,7 +451,9 @@ std::string one_line(const std::string& text) {
 
 Camera orbit(const Camera& camera, double angle) {
   const double c = std::cos(angle), s = std::sin(angle);
-  auto turn = [&](const glm::dvec3& v) { return glm::dvec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z); };
+  auto turn = [&](const glm::dvec3& v) {
+    return glm::dvec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
+  };
   Camera out = camera;
   out.eye = camera.target + turn(camera.eye - camera.target);
   out.up = turn(camera.up);

@@ -58,7 +58,8 @@ struct vec3_caster {
     return Py_BuildValue("(ddd)", double(v.x), double(v.y), double(v.z));
   }
 };
-template <> struct type_caster<glm::dvec3> : vec3_caster<glm::dvec3, double> {};
+template <>
+struct type_caster<glm::dvec3> : vec3_caster<glm::dvec3, double> {};
 }  // namespace nanobind::detail
 
 namespace {
@@ -179,7 +180,8 @@ void set_parameters(Scene& scene, const Flat& vertices, const Flat& albedo, cons
   const double* v = vertices.data();
   const double* a = albedo.data();
   for (Mesh& mesh : scene.meshes) {
-    std::memcpy(static_cast<void*>(mesh.vertices.data()), v, mesh.vertices.size() * sizeof(glm::dvec3));
+    std::memcpy(static_cast<void*>(mesh.vertices.data()), v,
+                mesh.vertices.size() * sizeof(glm::dvec3));
     std::memcpy(static_cast<void*>(mesh.albedo.data()), a, mesh.albedo.size() * sizeof(glm::dvec3));
     v += 3 * mesh.vertices.size();
     a += 3 * mesh.albedo.size();
@@ -314,7 +316,8 @@ NB_MODULE(_penumbra, m) {
       .def(nb::init<>())
       .def(nb::init<const Scene&>(), "other"_a, "A copy of another scene.")
       .def("__copy__", [](const Scene& s) { return Scene(s); })
-      .def("__deepcopy__", [](const Scene& s, nb::handle) { return Scene(s); }, "memo"_a)
+      .def(
+          "__deepcopy__", [](const Scene& s, nb::handle) { return Scene(s); }, "memo"_a)
       .def_rw("meshes", &Scene::meshes)
       .def_rw("cameras", &Scene::cameras)
       .def_rw("lights", &Scene::lights)
@@ -340,9 +343,8 @@ NB_MODULE(_penumbra, m) {
         "the shadow settings (the fit depends on them), as the tool does after its options.");
   m.def("framed_scene", &framed_scene, "mesh"_a, "width"_a = 256, "height"_a = 256);
   m.def(
-      "save_png", [](nb::handle image, const std::string& path) {
-        save_png(image_in(image, "image"), path);
-      },
+      "save_png",
+      [](nb::handle image, const std::string& path) { save_png(image_in(image, "image"), path); },
       "image"_a, "path"_a, "Writes an (H, W) or (H, W, C) float array, clamped to [0, 1].");
 
   nb::class_<DeviceInfo>(m, "DeviceInfo")

@@ -25,41 +25,16 @@ clang_tidy=${CLANG_TIDY:-clang-tidy-14}
 max_file_lines=500
 allow=.lint-allow
 
-# TEMPORARY: files that others are editing now and that are not yet in the style of
-# .clang-format; they are formatted, and their clang-tidy findings fixed, in one pass once
-# those edits are in, and then this list goes. Neither the format check nor clang-tidy's
-# findings in these files (as main files) count until then.
-NOT_YET_FORMATTED=(
-  apps/common.cpp
-  apps/render.cpp
-  host/include/penumbra/scene.hpp
-  host/src/memory.cpp
-  host/src/ops/matmul.cpp
-  host/src/ops/shadow.cpp
-  host/src/renderer.cpp
-  host/src/scene.cpp
-  host/src/tuning/stages.hpp
-  host/src/tuning/tuner.cpp
-  host/src/tuning/tuning.cpp
-  python/module.cpp
-)
-
 # The C++ sources, one per line (find, not git: CI may run on a tree without .git).
 sources() {
   find host apps tests bench python examples -type f \( -name '*.cpp' -o -name '*.hpp' \
     -o -name '*.h' \) | LC_ALL=C sort
 }
 
-# sources() without NOT_YET_FORMATTED.
-formatted_sources() {
-  sources | grep -vxF -f <(printf '%s\n' "${NOT_YET_FORMATTED[@]}")
-}
-
 format() {
   local files
-  mapfile -t files < <(formatted_sources)
-  echo "lint: format: ${#files[@]} files ($("$clang_format" --version | grep -o 'version [0-9.]*'))" \
-       "— ${#NOT_YET_FORMATTED[@]} not yet formatted"
+  mapfile -t files < <(sources)
+  echo "lint: format: ${#files[@]} files ($("$clang_format" --version | grep -o 'version [0-9.]*'))"
   "$clang_format" --dry-run -Werror "${files[@]}"
 }
 
@@ -88,7 +63,7 @@ for e in json.load(open(sys.argv[1])):
         print(rel)
 PY
   local units
-  units=$(grep -vxF -f <(printf '%s\n' "${NOT_YET_FORMATTED[@]}") "$tmp/units")
+  units=$(cat "$tmp/units")
   echo "lint: tidy: $(wc -l <<<"$units") translation units, $jobs at a time" \
        "($("$clang_tidy" --version | grep -o 'version [0-9.]*'))"
   local start=$SECONDS
@@ -97,7 +72,7 @@ PY
     '"$1" -p "$2" --quiet --warnings-as-errors="*" "$3" >"$4/$(echo "$3" | tr / _).log" 2>&1 || true' \
     _ "$clang_tidy" "$build" {} "$tmp" <<<"$units"
   echo "lint: tidy: $((SECONDS - start)) s"
-  cat "$tmp"/*.log | LINT_PENDING=$(printf '%s\n' "${NOT_YET_FORMATTED[@]}") LINT_UNITS=$units \
+  cat "$tmp"/*.log | LINT_UNITS=$units \
     python3 scripts/lint_findings.py "$root" "$allow" tidy
 }
 

@@ -1,10 +1,10 @@
 // The device memory a render (and its backward) needs, estimated before anything is allocated
 // (renderer.hpp: estimate_device_memory). It follows the buffers of ops/: per view the
 // transformed vertices and face boxes, per pixel the counts, offsets, colour, depth and
-// auxiliary sums, and per fragment the records of raster.cpp — for 1.25 fragments per pixel (1.5 per texel of a map): how
-// many there are is known only once they are counted, and then checked again —; per light with
-// shadows its map view, the penumbra maps of soft shadows, the batches of the paper model's exact
-// hard-shadow lookups (at most ~96 MiB each, fewer for fewer fragments).
+// auxiliary sums, and per fragment the records of raster.cpp — for 1.25 fragments per pixel (1.5
+// per texel of a map): how many there are is known only once they are counted, and then checked
+// again —; per light with shadows its map view, the penumbra maps of soft shadows, the batches of
+// the paper model's exact hard-shadow lookups (at most ~96 MiB each, fewer for fewer fragments).
 #include <algorithm>
 #include <cstddef>
 
@@ -14,7 +14,7 @@ namespace penumbra {
 namespace {
 
 struct Sizes {
-  size_t rs;          // bytes of a real
+  size_t rs;  // bytes of a real
   size_t nv = 0, nf = 0;
 };
 
@@ -31,7 +31,7 @@ size_t fragments(size_t pixels, double per_pixel) { return size_t(double(pixels)
 // `per_pixel`: fragments per pixel (kFragmentsPerPixel or kFragmentsPerTexel).
 size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, double per_pixel) {
   const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1);  // counts, offsets,
-                                                                          // runs, aux, image, depth
+                                                                        // runs, aux, image, depth
   // face, fragment, shading (1 + lights), two light records (lights)
   size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + 3 * lights);
   size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
@@ -60,7 +60,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   z.rs = precision == Precision::Double ? 8 : 4;
   for (const Mesh& m : scene.meshes) z.nv += m.vertices.size(), z.nf += m.faces.size();
   size_t bytes = z.nv * 3 * 4 * z.rs + z.nf * (16 * z.rs + 48);  // geometry (renderer.cpp)
-  if (backward) bytes += z.nv * 20 * z.rs;                         // vertex and frame gradients
+  if (backward) bytes += z.nv * 20 * z.rs;                       // vertex and frame gradients
   const RenderParams& p = scene.params;
   const size_t lights = scene.lights.size();
   for (const Camera& c : scene.cameras)
@@ -77,10 +77,10 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
         p.shadow_model == ShadowModel::Paper) {
       size_t most = 0;  // the batches live one camera at a time
       for (const Camera& c : scene.cameras)
-        most = std::max(most, exact_batch_bytes(z, size_t(p.shadow_map_size),
-                                                fragments(size_t(c.width) * size_t(c.height),
-                                                          kFragmentsPerPixel),
-                                                backward));
+        most = std::max(
+            most, exact_batch_bytes(
+                      z, size_t(p.shadow_map_size),
+                      fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel), backward));
       bytes += most;
     }
   }

@@ -196,8 +196,8 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
   P[P_NLIGHTS] = double(s.lights.size());
   const bool accurate = s.params.shadow_model == ShadowModel::Accurate;
   P[P_SHADOW_MODEL] = accurate ? 1 : 0;
-  P[P_RECEIVER_PLANE] = s.params.shadows == Shadows::Soft ||
-                        (accurate && s.params.shadows == Shadows::Hard);
+  P[P_RECEIVER_PLANE] =
+      s.params.shadows == Shadows::Soft || (accurate && s.params.shadows == Shadows::Hard);
   put3(P, P_AMBIENT, s.ambient);
   put3(P, P_BACKGROUND, s.background);
   for (size_t i = 0; i < s.lights.size(); ++i) {
@@ -218,9 +218,8 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
 std::vector<double> light_view_params(const Scene& s, size_t i) {
   const RenderParams& r = s.params;
   const LightFrustum& f = s.lights[i].frustum;
-  std::vector<double> P =
-      base_params(r, light_pass_sigma(r), light_pass_gamma(r), f.near, f.far,
-                  light_frame(s.lights[i]));
+  std::vector<double> P = base_params(r, light_pass_sigma(r), light_pass_gamma(r), f.near, f.far,
+                                      light_frame(s.lights[i]));
   P[P_SHADOWS] = 0;
   P[P_LIGHT_SIZE] = s.lights[i].size;
   return P;
@@ -288,11 +287,11 @@ Scene scale_scene(const Scene& scene, double k) {
 struct Renderer::Impl {
   Context& ctx;
   Precision precision;
-  bool automatic;             // choose the tuning per render from the database
+  bool automatic;  // choose the tuning per render from the database
   TuningDatabase database;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
-  Scene scene;  // as rendered, light frusta fitted, lengths multiplied by `norm`
+  Scene scene;      // as rendered, light frusta fitted, lengths multiplied by `norm`
   double norm = 1;  // the normalisation (normalisation()): device lengths = world lengths · norm
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
@@ -361,8 +360,7 @@ struct Renderer::Impl {
       for (int vtx = 0; vtx < p.nv; ++vtx)
         for (int i = 0; i < 16; ++i) (*gframe)[i] += gf_host[size_t(vtx) * 16 + i];
     }
-    return detail::download_reals(ctx, precision, fg.light,
-                                  size_t(p.nf) * (6 * v.nlights + 1) * 4);
+    return detail::download_reals(ctx, precision, fg.light, size_t(p.nf) * (6 * v.nlights + 1) * 4);
   }
 };
 
@@ -458,8 +456,8 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   for (size_t c = 0; c < s.cameras.size(); ++c) {
     const Camera& cam = s.cameras[c];
     ViewState& v = m.views[c];
-    m.begin_pass("render", "view", int(c), int(s.cameras.size()),
-                 int(m.light_views.size() + c), passes);
+    m.begin_pass("render", "view", int(c), int(s.cameras.size()), int(m.light_views.size() + c),
+                 passes);
     m.stage("raster");
     m.view_P.push_back(view_params(s, cam));
     m.render_view(v, cam.width, cam.height, nl, m.view_P.back());
@@ -527,9 +525,9 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     same = view_params(fitted, fitted.cameras[c]) == m.view_P[c];
   if (!same)
     throw Error("backward: the scene differs from the one last rendered; call render() first");
-  detail::check_memory(ctx, estimate_device_memory(m.scene, m.precision, true),
-                       "the backward pass of the scene (" + std::to_string(m.packed.nf) +
-                           " faces)");
+  detail::check_memory(
+      ctx, estimate_device_memory(m.scene, m.precision, true),
+      "the backward pass of the scene (" + std::to_string(m.packed.nf) + " faces)");
   if (grads.size() != scene.cameras.size())
     throw Error("backward: got gradients for " + std::to_string(grads.size()) +
                 " camera(s), the scene has " + std::to_string(scene.cameras.size()));
@@ -573,7 +571,8 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     const size_t npix = size_t(v.W) * v.H;
     std::vector<double> gimage(npix * 4, 0.0);
     for (size_t i = 0; i < npix; ++i) {
-      for (int k = 0; k < 3 && !g.color.data.empty(); ++k) gimage[i * 4 + k] = g.color.data[i * 3 + k];
+      for (int k = 0; k < 3 && !g.color.data.empty(); ++k)
+        gimage[i * 4 + k] = g.color.data[i * 3 + k];
       if (!g.silhouette.data.empty()) gimage[i * 4 + 3] = g.silhouette.data[i];
     }
     auto gimage_buf = detail::upload_reals(ctx, m.precision, gimage);
@@ -585,11 +584,11 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     detail::raster_resolve_backward(m.kernels, v, gimage_buf, gdepth_buf);
     for (size_t l = 0; l < m.light_views.size(); ++l) {
       m.stage("shadow lookups");
-      auto gm = accurate ? detail::pcf_backward(m.kernels, s.params,
-                                                blocker_search_sigma(s.params, s.lights[l]),
-                                                v, int(l), m.light_views[l], &gsize[l])
-                         : detail::shadow_backward(m.kernels, s.params, v, int(l),
-                                                   m.light_views[l]);
+      auto gm = accurate
+                    ? detail::pcf_backward(m.kernels, s.params,
+                                           blocker_search_sigma(s.params, s.lights[l]), v, int(l),
+                                           m.light_views[l], &gsize[l])
+                    : detail::shadow_backward(m.kernels, s.params, v, int(l), m.light_views[l]);
       accumulate(gmaps[l], gm.S);
       if (gm.P()) accumulate(gpens[l], gm.P);
     }
@@ -609,7 +608,8 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     if (s.params.shadows == Shadows::Soft && !accurate) {
       m.stage("penumbra map");
       gpen = detail::upload_reals(ctx, m.precision, gpens[l]);
-      accumulate(gmaps[l], detail::penumbra_backward_texels(m.kernels, m.geometry, lv, gpen, &gsize[l]));
+      accumulate(gmaps[l],
+                 detail::penumbra_backward_texels(m.kernels, m.geometry, lv, gpen, &gsize[l]));
     }
     m.stage("shadow map");
     auto gimage_buf = detail::zero_reals(ctx, m.precision, ntex * 4);
@@ -642,16 +642,17 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     // Frame gradients from the camera passes (fragments projected into the map) and from the
     // light's own pass (vertices projected into the map).
     const size_t fo = size_t(2 * nl + 1 + 4 * l) * 4;
-    glm::dvec3 ge = vec(glight, fo) + vec(gframe[l], 0), gf = vec(glight, fo + 4) + vec(gframe[l], 4),
+    glm::dvec3 ge = vec(glight, fo) + vec(gframe[l], 0),
+               gf = vec(glight, fo + 4) + vec(gframe[l], 4),
                gr = vec(glight, fo + 8) + vec(gframe[l], 8),
                gu = vec(glight, fo + 12) + vec(gframe[l], 12);
-    glm::dvec3 gpos = vec(glight, size_t(8 * l));
+    glm::dvec3 gpos = vec(glight, 8 * size_t(l));
     if (shadows) gpos += light_frame_backward(s.lights[l], ge, gf, gr, gu);
     out.light_position.push_back(gpos);
-    out.light_color.push_back(vec(glight, size_t(8 * l + 4)));
+    out.light_color.push_back(vec(glight, 8 * size_t(l) + 4));
     out.light_size.push_back(gsize[l]);
   }
-  out.ambient = vec(glight, size_t(8 * nl));
+  out.ambient = vec(glight, 8 * size_t(nl));
   if (m.norm != 1) {  // d/d(world length) = norm · d/d(device length)
     for (auto& mesh : out.vertices)
       for (glm::dvec3& g : mesh) g *= m.norm;

@@ -27,8 +27,7 @@ std::string vec(const glm::dvec3& v) {
 }
 
 std::string ivec(const glm::ivec3& v) {
-  return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) +
-         ")";
+  return "(" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) + ")";
 }
 
 bool finite(const glm::dvec3& v) {
@@ -87,8 +86,7 @@ void validate_mesh(const Mesh& mesh, const std::string& label) {
          (per_vertex ? "per-vertex" : "per-face") + " albedo)");
   for (size_t i = 0; i < mesh.albedo.size(); ++i) {
     const glm::dvec3& a = mesh.albedo[i];
-    if (!finite(a))
-      fail(label + ": albedo " + std::to_string(i) + " is non-finite " + vec(a));
+    if (!finite(a)) fail(label + ": albedo " + std::to_string(i) + " is non-finite " + vec(a));
     if (any_negative(a)) fail(label + ": albedo " + std::to_string(i) + " is negative " + vec(a));
   }
 }
@@ -114,8 +112,7 @@ void validate_camera(const Camera& c, const std::string& label) {
   if (!(c.near > 0) || !std::isfinite(c.near))
     fail(label + ": near " + num(c.near) + " must be positive and finite");
   if (!(c.far > c.near) || !std::isfinite(c.far))
-    fail(label + ": far " + num(c.far) + " must be finite and greater than near " +
-         num(c.near));
+    fail(label + ": far " + num(c.far) + " must be finite and greater than near " + num(c.near));
   const glm::dvec3 dir = c.target - c.eye;
   const double dir_len = glm::length(dir);
   if (!(dir_len > 0)) fail(label + ": eye and target are the same point " + vec(c.eye));
@@ -123,8 +120,7 @@ void validate_camera(const Camera& c, const std::string& label) {
   if (!(up_len > 0)) fail(label + ": up vector is zero");
   const double sin_angle = glm::length(glm::cross(dir / dir_len, c.up / up_len));
   if (!(sin_angle > 1e-9))
-    fail(label + ": up " + vec(c.up) + " is parallel to the view direction " +
-         vec(dir / dir_len));
+    fail(label + ": up " + vec(c.up) + " is parallel to the view direction " + vec(dir / dir_len));
 }
 
 void validate_light(const Light& l, const std::string& label) {
@@ -163,8 +159,7 @@ void check_open_unit(const char* name, double v) {
 
 void check_positive(const char* name, double v) {
   if (!(v > 0) || !std::isfinite(v))
-    fail(std::string("render parameter ") + name + " = " + num(v) +
-         " must be positive and finite");
+    fail(std::string("render parameter ") + name + " = " + num(v) + " must be positive and finite");
 }
 
 // The one place that rejects combinations of the independent shadow settings.
@@ -174,13 +169,15 @@ void check_combination(const RenderParams& p) {
       fail("exact backend 'clblast' computes the exact sum; it needs sampling 'exact', not '" +
            word(p.sampling) + "'");
     if (p.shadows == Shadows::Soft)
-      fail("soft shadows sum with penumbra's kernels; their sum does not factor into matrix "
-           "products (exact backend 'clblast', sampling 'gemm'): use exact backend 'kernels' "
-           "or 'auto'");
+      fail(
+          "soft shadows sum with penumbra's kernels; their sum does not factor into matrix "
+          "products (exact backend 'clblast', sampling 'gemm'): use exact backend 'kernels' "
+          "or 'auto'");
     if (p.shadows != Shadows::None && p.shadow_model == ShadowModel::Accurate)
-      fail("the accurate shadow model compares, then filters; its sum does not factor into "
-           "matrix products (exact backend 'clblast', sampling 'gemm'): use exact backend "
-           "'kernels' or 'auto', or shadow model 'paper'");
+      fail(
+          "the accurate shadow model compares, then filters; its sum does not factor into "
+          "matrix products (exact backend 'clblast', sampling 'gemm'): use exact backend "
+          "'kernels' or 'auto', or shadow model 'paper'");
   }
 }
 
@@ -222,7 +219,8 @@ const std::vector<std::pair<Sampling, std::string>>& enum_words<Sampling>() {
 template <>
 const std::vector<std::pair<ExactBackend, std::string>>& enum_words<ExactBackend>() {
   static const std::vector<std::pair<ExactBackend, std::string>> words{
-      {ExactBackend::Auto, "auto"}, {ExactBackend::Kernels, "kernels"},
+      {ExactBackend::Auto, "auto"},
+      {ExactBackend::Kernels, "kernels"},
       {ExactBackend::CLBlast, "clblast"}};
   return words;
 }
@@ -296,7 +294,8 @@ double shadow_sigma_s(const RenderParams& p) {
   return p.sigma_s ? *p.sigma_s : p.shadow_model == ShadowModel::Paper ? 2.0 : 0.5;
 }
 double shadow_gamma_s(const RenderParams& p) {
-  return p.gamma_s ? *p.gamma_s : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.02 : 0.004);
+  return p.gamma_s ? *p.gamma_s
+                   : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.02 : 0.004);
 }
 double shadow_beta(const RenderParams& p) {
   return p.beta ? *p.beta : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.05 : 0.01);

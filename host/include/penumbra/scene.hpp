@@ -14,8 +14,8 @@ enum class AlbedoMode { PerVertex, PerFace };
 struct Mesh {
   std::string name;
   std::vector<glm::dvec3> vertices;
-  std::vector<glm::ivec3> faces;      // indices into vertices, counter-clockwise
-  std::vector<glm::dvec3> albedo;     // one per vertex or one per face (see albedo_mode)
+  std::vector<glm::ivec3> faces;   // indices into vertices, counter-clockwise
+  std::vector<glm::dvec3> albedo;  // one per vertex or one per face (see albedo_mode)
   AlbedoMode albedo_mode = AlbedoMode::PerVertex;
 };
 
@@ -24,8 +24,8 @@ enum class Projection { Perspective, Orthographic };
 struct Camera {
   glm::dvec3 eye{0, 0, 5}, target{0, 0, 0}, up{0, 1, 0};
   Projection projection = Projection::Perspective;
-  double fov_deg = 40.0;      // vertical field of view (perspective)
-  double half_height = 1.0;   // half the visible height in world units (orthographic)
+  double fov_deg = 40.0;     // vertical field of view (perspective)
+  double half_height = 1.0;  // half the visible height in world units (orthographic)
   double near = 0.1, far = 100.0;
   int width = 256, height = 256;
 };
@@ -115,16 +115,16 @@ std::string sampling_word_choices();
 
 // SPEC §7, names as in its table.
 struct RenderParams {
-  double sigma = 1e-5;       // coverage sharpness σ (screen units²)
-  double gamma = 1e-4;       // aggregation sharpness γ
-  double eps = 1e-3;         // background depth ε of the aggregation
-  double dist_eps = 1e-4;    // coverage cut-off ε_D
+  double sigma = 1e-5;     // coverage sharpness σ (screen units²)
+  double gamma = 1e-4;     // aggregation sharpness γ
+  double eps = 1e-3;       // background depth ε of the aggregation
+  double dist_eps = 1e-4;  // coverage cut-off ε_D
   // σ_s, γ_s and β: unset, each takes its shadow model's default (shadow_sigma_s, ...).
   std::optional<double> sigma_s;  // shadow-map Gaussian variance (texel²)
-  double lambda_eps = 1e-3;  // truncation threshold ε_λ
+  double lambda_eps = 1e-3;       // truncation threshold ε_λ
   std::optional<double> gamma_s;  // depth-compare softness γ_s (depth units)
   std::optional<double> beta;     // depth bias β (depth units)
-  double gamma_p = 10.0;     // penumbra soft-minimum sharpness γ_P
+  double gamma_p = 10.0;          // penumbra soft-minimum sharpness γ_P
   bool cull_backfaces = false;
   Shadows shadows = Shadows::None;
   Sampling sampling = Sampling::Truncated;

@@ -19,16 +19,26 @@ using ClblastParams = std::unordered_map<std::string, size_t>;
 std::string status_name(clblast::StatusCode s) {
   using S = clblast::StatusCode;
   switch (s) {
-    case S::kOpenCLBuildProgramFailure: return "kOpenCLBuildProgramFailure";
-    case S::kInvalidLocalThreadsTotal: return "kInvalidLocalThreadsTotal";
-    case S::kInvalidLocalThreadsDim: return "kInvalidLocalThreadsDim";
-    case S::kInvalidOverrideKernel: return "kInvalidOverrideKernel";
-    case S::kMissingOverrideParameter: return "kMissingOverrideParameter";
-    case S::kInvalidLocalMemUsage: return "kInvalidLocalMemUsage";
-    case S::kNoDoublePrecision: return "kNoDoublePrecision";
-    case S::kDatabaseError: return "kDatabaseError";
-    case S::kUnexpectedError: return "kUnexpectedError";
-    default: return "status " + std::to_string(int(s));
+    case S::kOpenCLBuildProgramFailure:
+      return "kOpenCLBuildProgramFailure";
+    case S::kInvalidLocalThreadsTotal:
+      return "kInvalidLocalThreadsTotal";
+    case S::kInvalidLocalThreadsDim:
+      return "kInvalidLocalThreadsDim";
+    case S::kInvalidOverrideKernel:
+      return "kInvalidOverrideKernel";
+    case S::kMissingOverrideParameter:
+      return "kMissingOverrideParameter";
+    case S::kInvalidLocalMemUsage:
+      return "kInvalidLocalMemUsage";
+    case S::kNoDoublePrecision:
+      return "kNoDoublePrecision";
+    case S::kDatabaseError:
+      return "kDatabaseError";
+    case S::kUnexpectedError:
+      return "kUnexpectedError";
+    default:
+      return "status " + std::to_string(int(s));
   }
 }
 
@@ -44,7 +54,7 @@ void apply_clblast_parameters(Kernels& k) {
   static std::map<std::tuple<cl_device_id, Precision, std::string>, Applied> applied;
 
   const ExactSumTuning& e = k.tuning().exact;
-  const cl_device_id device = k.ctx().info().device();
+  cl_device_id device = k.ctx().info().device();
   const auto precision = k.precision() == Precision::Double ? clblast::Precision::kDouble
                                                             : clblast::Precision::kSingle;
   auto apply = [&](const char* kernel, const ClblastParams* wanted) {
@@ -78,9 +88,9 @@ void apply_clblast_parameters(Kernels& k) {
   apply("GemmRoutine", e.min_indirect_size > 0 ? &routine : nullptr);
 }
 
-void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
-                  const cl::Buffer& A, size_t lda, const cl::Buffer& B, size_t ldb, double beta,
-                  cl::Buffer& C, size_t ldc) {
+void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk, const cl::Buffer& A,
+                  size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
+                  size_t ldc) {
   apply_clblast_parameters(k);
   // CLBlast computes β·C even for β = 0: C must not hold NaN from old memory.
   cl_command_queue q = k.ctx().queue()();
@@ -89,8 +99,8 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk,
       k.precision() == Precision::Double
           ? clblast::Gemm<double>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0, A(), 0,
                                   lda, B(), 0, ldb, beta, C(), 0, ldc, &q)
-          : clblast::Gemm<float>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0f, A(),
-                                 0, lda, B(), 0, ldb, float(beta), C(), 0, ldc, &q);
+          : clblast::Gemm<float>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0f, A(), 0,
+                                 lda, B(), 0, ldb, float(beta), C(), 0, ldc, &q);
   if (status != clblast::StatusCode::kSuccess)
     throw Error("CLBlast GEMM failed (" + status_name(status) + ")");
 }
@@ -117,10 +127,10 @@ void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const c
   auto& mm = bind_args(
       k, MatmulArgs{name, int(m), int(n), int(kk), A, int(lda), B, int(ldb), beta, C, int(ldc)});
   const size_t rows_per_item = size_t(k.tuning().exact.row_block);
-  launch(k.ctx(), mm,
-         cl::NDRange((n + cols_per_item - 1) / cols_per_item,
-                     (m + rows_per_item - 1) / rows_per_item),
-         cl::NDRange(8, 8));  // no barriers: the group size only sets scheduling
+  launch(
+      k.ctx(), mm,
+      cl::NDRange((n + cols_per_item - 1) / cols_per_item, (m + rows_per_item - 1) / rows_per_item),
+      cl::NDRange(8, 8));  // no barriers: the group size only sets scheduling
 }
 
 }  // namespace

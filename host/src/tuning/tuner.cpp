@@ -33,8 +33,8 @@ Trial time_candidate(Context& context, const Scene& scene, const Tuning& tuning,
     const auto t0 = std::chrono::steady_clock::now();
     renderer.render(scene);
     renderer.backward(scene, grads);
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                     .count());
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   std::sort(ms.begin(), ms.end());
   trial.median_ms = ms[ms.size() / 2];
@@ -45,8 +45,8 @@ Trial time_candidate(Context& context, const Scene& scene, const Tuning& tuning,
 double difference(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
   double worst = 0;
   for (size_t v = 0; v < a.size(); ++v)
-    for (auto [x, y] : {std::pair{&a[v].color, &b[v].color},
-                        std::pair{&a[v].silhouette, &b[v].silhouette}})
+    for (auto [x, y] :
+         {std::pair{&a[v].color, &b[v].color}, std::pair{&a[v].silhouette, &b[v].silhouette}})
       for (size_t i = 0; i < x->data.size(); ++i)
         worst = std::max(worst, std::abs(x->data[i] - y->data[i]));
   return worst;
@@ -54,7 +54,8 @@ double difference(const std::vector<RenderOutput>& a, const std::vector<RenderOu
 
 std::string describe(const Tuning& t, const std::string& stage) {
   std::ostringstream s;
-  if (stage == "raster") s << "tile " << t.raster.tile << ", " << t.raster.pixels_per_item << " px/item";
+  if (stage == "raster")
+    s << "tile " << t.raster.tile << ", " << t.raster.pixels_per_item << " px/item";
   if (stage == "exact" && !t.exact.clblast)
     s << "matmul vw " << t.exact.vector_width << ", rb " << t.exact.row_block;
   if (stage == "exact" && t.exact.clblast)
@@ -167,7 +168,8 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
     scene.params.sampling = stage.sampling;
     scene.params.shadow_model = ShadowModel::Paper;  // the products and the penumbra map are its
     if (options.quick) {
-      for (Camera& c : scene.cameras) c.width = std::min(c.width, 128), c.height = std::min(c.height, 128);
+      for (Camera& c : scene.cameras)
+        c.width = std::min(c.width, 128), c.height = std::min(c.height, 128);
       scene.params.shadow_map_size = std::min(scene.params.shadow_map_size, 128);
     }
     refit_light_frusta(scene);

@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "io/text.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
-#include "io/text.hpp"
 #include "penumbra/scene.hpp"
 
 namespace penumbra {
@@ -89,10 +89,10 @@ void warn(const std::string& message) {
 const std::vector<XgemmParameters::Field>& XgemmParameters::fields() {
   using X = XgemmParameters;
   static const std::vector<Field> all = {
-      {"GEMMK", &X::GEMMK}, {"KREG", &X::KREG},   {"KWG", &X::KWG},     {"KWI", &X::KWI},
-      {"MDIMA", &X::MDIMA}, {"MDIMC", &X::MDIMC}, {"MWG", &X::MWG},     {"NDIMB", &X::NDIMB},
-      {"NDIMC", &X::NDIMC}, {"NWG", &X::NWG},     {"SA", &X::SA},       {"SB", &X::SB},
-      {"STRM", &X::STRM},   {"STRN", &X::STRN},   {"VWM", &X::VWM},     {"VWN", &X::VWN}};
+      {"GEMMK", &X::GEMMK}, {"KREG", &X::KREG},   {"KWG", &X::KWG}, {"KWI", &X::KWI},
+      {"MDIMA", &X::MDIMA}, {"MDIMC", &X::MDIMC}, {"MWG", &X::MWG}, {"NDIMB", &X::NDIMB},
+      {"NDIMC", &X::NDIMC}, {"NWG", &X::NWG},     {"SA", &X::SA},   {"SB", &X::SB},
+      {"STRM", &X::STRM},   {"STRN", &X::STRN},   {"VWM", &X::VWM}, {"VWN", &X::VWN}};
   return all;
 }
 
@@ -103,8 +103,8 @@ bool XgemmParameters::operator==(const XgemmParameters& o) const {
 
 std::string XgemmParameters::describe() const {
   std::ostringstream s;
-  s << "MWG " << MWG << " NWG " << NWG << " KWG " << KWG << " MDIMC " << MDIMC << " NDIMC "
-    << NDIMC << " VWM " << VWM << " VWN " << VWN << " SA " << SA << " SB " << SB;
+  s << "MWG " << MWG << " NWG " << NWG << " KWG " << KWG << " MDIMC " << MDIMC << " NDIMC " << NDIMC
+    << " VWM " << VWM << " VWN " << VWN << " SA " << SA << " SB " << SB;
   if (GEMMK) s << " GEMMK 1 KREG " << KREG;
   return s.str();
 }
@@ -179,7 +179,8 @@ void validate(const Tuning& t, const DeviceInfo& device) {
                 " must be 0 (CLBlast's default) or positive");
   if (t.exact.xgemm) validate(*t.exact.xgemm, device);
   if (t.penumbra.tile < 1 || t.penumbra.tile > 256)
-    throw Error("penumbra tuning: tile " + std::to_string(t.penumbra.tile) + " must be in 1 to 256");
+    throw Error("penumbra tuning: tile " + std::to_string(t.penumbra.tile) +
+                " must be in 1 to 256");
 }
 
 WorkloadStats workload_stats(const Scene& scene) {
@@ -189,8 +190,8 @@ WorkloadStats workload_stats(const Scene& scene) {
   const Camera& c = scene.cameras.front();
   w.width = c.width;
   w.height = c.height;
-  w.cutoff_pixels = std::sqrt(scene.params.sigma * std::log(1 / scene.params.dist_eps - 1)) *
-                    c.height / 2;
+  w.cutoff_pixels =
+      std::sqrt(scene.params.sigma * std::log(1 / scene.params.dist_eps - 1)) * c.height / 2;
   // Mean projected area: project the vertices as the camera does (faces behind it skipped).
   const glm::dvec3 f = glm::normalize(c.target - c.eye), r = glm::normalize(glm::cross(f, c.up)),
                    u = glm::cross(r, f);
@@ -242,9 +243,7 @@ ExactBackend exact_backend_in_force(const RenderParams& p, const Tuning& tuning)
 }
 
 std::string TuningDatabase::device_key(const DeviceInfo& d) { return d.name; }
-std::string TuningDatabase::class_key(const DeviceInfo& d) {
-  return d.vendor + "/" + type_key(d);
-}
+std::string TuningDatabase::class_key(const DeviceInfo& d) { return d.vendor + "/" + type_key(d); }
 
 std::string TuningDatabase::user_path() {
   const char* xdg = std::getenv("XDG_CACHE_HOME");
@@ -258,9 +257,12 @@ void TuningDatabase::merge_json(const std::string& text, const std::string& orig
     const json doc = parse_json(text);
     if (!doc.is_object() || !doc.contains("entries") || !doc.at("entries").is_object())
       throw std::runtime_error("no \"entries\" object");
-    for (const auto& [key, value] : doc.at("entries").items()) {
+    for (const auto& item : doc.at("entries").items()) {
+      const std::string& key = item.key();
+      const auto& value = item.value();
       Tuning t;
-      auto it = std::find_if(entries_.begin(), entries_.end(), [&](auto& e) { return e.first == key; });
+      auto it =
+          std::find_if(entries_.begin(), entries_.end(), [&](auto& e) { return e.first == key; });
       if (it != entries_.end()) t = it->second;
       read_into(value, t);
       t.source = key;
@@ -367,8 +369,8 @@ std::string TuningDatabase::updated_text(const std::string& existing, const std:
       if (!doc.is_object() || !doc.contains("entries") || !doc.at("entries").is_object())
         throw std::runtime_error("no \"entries\" object");
     } catch (const std::exception& e) {
-      throw Error("cannot update the tuning database " + origin + ": " +
-                  printable(e.what(), 200) + "; move it away or name another file with -o");
+      throw Error("cannot update the tuning database " + origin + ": " + printable(e.what(), 200) +
+                  "; move it away or name another file with -o");
     }
   }
   doc["entries"][key] = ordered::parse(to_json(tuning).dump());
