@@ -4,63 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <set>
 
 #include "common/layout.h"
 #include "ops/ops.hpp"
 #include "penumbra/error.hpp"
 #include "tuning/stages.hpp"
+#include "view_params.hpp"
 
 namespace penumbra {
-namespace detail {
-
-const std::map<std::string, std::string>& embedded_kernels();
-
-Kernels::Kernels(Context& ctx, Precision precision, const Tuning& tuning)
-    : ctx_(ctx), precision_(precision), tuning_(tuning) {}
-
-std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
-                            const DeviceInfo& device, const std::string& variant) {
-  std::string o = precision_define(precision);
-  const RasterTuning& r = tuning.raster;
-  if (file == "raster.cl")
-    o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
-         " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
-  if (file == "shadow.cl" || file == "pcf.cl")
-    o += " -DROW=" + std::to_string(shadow_row_width(device));
-  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
-  if (file == "matmul.cl")
-    o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
-         " -DMM_RB=" + std::to_string(tuning.exact.row_block);
-  return o + " " + variant;
-}
-
-std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning) {
-  if (file == "bin.cl") {  // the raster's bins (unless brute force), the penumbra map's, texels
-    std::vector<std::string> v = {bin_define(tuning.penumbra.tile), bin_define(1)};
-    if (!tuning.raster.brute_force) v.push_back(bin_define(tuning.raster.tile));
-    return v;
-  }
-  if (file == "shadow.cl" || file == "pcf.cl") {  // shadow.cl's hard-shadow kernels take none
-    std::vector<std::string> v;
-    if (file == "shadow.cl") v.push_back("");
-    for (const auto& [sampling, word] : enum_words<Sampling>()) v.push_back(exact_define(sampling));
-    return v;
-  }
-  return {""};
-}
-
-Kernels::Entry& Kernels::get(const std::string& file, const std::string& name,
-                             const std::string& variant) {
-  const std::string opts = program_options(file, precision_, tuning_, ctx_.info(), variant);
-  auto key = file + ":" + name + ":" + opts;
-  auto it = kernels_.find(key);
-  if (it != kernels_.end()) return it->second;
-  cl::Program& program = ctx_.program(file, opts);
-  return kernels_.emplace(key, Entry{cl::Kernel(program, name.c_str())}).first->second;
-}
-
-}  // namespace detail
 
 namespace {
 
@@ -95,136 +46,6 @@ Packed pack(const Scene& s) {
   return p;
 }
 
-// A camera's frame: where it is and where it looks (layout.h, FR_*).
-struct Frame {
-  glm::dvec3 eye, fwd, right, up;
-  double scale = 1;
-  bool ortho = false;
-};
-
-Frame make_frame(glm::dvec3 eye, glm::dvec3 fwd, glm::dvec3 up_hint, double scale, bool ortho) {
-  Frame f;
-  f.eye = eye;
-  f.fwd = glm::normalize(fwd);
-  f.right = glm::normalize(glm::cross(f.fwd, up_hint));
-  f.up = glm::cross(f.right, f.fwd);
-  f.scale = scale;
-  f.ortho = ortho;
-  return f;
-}
-
-double tan_half(double fov_deg) { return std::tan(0.5 * fov_deg * 3.14159265358979323846 / 180); }
-
-Frame camera_frame(const Camera& c) {
-  bool ortho = c.projection == Projection::Orthographic;
-  return make_frame(c.eye, c.target - c.eye, c.up, ortho ? c.half_height : tan_half(c.fov_deg),
-                    ortho);
-}
-
-// A point light looks from its position at the frustum's target; a directional light looks
-// along its direction from `distance` before the target.
-Frame light_frame(const Light& L) {
-  const LightFrustum& f = L.frustum;
-  if (L.type == LightType::Point)
-    return make_frame(L.position, f.target - L.position, f.up, tan_half(f.fov_deg), false);
-  glm::dvec3 d = glm::normalize(L.direction);
-  return make_frame(f.target - f.distance * d, d, f.up, f.half_size, true);
-}
-
-// dL/d(light position, or direction) through the light's frame, given dL/d(eye, fwd, right, up).
-glm::dvec3 light_frame_backward(const Light& L, glm::dvec3 g_eye, glm::dvec3 g_fwd,
-                                glm::dvec3 g_right, glm::dvec3 g_up) {
-  const Frame fr = light_frame(L);
-  const LightFrustum& f = L.frustum;
-  // up = right × fwd
-  g_right += glm::cross(fr.fwd, g_up);
-  g_fwd += glm::cross(g_up, fr.right);
-  // right = normalize(w), w = fwd × up_hint
-  glm::dvec3 w = glm::cross(fr.fwd, f.up);
-  glm::dvec3 g_w = (g_right - fr.right * glm::dot(fr.right, g_right)) / glm::length(w);
-  g_fwd += glm::cross(f.up, g_w);
-  if (L.type == LightType::Point) {  // eye = position, fwd = normalize(target − position)
-    glm::dvec3 v = f.target - L.position;
-    return g_eye - (g_fwd - fr.fwd * glm::dot(fr.fwd, g_fwd)) / glm::length(v);
-  }
-  g_fwd -= f.distance * g_eye;  // eye = target − distance·fwd, fwd = normalize(direction)
-  return (g_fwd - fr.fwd * glm::dot(fr.fwd, g_fwd)) / glm::length(L.direction);
-}
-
-void put3(std::vector<double>& P, int at, glm::dvec3 v) {
-  P[at] = v.x;
-  P[at + 1] = v.y;
-  P[at + 2] = v.z;
-}
-
-void put_frame(std::vector<double>& P, int at, const Frame& f) {
-  put3(P, at + FR_EYE, f.eye);
-  put3(P, at + FR_FWD, f.fwd);
-  put3(P, at + FR_RIGHT, f.right);
-  put3(P, at + FR_UP, f.up);
-  P[at + FR_SCALE] = f.scale;
-  P[at + FR_ORTHO] = f.ortho ? 1 : 0;
-}
-
-// Parameters shared by camera and light views.
-std::vector<double> base_params(const RenderParams& r, double sigma, double gamma, double near,
-                                double far, const Frame& frame) {
-  std::vector<double> P(P_SIZE, 0.0);
-  P[P_SIGMA] = sigma;
-  P[P_GAMMA] = gamma;
-  P[P_EPS] = r.eps;
-  P[P_CUTOFF_D2] = sigma * std::log(1.0 / r.dist_eps - 1.0);
-  P[P_NEAR] = near;
-  P[P_FAR] = far;
-  P[P_CULL] = r.cull_backfaces ? 1 : 0;
-  P[P_WEIGHT_LOG] = std::log(1.0 / r.weight_eps);
-  P[P_SHADOWS] = double(int(r.shadows));
-  P[P_SIGMA_S] = shadow_sigma_s(r);
-  P[P_LAMBDA_EPS] = r.lambda_eps;
-  P[P_WINDOW_R2] = 2 * P[P_SIGMA_S] * std::log(1 / r.lambda_eps);  // once here, not per fragment
-  P[P_WINDOW_R] = std::sqrt(P[P_WINDOW_R2]);
-  P[P_GAMMA_S] = shadow_gamma_s(r);
-  P[P_BETA] = shadow_beta(r);
-  P[P_GAMMA_P] = r.gamma_p;
-  put_frame(P, P_FRAME, frame);
-  return P;
-}
-
-std::vector<double> view_params(const Scene& s, const Camera& c) {
-  std::vector<double> P =
-      base_params(s.params, s.params.sigma, s.params.gamma, c.near, c.far, camera_frame(c));
-  P[P_NLIGHTS] = double(s.lights.size());
-  const bool accurate = s.params.shadow_model == ShadowModel::Accurate;
-  P[P_SHADOW_MODEL] = accurate ? 1 : 0;
-  P[P_RECEIVER_PLANE] =
-      s.params.shadows == Shadows::Soft || (accurate && s.params.shadows == Shadows::Hard);
-  put3(P, P_AMBIENT, s.ambient);
-  put3(P, P_BACKGROUND, s.background);
-  for (size_t i = 0; i < s.lights.size(); ++i) {
-    const Light& L = s.lights[i];
-    int at = P_LIGHTS + int(i) * P_LIGHT_STRIDE;
-    put3(P, at + L_POS, L.type == LightType::Point ? L.position : L.direction);
-    P[at + L_POINT] = L.type == LightType::Point ? 1 : 0;
-    put3(P, at + L_COLOR, L.color);
-    P[at + L_SIZE] = L.size;
-    put_frame(P, at + L_FRAME, light_frame(L));
-    P[at + L_MAP_W] = P[at + L_MAP_H] = s.params.shadow_map_size;
-    P[at + L_SEARCH_SIGMA] = blocker_search_sigma(s.params, L);
-  }
-  return P;
-}
-
-// The view of light `i` rendering its shadow map: depth only (no lights, black).
-std::vector<double> light_view_params(const Scene& s, size_t i) {
-  const RenderParams& r = s.params;
-  const LightFrustum& f = s.lights[i].frustum;
-  std::vector<double> P = base_params(r, light_pass_sigma(r), light_pass_gamma(r), f.near, f.far,
-                                      light_frame(s.lights[i]));
-  P[P_SHADOWS] = 0;
-  P[P_LIGHT_SIZE] = s.lights[i].size;
-  return P;
-}
-
 Image channels(const std::vector<double>& rgba, int W, int H, int first, int count) {
   Image img(W, H, count);
   for (size_t i = 0; i < size_t(W) * H; ++i)
@@ -241,48 +62,7 @@ void check_grad_image(const Image& g, int W, int H, int C, const char* what, siz
                 std::to_string(H) + "x" + std::to_string(C));
 }
 
-// The power of two the renderer multiplies a scene's lengths by before packing it for the
-// device: 1 while the bounding radius is within [2^-kNormalisedExponent, 2^kNormalisedExponent]
-// (the scene is packed exactly as given), else 2^-e for the radius's exponent e, which brings
-// the radius into [1, 2). Scenes at 1e±20 would otherwise overflow or underflow float (squared
-// distances, areas) on the device. A power of two scales every length exactly.
-constexpr int kNormalisedExponent = 12;
-double normalisation(const Scene& s) {
-  const double r = bounds(s).radius();
-  if (!(r > 0) || !std::isfinite(r)) return 1;
-  const int e = std::ilogb(r);
-  return std::abs(e) <= kNormalisedExponent ? 1 : std::ldexp(1.0, -e);
-}
-
 }  // namespace
-
-Scene scale_scene(const Scene& scene, double k) {
-  Scene s = scene;
-  for (Mesh& m : s.meshes)
-    for (glm::dvec3& v : m.vertices) v *= k;
-  for (Camera& c : s.cameras) {
-    c.eye *= k;
-    c.target *= k;
-    c.half_height *= k;
-    c.near *= k;
-    c.far *= k;
-  }
-  for (Light& l : s.lights) {
-    l.position *= k;
-    l.size *= k;
-    LightFrustum& f = l.frustum;
-    f.target *= k;
-    f.half_size *= k;
-    f.distance *= k;
-    f.near *= k;
-    f.far *= k;
-  }
-  RenderParams& r = s.params;
-  if (r.gamma_s) *r.gamma_s *= k;
-  if (r.beta) *r.beta *= k;
-  r.depth_unit *= k;
-  return s;
-}
 
 struct Renderer::Impl {
   Context& ctx;
@@ -365,12 +145,6 @@ struct Renderer::Impl {
 };
 
 namespace {
-// A fixed tuning as the renderer uses it: pixels_per_item 0 becomes the device's default.
-Tuning for_device(Tuning t, const DeviceInfo& device) {
-  if (t.raster.pixels_per_item == 0) t.raster.pixels_per_item = device.is_gpu ? 1 : 8;
-  return t;
-}
-
 void check_precision(const Context& context, Precision precision) {
   if (precision == Precision::Double && !context.info().fp64)
     throw Error("device '" + context.info().name + "' has no double precision (cl_khr_fp64)");
@@ -384,7 +158,7 @@ Renderer::Renderer(Context& context, Precision precision) {
 
 Renderer::Renderer(Context& context, Precision precision, const Tuning& tuning) {
   check_precision(context, precision);
-  Tuning t = for_device(tuning, context.info());
+  Tuning t = detail::for_device(tuning, context.info());
   validate(t, context.info());
   impl_ = std::make_unique<Impl>(context, precision, false, t);
 }
@@ -418,7 +192,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   fit_light_frusta(m.scene);  // frusta not given are fitted to this scene and then fixed
   m.frusta.clear();
   for (const Light& l : m.scene.lights) m.frusta.push_back(l.frustum);
-  m.norm = normalisation(m.scene);
+  m.norm = detail::normalisation(m.scene);
   if (m.norm != 1) m.scene = scale_scene(m.scene, m.norm);
   if (m.automatic) m.kernels.set_tuning(m.database.lookup(ctx.info(), workload_stats(scene)));
   const Scene& s = m.scene;
@@ -443,7 +217,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     const int size = s.params.shadow_map_size;
     m.begin_pass("render", "light", int(l), nl, int(l), passes);
     m.stage("shadow map");
-    m.render_view(lv, size, size, 0, light_view_params(s, l));
+    m.render_view(lv, size, size, 0, detail::light_view_params(s, l));
     detail::raster_resolve(m.kernels, lv);
     if (s.params.shadows == Shadows::Soft && !accurate) {
       m.stage("penumbra map");
@@ -459,7 +233,7 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
     m.begin_pass("render", "view", int(c), int(s.cameras.size()), int(m.light_views.size() + c),
                  passes);
     m.stage("raster");
-    m.view_P.push_back(view_params(s, cam));
+    m.view_P.push_back(detail::view_params(s, cam));
     m.render_view(v, cam.width, cam.height, nl, m.view_P.back());
     for (size_t l = 0; l < m.light_views.size(); ++l) {
       m.stage("shadow lookups");
@@ -522,7 +296,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
               fitted.lights.size() == m.scene.lights.size() &&
               fitted.params.shadows == m.scene.params.shadows;
   for (size_t c = 0; same && c < fitted.cameras.size(); ++c)
-    same = view_params(fitted, fitted.cameras[c]) == m.view_P[c];
+    same = detail::view_params(fitted, fitted.cameras[c]) == m.view_P[c];
   if (!same)
     throw Error("backward: the scene differs from the one last rendered; call render() first");
   detail::check_memory(
@@ -647,7 +421,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
                gr = vec(glight, fo + 8) + vec(gframe[l], 8),
                gu = vec(glight, fo + 12) + vec(gframe[l], 12);
     glm::dvec3 gpos = vec(glight, 8 * size_t(l));
-    if (shadows) gpos += light_frame_backward(s.lights[l], ge, gf, gr, gu);
+    if (shadows) gpos += detail::light_frame_backward(s.lights[l], ge, gf, gr, gu);
     out.light_position.push_back(gpos);
     out.light_color.push_back(vec(glight, 8 * size_t(l) + 4));
     out.light_size.push_back(gsize[l]);
@@ -661,48 +435,6 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
       out.light_size[l] *= m.norm;
     }
   }
-  return out;
-}
-
-std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
-  // The tunings a renderer can run with: the database's pick (or the heuristic's), a fixed
-  // default Tuning, and every candidate the tuner tries from either; each raster tuning also
-  // with brute_force.
-  std::vector<Tuning> tunings;
-  for (const Tuning& start : {TuningDatabase::load_default().lookup(device, WorkloadStats{}),
-                              for_device(Tuning{}, device)}) {
-    tunings.push_back(start);
-    for (const detail::TuneStage& stage : detail::tune_stages(device, start, false))
-      tunings.insert(tunings.end(), stage.candidates.begin(), stage.candidates.end());
-  }
-  for (size_t i = 0, n = tunings.size(); i < n; ++i) {
-    Tuning t = tunings[i];
-    t.raster.brute_force = !t.raster.brute_force;
-    tunings.push_back(t);
-  }
-  std::vector<std::string> files;
-  for (const auto& [name, text] : detail::embedded_kernels())
-    if (name.find('/') == std::string::npos && name.size() > 3 &&
-        name.compare(name.size() - 3, 3, ".cl") == 0)
-      files.push_back(name);
-  std::vector<Precision> precisions = {Precision::Float};
-  if (device.fp64) precisions.push_back(Precision::Double);
-  std::set<std::pair<std::string, std::string>> seen;
-  std::vector<KernelVariant> out;
-  for (const std::string& file : files)
-    for (Precision precision : precisions)
-      for (const Tuning& tuning : tunings) {
-        try {
-          validate(tuning, device);
-        } catch (const Error&) {  // not legal on this device: never built there
-          continue;
-        }
-        for (const std::string& variant : detail::program_variants(file, tuning)) {
-          const std::string options = Context::build_options(
-              detail::program_options(file, precision, tuning, device, variant));
-          if (seen.insert({file, options}).second) out.push_back({file, options});
-        }
-      }
   return out;
 }
 

@@ -22,6 +22,13 @@ std::string program_options(const std::string& file, Precision precision, const 
 // Every `variant` the stages build kernels/<file> with under `tuning`.
 std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning);
 
+// A fixed tuning as the renderer uses it: pixels_per_item 0 becomes the device's default
+// (ops/kernels.cpp).
+Tuning for_device(Tuning t, const DeviceInfo& device);
+// The power of two the renderer multiplies a scene's lengths by before packing it: 1 for a
+// scene near unit size (scale.cpp).
+double normalisation(const Scene& s);
+
 // Kernel objects of one precision, built on first use for the current tuning, with the options
 // of program_options. They are bound and fetched by bind_args() (ops/args.hpp).
 class Kernels {

@@ -1,0 +1,111 @@
+// Kernel programs: the -D options each is built with (the one place that decides them), the
+// variants the stages ask for, every variant a device can build (kernel_variants, for the
+// offline SPIR check), and the kernel objects of one precision and tuning (ops.hpp).
+#include <set>
+#include <string>
+#include <vector>
+
+#include "ops/ops.hpp"
+#include "penumbra/error.hpp"
+#include "penumbra/renderer.hpp"
+#include "tuning/stages.hpp"
+
+namespace penumbra {
+namespace detail {
+
+const std::map<std::string, std::string>& embedded_kernels();
+
+Tuning for_device(Tuning t, const DeviceInfo& device) {
+  if (t.raster.pixels_per_item == 0) t.raster.pixels_per_item = device.is_gpu ? 1 : 8;
+  return t;
+}
+
+Kernels::Kernels(Context& ctx, Precision precision, const Tuning& tuning)
+    : ctx_(ctx), precision_(precision), tuning_(tuning) {}
+
+std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
+                            const DeviceInfo& device, const std::string& variant) {
+  std::string o = precision_define(precision);
+  const RasterTuning& r = tuning.raster;
+  if (file == "raster.cl")
+    o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
+         " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
+  if (file == "shadow.cl" || file == "pcf.cl")
+    o += " -DROW=" + std::to_string(shadow_row_width(device));
+  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
+  if (file == "matmul.cl")
+    o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
+         " -DMM_RB=" + std::to_string(tuning.exact.row_block);
+  return o + " " + variant;
+}
+
+std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning) {
+  if (file == "bin.cl") {  // the raster's bins (unless brute force), the penumbra map's, texels
+    std::vector<std::string> v = {bin_define(tuning.penumbra.tile), bin_define(1)};
+    if (!tuning.raster.brute_force) v.push_back(bin_define(tuning.raster.tile));
+    return v;
+  }
+  if (file == "shadow.cl" || file == "pcf.cl") {  // shadow.cl's hard-shadow kernels take none
+    std::vector<std::string> v;
+    if (file == "shadow.cl") v.push_back("");
+    for (const auto& [sampling, word] : enum_words<Sampling>()) v.push_back(exact_define(sampling));
+    return v;
+  }
+  return {""};
+}
+
+Kernels::Entry& Kernels::get(const std::string& file, const std::string& name,
+                             const std::string& variant) {
+  const std::string opts = program_options(file, precision_, tuning_, ctx_.info(), variant);
+  auto key = file + ":" + name + ":" + opts;
+  auto it = kernels_.find(key);
+  if (it != kernels_.end()) return it->second;
+  cl::Program& program = ctx_.program(file, opts);
+  return kernels_.emplace(key, Entry{cl::Kernel(program, name.c_str())}).first->second;
+}
+
+}  // namespace detail
+
+std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
+  // The tunings a renderer can run with: the database's pick (or the heuristic's), a fixed
+  // default Tuning, and every candidate the tuner tries from either; each raster tuning also
+  // with brute_force.
+  std::vector<Tuning> tunings;
+  for (const Tuning& start : {TuningDatabase::load_default().lookup(device, WorkloadStats{}),
+                              detail::for_device(Tuning{}, device)}) {
+    tunings.push_back(start);
+    for (const detail::TuneStage& stage : detail::tune_stages(device, start, false))
+      tunings.insert(tunings.end(), stage.candidates.begin(), stage.candidates.end());
+  }
+  for (size_t i = 0, n = tunings.size(); i < n; ++i) {
+    Tuning t = tunings[i];
+    t.raster.brute_force = !t.raster.brute_force;
+    tunings.push_back(t);
+  }
+  std::vector<std::string> files;
+  for (const auto& [name, text] : detail::embedded_kernels())
+    if (name.find('/') == std::string::npos && name.size() > 3 &&
+        name.compare(name.size() - 3, 3, ".cl") == 0)
+      files.push_back(name);
+  std::vector<Precision> precisions = {Precision::Float};
+  if (device.fp64) precisions.push_back(Precision::Double);
+  std::set<std::pair<std::string, std::string>> seen;
+  std::vector<KernelVariant> out;
+  for (const std::string& file : files)
+    for (Precision precision : precisions)
+      for (const Tuning& tuning : tunings) {
+        try {
+          validate(tuning, device);
+        } catch (const Error&) {  // not legal on this device: never built there
+          continue;
+        }
+        for (const std::string& variant : detail::program_variants(file, tuning)) {
+          const std::string options = Context::build_options(
+              detail::program_options(file, precision, tuning, device, variant));
+          if (seen.insert({file, options}).second) out.push_back({file, options});
+        }
+      }
+  return out;
+}
+
+}  // namespace penumbra
