@@ -42,7 +42,10 @@ int run_gradcheck(const GradcheckArgs& a) {
 
   Context context(a.render.device);
   limit_memory(a.render, context);
+  CallProgress progress("gradcheck");
+  options.progress = [&progress](const RenderProgress& p) { progress.update(p); };
   const GradCheckResult r = gradcheck(context, scene, options);
+  progress.finish();
   if (a.verbose) {
     std::printf("%-24s %15s %15s %10s\n", "entry", "analytic", "numeric", "rel_err");
     for (const GradCheckEntry& e : r.entries) {

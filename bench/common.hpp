@@ -65,8 +65,8 @@ Context& context();
 // `exact`, clblast for `gemm`), so that the two exact-sum paths stay apart whatever the tuning
 // picks for `auto`.
 Renderer& renderer(const Scene& scene);
-// Releases the renderer and the device before exit (PoCL's own exit handlers, such as its
-// POCL_TRACING=cq summary, then find no live objects).
+// Releases the renderer and the device before exit (PoCL's own exit handlers then find no live
+// objects).
 void release_device();
 
 // dL/d(colour) = 1, dL/d(silhouette) = 1, dL/d(depth) = 1/far for every camera: a loss that

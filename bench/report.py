@@ -315,13 +315,16 @@ def copy_comparisons(folder, image_dir):
 
 PROFILE_MODES = [("none", "truncated"), ("hard", "truncated"), ("hard", "exact"),
                  ("hard", "gemm"), ("soft", "truncated")]
-KERNEL_LINE = re.compile(r"^\s*\d+\)\s+(\S+)\s+(\d+)\s+(\d+)\s+\d+%\s+\d+\s*$")
+# A row of the PENUMBRA_PROFILE=1 table: kernel, device ms, launches.
+KERNEL_LINE = re.compile(r"^\s+([A-Za-z_]\w*)\s+(\d+(?:\.\d+)?)\s+(\d+)\s*$")
 
 
 def stage_of(kernel):
     """Pipeline stage (kernels/<stage>.cl) of a kernel, by name; CLBlast's own kernels apart."""
     if kernel in ("transform_fwd", "transform_bwd", "face_setup"):
         return "transform"
+    if kernel == "clblast_gemm":
+        return "CLBlast"
     for prefix, stage in (("bin_", "bin"), ("raster_", "raster"), ("shadow_", "shadow"),
                           ("exact_", "shadow"), ("soft_", "shadow"), ("matmul_", "matmul"),
                           ("penumbra_", "penumbra")):
@@ -344,7 +347,7 @@ def load_profiles(folder):
         for line in open(path, errors="replace"):
             m = KERNEL_LINE.match(line)
             if m:
-                kernels.append((m.group(1), int(m.group(2)), int(m.group(3))))
+                kernels.append((m.group(1), int(m.group(3)), round(float(m.group(2)) * 1e6)))
             elif line.startswith("exit status"):
                 status = int(line.split()[-1])
         out[(sh, sa)] = {"kernels": kernels, "status": status}
@@ -355,8 +358,9 @@ def profile_section(res, profiles):
     if not profiles:
         return None
     L = ["Device time per kernel for one forward frame of the bundled scene (256², 256² map,",
-         "`build/penumbra render --shadows S --sampling M` with `POCL_TRACING=cq`, PoCL's",
-         "command-queue profiler; its totals are nanoseconds although it labels them *us*).",
+         "`build/penumbra render --shadows S --sampling M` with `PENUMBRA_PROFILE=1`: each",
+         "launch waited for and its device time summed per kernel; CLBlast's GEMM is one row,",
+         "the time of the last kernel of each call, the event CLBlast returns).",
          "The raster kernels serve both the light pass and the camera pass. The CLI runs with",
          "the device's tuning, so on a device whose tuning picks CLBlast for the exact sum",
          "(this one: docs/tuning.md) the exact row profiles CLBlast's GEMM, while the suite's",

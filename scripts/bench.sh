@@ -5,7 +5,7 @@
 #   2. builds penumbra_bench (Release) into build/ (or $PENUMBRA_BUILD_DIR),
 #   3. runs the default suite (a few minutes on two cores) with JSON output in out/bench/,
 #   4. profiles one forward frame per shadow mode with PoCL's command-queue profiler
-#      (POCL_TRACING=cq: device time per kernel) into out/bench/profile_*.txt,
+#      (PENUMBRA_PROFILE=1: device time per kernel) into out/bench/profile_*.txt,
 #   5. times the first render of new processes with the kernel caches cold and warm
 #      (bench/first_call.py) into out/bench/first_call.json,
 #   6. runs bench/report.py, which writes docs/benchmarks.md and docs/images/bench_*.png.
@@ -117,21 +117,17 @@ fi
 
 # --- per-kernel profile --------------------------------------------------------------------
 # One forward frame of the bundled scene (256², 256² map) per mode, rendered by the CLI with
-# PoCL's command-queue profiler on; its summary (device time per kernel, in nanoseconds
-# although PoCL labels the column "us") is printed at exit. The profiler itself crashes now and
-# then (heap corruption inside PoCL 3.1 with POCL_TRACING=cq only); after five failed
-# attempts the exit status is recorded and the report says the profile is unavailable.
+# PENUMBRA_PROFILE=1: the device time per kernel is printed at exit (PoCL's own POCL_TRACING=cq
+# profiler corrupts memory in PoCL 3.1: docs/faults.md). A failed run's exit status is recorded
+# and the report says the profile is unavailable.
 rm -f out/bench/profile_*.txt
 while read -r shadows sampling; do
   f="out/bench/profile_fwd_${shadows}_${sampling}.txt"
-  for attempt in 1 2 3 4 5; do  # PoCL 3.1's profiler crashes now and then; retry
-    status=0
-    POCL_TRACING=cq timeout 600 "$BUILD/penumbra" render -o out/bench/profile.png \
-      --shadows "$shadows" --sampling "$sampling" > "$f" 2>&1 || status=$?
-    [[ $status -eq 0 ]] && break
-  done
+  status=0
+  PENUMBRA_PROFILE=1 timeout 600 "$BUILD/penumbra" render -o out/bench/profile.png \
+    --shadows "$shadows" --sampling "$sampling" > "$f" 2>&1 || status=$?
   echo "exit status $status" >> "$f"
-  echo "bench: profile $shadows/$sampling: exit status $status (attempt $attempt)"
+  echo "bench: profile $shadows/$sampling: exit status $status"
 done <<'MODES'
 none truncated
 hard truncated

@@ -687,6 +687,37 @@ TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
     expect_progress(slow, "render: render view 1/1, shadow lookups ", " s\n");
   else
     std::cout << "the long call took " << seconds << " s: too short to check its progress\n";
+  // gradcheck: a line per tenth of its entries, each naming the entry.
+  ::setenv("PENUMBRA_PROGRESS_AFTER", "0", 1);
+  const RunResult check = run_cli("gradcheck --samples 10" + kSmall, "progress_gradcheck");
+  ::unsetenv("PENUMBRA_PROGRESS_AFTER");
+  EXPECT_EQ(check.exit_code, 0) << show(check);
+  expect_progress(check, "gradcheck: finite differences entry ",
+                  "gradcheck: finite differences entry 1/10, ");
+  EXPECT_NE(check.err.find("entry 10/10, "), std::string::npos) << show(check);
+  EXPECT_EQ(check.out.rfind("gradcheck: checked=10 failed=0", 0), 0u) << show(check);
+}
+
+// ---------------------------------------------------------------------------------------------
+// PoCL 3.1's command-queue profiler (POCL_TRACING=cq) corrupts the heap of any program that
+// launches a few kernels; penumbra turns it off before PoCL reads it.
+
+TEST(FaultsCli, PoclCqTracingIsTurnedOffAndRendersLikeWithout) {
+  const std::string dir = fresh_dir("pocl_cq");
+  for (const char* sampling : {"exact", "gemm"}) {
+    const std::string args = std::string(" --shadow-model paper --sampling ") + sampling;
+    const RunResult plain = run_cli("render -o " + quote(dir + "/plain.png") + args, "cq_plain");
+    ASSERT_EQ(plain.exit_code, 0) << show(plain);
+    ::setenv("POCL_TRACING", "cq", 1);
+    for (int run = 0; run < 4; ++run) {
+      const RunResult r = run_cli("render -o " + quote(dir + "/cq.png") + args, "cq_traced");
+      EXPECT_FALSE(r.signaled) << show(r);
+      EXPECT_EQ(r.exit_code, 0) << show(r);
+      EXPECT_EQ(r.err.rfind("penumbra: warning: POCL_TRACING=cq turned off", 0), 0u) << show(r);
+      EXPECT_EQ(read_text(dir + "/cq.png"), read_text(dir + "/plain.png")) << sampling;
+    }
+    ::unsetenv("POCL_TRACING");
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

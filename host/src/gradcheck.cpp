@@ -394,6 +394,11 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
   const std::vector<Param> params = choose_parameters(work, options.samples, rng);
   Scene perturbed = work;
   for (const Param& p : params) {
+    if (options.progress) {
+      const int done = int(result.entries.size()), count = int(params.size());
+      options.progress({"finite differences", "entry", done + 1, count, p.name.c_str(), 0, 0,
+                        double(done) / count});
+    }
     // Positions step by step·(scene radius), directions by step·|direction|, colours by step.
     double h = step;
     if (p.kind == Param::LightDirection) {

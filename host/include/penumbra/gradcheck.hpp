@@ -56,6 +56,9 @@ struct GradCheckOptions {
   // one sees a jump or a corner the derivative does not, so a small fraction of entries may
   // disagree without the gradient being wrong.
   double max_failure_fraction = 0.05;
+  // Called before each entry's finite difference: call "finite differences", pass "entry",
+  // index/count of the entries, stage = the entry's name; `fraction` the entries done.
+  ProgressObserver progress;
 };
 
 // One compared entry.

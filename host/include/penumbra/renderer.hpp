@@ -66,7 +66,7 @@ std::vector<KernelVariant> kernel_variants(const DeviceInfo& device);
 // 1-based of `parts` (0 of 0 otherwise). `fraction` is how far the call is, 0 to 1, counting
 // each pass alike.
 struct RenderProgress {
-  const char* call = "render";  // "render" or "backward"
+  const char* call = "render";  // "render", "backward" (or "finite differences": gradcheck)
   const char* pass = "view";    // "light" (its shadow-map pass) or "view" (a camera's)
   int index = 1, count = 1;
   const char* stage = "";

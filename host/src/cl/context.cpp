@@ -9,6 +9,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <string>
 
 #include "cl/program_cache.hpp"
 #include "penumbra/error.hpp"
@@ -78,9 +79,27 @@ std::string condense(const std::string& log) {
   return out;
 }
 
+// PoCL 3.1's command-queue profiler (POCL_TRACING=cq) corrupts the heap of any program that
+// launches a few kernels (docs/faults.md: a 20-line reproduction). PoCL reads the variable when
+// the first OpenCL call loads it, so it is turned off before that, with a warning.
+void turn_off_pocl_cq_tracing() {
+  static const bool done = [] {
+    const char* value = std::getenv("POCL_TRACING");
+    if (value == nullptr || std::string(value) != "cq") return true;
+    ::unsetenv("POCL_TRACING");
+    std::fprintf(stderr,
+                 "penumbra: warning: POCL_TRACING=cq turned off: PoCL's command-queue profiler "
+                 "corrupts memory (docs/faults.md); PENUMBRA_PROFILE=1 prints the device time "
+                 "per kernel instead\n");
+    return true;
+  }();
+  (void)done;
+}
+
 }  // namespace
 
 std::vector<DeviceInfo> list_devices() {
+  turn_off_pocl_cq_tracing();
   std::vector<cl::Platform> platforms;
   try {
     cl::Platform::get(&platforms);

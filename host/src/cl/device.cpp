@@ -164,6 +164,19 @@ Profile& profile() {
 }
 }  // namespace
 
+bool profiling() { return profile().on; }
+
+void profile_launch(const std::string& name, const cl::Event& event) {
+  event.wait();
+  const double ms = double(event.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
+                           event.getProfilingInfo<CL_PROFILING_COMMAND_START>()) *
+                    1e-6;
+  std::lock_guard<std::mutex> lock(profile().mutex);
+  auto& row = profile().ms[name];
+  row.first += ms;
+  row.second += 1;
+}
+
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) {
   size_t g[3] = {1, 1, 1};
   for (cl_uint d = 0; d < global.dimensions(); ++d) {
@@ -180,14 +193,7 @@ void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) 
     }
     cl::Event ev;
     ctx.queue().enqueueNDRangeKernel(k, cl::NullRange, padded, local, nullptr, &ev);
-    ev.wait();
-    double ms = (ev.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
-                 ev.getProfilingInfo<CL_PROFILING_COMMAND_START>()) *
-                1e-6;
-    std::lock_guard<std::mutex> lock(profile().mutex);
-    auto& row = profile().ms[k.getInfo<CL_KERNEL_FUNCTION_NAME>()];
-    row.first += ms;
-    row.second += 1;
+    profile_launch(k.getInfo<CL_KERNEL_FUNCTION_NAME>(), ev);
   } catch (const cl::Error& e) {
     throw Error("launch of kernel " + k.getInfo<CL_KERNEL_FUNCTION_NAME>() +
                 " failed: " + e.what() + " (" + std::to_string(e.err()) + ")");

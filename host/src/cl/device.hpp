@@ -3,6 +3,7 @@
 // the host), launches with padded global sizes.
 #include <CL/opencl.hpp>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "penumbra/context.hpp"
@@ -37,6 +38,10 @@ cl::Buffer zero_reals(Context& ctx, Precision p, size_t count);
 
 // Enqueues `k` with global sizes rounded up to multiples of the local sizes.
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local);
+// With PENUMBRA_PROFILE set (launch() above): true, and `profile_launch` waits for an event of
+// a launch made elsewhere (CLBlast's) and adds its device time to the row `name`.
+bool profiling();
+void profile_launch(const std::string& name, const cl::Event& event);
 inline void launch_1d(Context& ctx, cl::Kernel& k, size_t n, size_t local = 64) {
   launch(ctx, k, cl::NDRange(n), cl::NDRange(local));
 }

@@ -95,14 +95,17 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk, c
   // CLBlast computes β·C even for β = 0: C must not hold NaN from old memory.
   cl_command_queue q = k.ctx().queue()();
   auto t = [](bool x) { return x ? clblast::Transpose::kYes : clblast::Transpose::kNo; };
+  cl_event done = nullptr;
+  cl_event* event = detail::profiling() ? &done : nullptr;
   clblast::StatusCode status =
       k.precision() == Precision::Double
           ? clblast::Gemm<double>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0, A(), 0,
-                                  lda, B(), 0, ldb, beta, C(), 0, ldc, &q)
+                                  lda, B(), 0, ldb, beta, C(), 0, ldc, &q, event)
           : clblast::Gemm<float>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0f, A(), 0,
-                                 lda, B(), 0, ldb, float(beta), C(), 0, ldc, &q);
+                                 lda, B(), 0, ldb, float(beta), C(), 0, ldc, &q, event);
   if (status != clblast::StatusCode::kSuccess)
     throw Error("CLBlast GEMM failed (" + status_name(status) + ")");
+  if (done) detail::profile_launch("clblast_gemm", cl::Event(done));  // takes the reference
 }
 
 // matmul_nt and matmul_tn take the same arguments; `kernel` says which.
