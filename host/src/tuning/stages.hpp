@@ -1,6 +1,6 @@
 #pragma once
 // The tuner's stages and their candidates, shared by the tuner (tuner.cpp) and by
-// kernel_variants (renderer.cpp), which builds every program a candidate can ask for.
+// kernel_variants (ops/kernels.cpp), which builds every program a candidate can ask for.
 #include <string>
 #include <vector>
 

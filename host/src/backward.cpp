@@ -1,0 +1,224 @@
+// The renderer's backward pipeline, the forward's mirror (renderer.cpp): every camera's pass
+// back to its fragments' shadow lookups and faces, then every light's pass back from the
+// gradients of its shadow map (and penumbra map) summed over the cameras.
+#include <string>
+
+#include "penumbra/error.hpp"
+#include "renderer_impl.hpp"
+#include "view_params.hpp"
+
+namespace penumbra {
+
+using detail::ViewState;
+
+namespace {
+
+void check_grad_image(const Image& g, int W, int H, int C, const char* what, size_t view) {
+  if (g.data.empty()) return;
+  if (g.width != W || g.height != H || g.channels != C || g.data.size() != size_t(W) * H * C)
+    throw Error("gradient of " + std::string(what) + " for camera " + std::to_string(view) +
+                " is " + std::to_string(g.width) + "x" + std::to_string(g.height) + "x" +
+                std::to_string(g.channels) + ", expected " + std::to_string(W) + "x" +
+                std::to_string(H) + "x" + std::to_string(C));
+}
+
+// Adds the `into.size()` reals of `buf` to `into`.
+void accumulate(Context& ctx, Precision precision, std::vector<double>& into,
+                const cl::Buffer& buf) {
+  auto host = detail::download_reals(ctx, precision, buf, into.size());
+  for (size_t i = 0; i < host.size(); ++i) into[i] += host[i];
+}
+
+glm::dvec3 vec3_at(const std::vector<double>& a, size_t at) {
+  return glm::dvec3(a[at], a[at + 1], a[at + 2]);
+}
+
+}  // namespace
+
+void Renderer::Impl::check_backward(const Scene& given, const std::vector<OutputGrads>& grads) {
+  Scene fitted = given;
+  for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
+    if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
+  if (norm != 1) fitted = scale_scene(fitted, norm);
+  Packed now = pack(fitted);
+  bool same = now.vworld == packed.vworld && now.faces == packed.faces &&
+              now.albedo == packed.albedo && fitted.cameras.size() == views.size() &&
+              fitted.lights.size() == scene.lights.size() &&
+              fitted.params.shadows == scene.params.shadows;
+  for (size_t c = 0; same && c < fitted.cameras.size(); ++c)
+    same = detail::view_params(fitted, fitted.cameras[c]) == view_P[c];
+  if (!same)
+    throw Error("backward: the scene differs from the one last rendered; call render() first");
+  detail::check_memory(ctx, estimate_device_memory(scene, precision, true),
+                       "the backward pass of the scene (" + std::to_string(packed.nf) + " faces)");
+  if (grads.size() != given.cameras.size())
+    throw Error("backward: got gradients for " + std::to_string(grads.size()) +
+                " camera(s), the scene has " + std::to_string(given.cameras.size()));
+}
+
+BackwardSums Renderer::Impl::start_backward() {
+  const Packed& p = packed;
+  const size_t nl = scene.lights.size();
+  BackwardSums sums;
+  sums.vertices.assign(size_t(p.nv) * 4, 0.0);
+  sums.albedo.assign(size_t(p.nf) * 12, 0.0);
+  sums.lights.assign((6 * nl + 1) * 4, 0.0);
+  sums.light_size.assign(nl, 0.0);
+  sums.frames.assign(nl, std::vector<double>(16, 0.0));
+  for (const ViewState& lv : light_views) {
+    sums.maps.emplace_back(size_t(lv.W) * lv.H, 0.0);
+    sums.penumbra_maps.emplace_back(size_t(lv.W) * lv.H, 0.0);
+  }
+  // vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd
+  std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
+  for (int i = 0; i < p.nf * 3; ++i) ++count[p.faces[(i / 3) * 4 + i % 3] + 1];
+  for (int v = 0; v < p.nv; ++v) count[v + 1] += count[v];
+  std::vector<int> cursor(count.begin(), count.end() - 1);
+  for (int i = 0; i < p.nf * 3; ++i) adj[cursor[p.faces[(i / 3) * 4 + i % 3]]++] = i;
+  geometry.adj_offsets = detail::upload_ints(ctx, count);
+  geometry.adj = detail::upload_ints(ctx, adj);
+  return sums;
+}
+
+void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardSums& sums) {
+  ViewState& v = views[camera];
+  stage("resolve");
+  check_grad_image(g.color, v.W, v.H, 3, "color", camera);
+  check_grad_image(g.silhouette, v.W, v.H, 1, "silhouette", camera);
+  check_grad_image(g.depth, v.W, v.H, 1, "depth", camera);
+  const size_t npix = size_t(v.W) * v.H;
+  std::vector<double> gimage(npix * 4, 0.0);
+  for (size_t i = 0; i < npix; ++i) {
+    for (int k = 0; k < 3 && !g.color.data.empty(); ++k)
+      gimage[i * 4 + k] = g.color.data[i * 3 + k];
+    if (!g.silhouette.data.empty()) gimage[i * 4 + 3] = g.silhouette.data[i];
+  }
+  auto gimage_buf = detail::upload_reals(ctx, precision, gimage);
+  std::vector<double> gdepth = g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data;
+  if (norm != 1)  // dL/d(device depth) = dL/d(depth) / norm
+    for (double& x : gdepth) x /= norm;
+  auto gdepth_buf = detail::upload_reals(ctx, precision, gdepth);
+  detail::raster_resolve_backward(kernels, v, gimage_buf, gdepth_buf);
+  const RenderParams& rp = scene.params;
+  for (size_t l = 0; l < light_views.size(); ++l) {
+    stage("shadow lookups");
+    auto gm = rp.shadow_model == ShadowModel::Accurate
+                  ? detail::pcf_backward(kernels, rp, blocker_search_sigma(rp, scene.lights[l]), v,
+                                         int(l), light_views[l], &sums.light_size[l])
+                  : detail::shadow_backward(kernels, rp, v, int(l), light_views[l]);
+    accumulate(ctx, precision, sums.maps[l], gm.S);
+    if (gm.P()) accumulate(ctx, precision, sums.penumbra_maps[l], gm.P);
+  }
+  stage("faces");
+  auto gl = backward_faces(v, gimage_buf, gdepth_buf, sums, nullptr);
+  std::vector<double>& glight = sums.lights;
+  for (int f = 0; f < packed.nf; ++f)  // fixed order: reproducible
+    for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl[f * glight.size() + i];
+}
+
+// The penumbra map back to its shadow map, the light's size and the occluders; then the shadow
+// map back through the light's own raster pass.
+void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
+  ViewState& lv = light_views[light];
+  const size_t ntex = size_t(lv.W) * lv.H;
+  cl::Buffer gpen;
+  if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
+    stage("penumbra map");
+    gpen = detail::upload_reals(ctx, precision, sums.penumbra_maps[light]);
+    accumulate(
+        ctx, precision, sums.maps[light],
+        detail::penumbra_backward_texels(kernels, geometry, lv, gpen, &sums.light_size[light]));
+  }
+  stage("shadow map");
+  auto gimage_buf = detail::zero_reals(ctx, precision, ntex * 4);
+  auto gdepth_buf = detail::upload_reals(ctx, precision, sums.maps[light]);
+  detail::raster_resolve_backward(kernels, lv, gimage_buf, gdepth_buf);
+  backward_faces(lv, gimage_buf, gdepth_buf, sums, &sums.frames[light], gpen() ? &gpen : nullptr);
+}
+
+// Backward of one view for dL/d(image) and dL/d(depth) already on the device, after the
+// shadow backward (if any) has run between `resolve` and `faces`: adds dL/d(vertices), dL/d(albedo)
+// and dL/d(the view's frame) to the sums and returns the per-face light gradients.
+std::vector<double> Renderer::Impl::backward_faces(ViewState& v, const cl::Buffer& gimage,
+                                                   const cl::Buffer& gdepth, BackwardSums& sums,
+                                                   std::vector<double>* gframe,
+                                                   const cl::Buffer* gpenumbra) {
+  auto fg = detail::raster_backward(kernels, geometry, v, gimage, gdepth);
+  if (gpenumbra) detail::penumbra_backward_faces(kernels, geometry, v, *gpenumbra, fg);
+  cl::Buffer gv, gf;
+  detail::transform_backward(kernels, geometry, v, fg, gv, gf);
+  const Packed& p = packed;
+  accumulate(ctx, precision, sums.vertices, gv);
+  accumulate(ctx, precision, sums.albedo, fg.albedo);
+  if (gframe) {  // Σ over vertices, in order
+    auto gf_host = detail::download_reals(ctx, precision, gf, size_t(p.nv) * 16);
+    for (int vtx = 0; vtx < p.nv; ++vtx)
+      for (int i = 0; i < 16; ++i) (*gframe)[i] += gf_host[size_t(vtx) * 16 + i];
+  }
+  return detail::download_reals(ctx, precision, fg.light, size_t(p.nf) * (6 * v.nlights + 1) * 4);
+}
+
+SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
+  const Scene& s = scene;
+  const Packed& p = packed;
+  SceneGrads out;
+  for (size_t mi = 0; mi < s.meshes.size(); ++mi) {
+    const Mesh& mesh = s.meshes[mi];
+    std::vector<glm::dvec3> gv(mesh.vertices.size()), ga(mesh.albedo.size(), glm::dvec3(0.0));
+    for (size_t i = 0; i < gv.size(); ++i)
+      gv[i] = vec3_at(sums.vertices, (p.vertex_offset[mi] + i) * 4);
+    for (size_t f = 0; f < mesh.faces.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        size_t to = mesh.albedo_mode == AlbedoMode::PerFace ? f : size_t(mesh.faces[f][k]);
+        ga[to] += vec3_at(sums.albedo, ((p.face_offset[mi] + f) * 3 + k) * 4);
+      }
+    out.vertices.push_back(std::move(gv));
+    out.albedo.push_back(std::move(ga));
+  }
+  const std::vector<double>& gl = sums.lights;
+  const int nl = int(s.lights.size());
+  for (int l = 0; l < nl; ++l) {
+    // Frame gradients from the camera passes (fragments projected into the map) and from the
+    // light's own pass (vertices projected into the map).
+    const size_t fo = size_t(2 * nl + 1 + 4 * l) * 4;
+    const std::vector<double>& fr = sums.frames[l];
+    glm::dvec3 gpos = vec3_at(gl, 8 * size_t(l));
+    if (!light_views.empty())
+      gpos += detail::light_frame_backward(
+          s.lights[l], vec3_at(gl, fo) + vec3_at(fr, 0), vec3_at(gl, fo + 4) + vec3_at(fr, 4),
+          vec3_at(gl, fo + 8) + vec3_at(fr, 8), vec3_at(gl, fo + 12) + vec3_at(fr, 12));
+    out.light_position.push_back(gpos);
+    out.light_color.push_back(vec3_at(gl, 8 * size_t(l) + 4));
+    out.light_size.push_back(sums.light_size[l]);
+  }
+  out.ambient = vec3_at(gl, 8 * size_t(nl));
+  if (norm != 1) {  // d/d(world length) = norm · d/d(device length)
+    for (auto& mesh : out.vertices)
+      for (glm::dvec3& g : mesh) g *= norm;
+    for (int l = 0; l < nl; ++l) {
+      if (s.lights[l].type == LightType::Point) out.light_position[l] *= norm;
+      out.light_size[l] *= norm;
+    }
+  }
+  return out;
+}
+
+// Every camera's pass backwards, then every light's.
+SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
+  Impl& m = *impl_;
+  m.check_backward(scene, grads);
+  BackwardSums sums = m.start_backward();
+  const int nc = int(m.views.size()), lights = int(m.light_views.size());
+  const int passes = nc + lights;
+  for (int c = 0; c < nc; ++c) {
+    m.begin_pass("backward", "view", c, nc, c, passes);
+    m.camera_backward(c, grads[c], sums);
+  }
+  for (int l = 0; l < lights; ++l) {
+    m.begin_pass("backward", "light", l, int(m.scene.lights.size()), nc + l, passes);
+    m.light_backward(l, sums);
+  }
+  return m.scene_grads(sums);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,76 @@
+#pragma once
+// The renderer's state between render() and backward(), and the stages of both pipelines:
+// renderer.cpp runs the forward pipeline, backward.cpp its mirror.
+#include <vector>
+
+#include "ops/ops.hpp"
+#include "penumbra/renderer.hpp"
+#include "tuning/stages.hpp"
+
+namespace penumbra {
+
+// The scene with all meshes concatenated, in the layouts the kernels read.
+struct Packed {
+  int nv = 0, nf = 0;
+  std::vector<double> vworld, albedo;  // nv × 4, 3·nf × 4
+  std::vector<int> faces;              // nf × 4
+  std::vector<size_t> vertex_offset, face_offset;
+};
+Packed pack(const Scene& s);
+
+// What the backward pass sums on the host, over cameras and lights, before it becomes
+// SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (3·nf × 4), the per-light terms of the
+// faces (6·nl + 1 vec4s), dL/dD_L, each light's dL/d(shadow map) and dL/d(penumbra map), and
+// dL/d(its frame) from its own pass.
+struct BackwardSums {
+  std::vector<double> vertices, albedo, lights, light_size;
+  std::vector<std::vector<double>> maps, penumbra_maps, frames;
+};
+
+struct Renderer::Impl {
+  Context& ctx;
+  Precision precision;
+  bool automatic;  // choose the tuning per render from the database
+  TuningDatabase database;
+  detail::Kernels kernels;
+  // State of the most recent render(), kept for backward().
+  Scene scene;      // as rendered, light frusta fitted, lengths multiplied by `norm`
+  double norm = 1;  // the normalisation (normalisation()): device lengths = world lengths · norm
+  std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
+  Packed packed;
+  detail::DeviceGeometry geometry;
+  std::vector<detail::ViewState> views;        // one per camera
+  std::vector<detail::ViewState> light_views;  // one per light, when shadows are on
+  std::vector<std::vector<double>> view_P;
+
+  // Progress (set_progress): the observer, where the call is, and which pass of how many.
+  ProgressObserver observer;
+  RenderProgress progress;
+  int pass_done = 0, pass_total = 1;
+
+  Impl(Context& c, Precision p, bool automatic_, const Tuning& t);
+
+  void begin_pass(const char* call, const char* pass, int index, int count, int done, int total);
+  void report(double within);
+  void stage(const char* name);
+
+  // Forward (renderer.cpp), in order.
+  void prepare(const Scene& scene);  // checked, frusta fitted, normalised, tuned, packed
+  void upload_geometry();
+  void shadow_map_pass(int light);       // the light's shadow map (and penumbra map)
+  RenderOutput camera_pass(int camera);  // the camera's image, shadows looked up
+  void render_view(detail::ViewState& v, int W, int H, int nlights, const std::vector<double>& P);
+
+  // Backward (backward.cpp), in order.
+  void check_backward(const Scene& scene, const std::vector<OutputGrads>& grads);
+  BackwardSums start_backward();  // zero sums; the vertex adjacency on the device
+  void camera_backward(int camera, const OutputGrads& grads, BackwardSums& sums);
+  void light_backward(int light, BackwardSums& sums);
+  SceneGrads scene_grads(const BackwardSums& sums) const;
+  std::vector<double> backward_faces(detail::ViewState& v, const cl::Buffer& gimage,
+                                     const cl::Buffer& gdepth, BackwardSums& sums,
+                                     std::vector<double>* gframe,
+                                     const cl::Buffer* gpenumbra = nullptr);
+};
+
+}  // namespace penumbra
