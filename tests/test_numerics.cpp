@@ -518,8 +518,8 @@ struct ScaledRun {
   SceneGrads g;
 };
 
-ScaledRun run_scaled(const Scene& unit, double s, Precision precision) {
-  const Scene scene = penumbra::scale_scene(unit, s);
+ScaledRun run_scaled(const Scene& unit, double s, Precision precision, dvec3 offset = {}) {
+  const Scene scene = penumbra::translate_scene(penumbra::scale_scene(unit, s), offset);
   Renderer renderer(context(), precision);
   ScaledRun r;
   r.out = renderer.render(scene)[0];
@@ -588,6 +588,34 @@ TEST(NumericsScale, BundledSceneIsTheSameAtEveryScale) {
         EXPECT_LE(dgo, 1e-3) << label << ": other gradients";
       }
     }
+}
+
+// Far from the origin (1e6 to 1e9 scene radii away) float keeps too few digits for the scene
+// itself; the renderer moves such a scene to the origin. A translation changes no image, no depth
+// and no gradient.
+TEST(NumericsScale, BundledSceneIsTheSameFarFromTheOrigin) {
+  Scene base = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
+  base.cameras[0].width = base.cameras[0].height = 64;
+  base.params.shadow_map_size = 64;
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+    base.params.shadows = sh;
+    const ScaledRun here = run_scaled(base, 1, Precision::Float);
+    for (const dvec3& offset : {dvec3(3e6, -2e6, 5e6), dvec3(-4e9, 1e9, 2e9)}) {
+      std::ostringstream label;
+      label << word(sh) << " moved by (" << offset.x << ", " << offset.y << ", " << offset.z << ")";
+      const ScaledRun r = run_scaled(base, 1, Precision::Float, offset);
+      const double dc = max_diff(r.out.color, here.out.color);
+      const double dz = rel_diff(r.out.depth.data, here.out.depth.data, 1);
+      const double dgl = rel_diff(lengths_grads(r.g), lengths_grads(here.g), 1);
+      const double dgo = rel_diff(other_grads(r.g), other_grads(here.g), 1);
+      std::cout << "translation | " << label.str() << " | colour " << dc << " | depth " << dz
+                << " | d/dlengths " << dgl << " | d/dothers " << dgo << std::endl;
+      EXPECT_LE(dc, 1e-4) << label.str() << ": colour";
+      EXPECT_LE(dz, 1e-5) << label.str() << ": depth";
+      EXPECT_LE(dgl, 1e-3) << label.str() << ": gradients of lengths";
+      EXPECT_LE(dgo, 1e-3) << label.str() << ": other gradients";
+    }
+  }
 }
 
 }  // namespace

@@ -39,7 +39,7 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
   Scene fitted = given;
   for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
     if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
-  if (norm != 1) fitted = scale_scene(fitted, norm);
+  fitted = detail::normalised(fitted, norm);
   Packed now = pack(fitted);
   bool same = now.vworld == packed.vworld && now.faces == packed.faces &&
               now.albedo == packed.albedo && fitted.cameras.size() == views.size() &&
@@ -95,8 +95,8 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
   }
   auto gimage_buf = detail::upload_reals(ctx, precision, gimage);
   std::vector<double> gdepth = g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data;
-  if (norm != 1)  // dL/d(device depth) = dL/d(depth) / norm
-    for (double& x : gdepth) x /= norm;
+  if (norm.scale != 1)  // dL/d(device depth) = dL/d(depth) / scale
+    for (double& x : gdepth) x /= norm.scale;
   auto gdepth_buf = detail::upload_reals(ctx, precision, gdepth);
   detail::raster_resolve_backward(kernels, v, gimage_buf, gdepth_buf);
   const RenderParams& rp = scene.params;
@@ -192,12 +192,12 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
     out.light_size.push_back(sums.light_size[l]);
   }
   out.ambient = vec3_at(gl, 8 * size_t(nl));
-  if (norm != 1) {  // d/d(world length) = norm · d/d(device length)
+  if (const double k = norm.scale; k != 1) {  // d/d(world length) = scale · d/d(device length)
     for (auto& mesh : out.vertices)
-      for (glm::dvec3& g : mesh) g *= norm;
+      for (glm::dvec3& g : mesh) g *= k;
     for (int l = 0; l < nl; ++l) {
-      if (s.lights[l].type == LightType::Point) out.light_position[l] *= norm;
-      out.light_size[l] *= norm;
+      if (s.lights[l].type == LightType::Point) out.light_position[l] *= k;
+      out.light_size[l] *= k;
     }
   }
   return out;

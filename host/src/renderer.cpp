@@ -83,7 +83,7 @@ void Renderer::Impl::prepare(const Scene& given) {
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);
   norm = detail::normalisation(scene);
-  if (norm != 1) scene = scale_scene(scene, norm);
+  scene = detail::normalised(scene, norm);
   if (automatic) kernels.set_tuning(database.lookup(ctx.info(), workload_stats(given)));
   packed = pack(scene);
   detail::check_memory(ctx, estimate_device_memory(scene, precision),
@@ -132,8 +132,8 @@ RenderOutput Renderer::Impl::camera_pass(int camera) {
   o.silhouette = channels(image, v.W, v.H, 3, 1);
   o.depth = Image(v.W, v.H, 1);
   o.depth.data = detail::download_reals(ctx, precision, v.depth, npix);
-  if (norm != 1)
-    for (double& z : o.depth.data) z /= norm;
+  if (norm.scale != 1)
+    for (double& z : o.depth.data) z /= norm.scale;
   return o;
 }
 
@@ -224,7 +224,7 @@ std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<ViewS
 
 std::vector<Image> Renderer::shadow_maps() const {
   return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::depth,
-                    1 / impl_->norm);
+                    1 / impl_->norm.scale);
 }
 
 std::vector<Image> Renderer::penumbra_maps() const {

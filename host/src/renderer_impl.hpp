@@ -34,8 +34,8 @@ struct Renderer::Impl {
   TuningDatabase database;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
-  Scene scene;      // as rendered, light frusta fitted, lengths multiplied by `norm`
-  double norm = 1;  // the normalisation (normalisation()): device lengths = world lengths · norm
+  Scene scene;                       // as rendered: light frusta fitted, then normalised (`norm`)
+  detail::Normalisation norm;        // device points = (world points − norm.origin) · norm.scale
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
   detail::DeviceGeometry geometry;

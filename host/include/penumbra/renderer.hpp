@@ -38,6 +38,11 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
 // renderer renders a scene whose bounding radius is far from 1 (outside [2^-12, 2^12]) scaled
 // by a power of two that brings it near 1, and maps depths and gradients back.
 Scene scale_scene(const Scene& scene, double factor);
+// `scene` with every point moved by `offset`: vertices, cameras' eyes and targets, lights'
+// positions and frustum targets (directions stay). The renderer renders a scene whose centre is
+// far from the origin for its size (more than 2^6 bounding radii away) moved to the origin,
+// where float keeps its precision; depths and gradients do not change with a translation.
+Scene translate_scene(const Scene& scene, glm::dvec3 offset);
 
 // Bytes of device memory in the renderers' buffers (every context of the process): `live` not
 // freed yet; `peak` the most at once of the buffers made since reset_device_memory_peak() (or

@@ -25,9 +25,15 @@ std::vector<std::string> program_variants(const std::string& file, const Tuning&
 // A fixed tuning as the renderer uses it: pixels_per_item 0 becomes the device's default
 // (ops/kernels.cpp).
 Tuning for_device(Tuning t, const DeviceInfo& device);
-// The power of two the renderer multiplies a scene's lengths by before packing it: 1 for a
-// scene near unit size (scale.cpp).
-double normalisation(const Scene& s);
+// What the renderer does to a scene before packing it (scale.cpp): device points are
+// (world point − origin)·scale; the identity for a scene near unit size around the origin.
+struct Normalisation {
+  glm::dvec3 origin{0.0};
+  double scale = 1;
+  bool identity() const { return scale == 1 && origin == glm::dvec3(0.0); }
+};
+Normalisation normalisation(const Scene& s);
+Scene normalised(const Scene& s, const Normalisation& n);
 
 // Kernel objects of one precision, built on first use for the current tuning, with the options
 // of program_options. They are bound and fetched by bind_args() (ops/args.hpp).
