@@ -369,6 +369,40 @@ double max_abs_gradient(const SceneGrads& g) {
   return m;
 }
 
+namespace {
+
+// The finite-difference step of entry `p`: positions step by step·(scene radius), directions
+// by step·|direction|, colours by step.
+double entry_step(const Scene& work, const Param& p, double step, double scale) {
+  if (p.kind == Param::LightDirection) {
+    const double len = glm::length(work.lights[p.index].direction);
+    return step * (len > 0 && std::isfinite(len) ? len : 1.0);
+  }
+  return p.positional() || p.kind == Param::LightSize ? step * scale : step;
+}
+
+// dL/d(entry p) by a central difference of step h, `perturbed` left as it was.
+double finite_difference(Renderer& renderer, Scene& perturbed,
+                         const std::vector<OutputGrads>& weights, const Param& p, double h) {
+  double& x = parameter(perturbed, p);
+  const double x0 = x;
+  double xp = x0 + h, xm = x0 - h;
+  if (!p.positional() && xm < 0) {
+    // Colours may not go negative. The outputs are linear in albedo, light colour and
+    // ambient, so a one-sided difference over [x0, x0 + 2h] is as exact as a central one.
+    xm = x0;
+    xp = x0 + 2 * h;
+  }
+  x = xp;
+  const double lp = linear_loss(renderer.render(perturbed), weights);
+  x = xm;
+  const double lm = linear_loss(renderer.render(perturbed), weights);
+  x = x0;
+  return (lp - lm) / (xp - xm);
+}
+
+}  // namespace
+
 GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene& scene,
                                                 const std::vector<OutputGrads>& weights,
                                                 const SceneGrads& analytic,
@@ -399,33 +433,11 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
       options.progress({"finite differences", "entry", done + 1, count, p.name.c_str(), 0, 0,
                         double(done) / count});
     }
-    // Positions step by step·(scene radius), directions by step·|direction|, colours by step.
-    double h = step;
-    if (p.kind == Param::LightDirection) {
-      const double len = glm::length(work.lights[p.index].direction);
-      h = step * (len > 0 && std::isfinite(len) ? len : 1.0);
-    } else if (p.positional() || p.kind == Param::LightSize) {
-      h = step * scale;
-    }
-    double& x = parameter(perturbed, p);
-    const double x0 = x;
-    double xp = x0 + h, xm = x0 - h;
-    if (!p.positional() && xm < 0) {
-      // Colours may not go negative. The outputs are linear in albedo, light colour and
-      // ambient, so a one-sided difference over [x0, x0 + 2h] is as exact as a central one.
-      xm = x0;
-      xp = x0 + 2 * h;
-    }
-    x = xp;
-    const double lp = linear_loss(renderer.render(perturbed), weights);
-    x = xm;
-    const double lm = linear_loss(renderer.render(perturbed), weights);
-    x = x0;
-
     GradCheckEntry e;
     e.name = p.name;
     e.analytic = gradient(analytic, p);
-    e.numeric = (lp - lm) / (xp - xm);
+    e.numeric =
+        finite_difference(renderer, perturbed, weights, p, entry_step(work, p, step, scale));
     e.rel_err = gradient_relative_error(e.analytic, e.numeric, result.atol);
     e.ok = gradients_agree(e.analytic, e.numeric, result.atol, rtol);
     result.checked += 1;
