@@ -203,6 +203,10 @@ class FitRecorder {
   // The fit's observer: a progress line, and an animation frame every gif_every iterations and
   // at the last.
   void update(const optim::FitProgress& p);
+  // update() as the fit's observer.
+  optim::FitObserver observer() {
+    return [this](const optim::FitProgress& p) { update(p); };
+  }
   // The IoU of each final mask with its target; holds the final frame in the animation, then
   // writes result.png and mesh.obj.
   std::vector<double> finish(const Mesh& result, const std::vector<Image>& masks);
