@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "optim/stages.hpp"
 #include "penumbra/error.hpp"
@@ -139,69 +141,68 @@ RenderParams ShadowProblem::default_shadow_fit_params(ShadowModel model) {
   return p;
 }
 
+namespace {
+
+// One stage's loss of fit_shadows: the mean squared error of each light's shadow on its wall
+// with its target, at the stage's resolution. The walls without the shape, rendered once, are
+// the references the shadows are measured against.
+class ShadowLoss {
+ public:
+  ShadowLoss(Renderer& renderer, const ShadowProblem& problem, const ShadowStage& stage,
+             const Mesh& mesh)
+      : renderer_(renderer) {
+    const int full = problem.targets.front().width;
+    RenderParams params = problem.params;
+    params.light_sigma = stage.light_sigma;
+    params.shadow_map_size = stage.map_size;
+    for (size_t l = 0; l < problem.directions.size(); ++l) {
+      targets_.push_back(downsample(problem.targets[l], full / stage.resolution));
+      Scene wall =
+          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, false);
+      wall.lights.front().size = stage.light_size;
+      references_.push_back(renderer.render(wall).front().color);
+      scenes_.push_back(
+          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, true));
+      scenes_.back().lights.front().size = stage.light_size;
+    }
+    shadows_.resize(problem.directions.size());
+  }
+
+  std::vector<glm::dvec3> operator()(const Mesh& mesh, FitProgress& p) {
+    std::vector<glm::dvec3> grad(mesh.vertices.size(), glm::dvec3(0.0));
+    for (size_t l = 0; l < scenes_.size(); ++l) {
+      scenes_[l].meshes.front().vertices = mesh.vertices;
+      const std::vector<RenderOutput> out = renderer_.render(scenes_[l]);
+      shadows_[l] = shadow_image(out.front().color, references_[l]);
+      Image g;
+      p.loss += mse_loss(shadows_[l], targets_[l], &g);
+      p.ious.push_back(binary_iou(shadows_[l], binarize(targets_[l])));
+      OutputGrads og;
+      og.color = shadow_image_backward(g, references_[l]);
+      const SceneGrads sg = renderer_.backward(scenes_[l], {og});
+      for (size_t i = 0; i < grad.size(); ++i) grad[i] += sg.vertices.front()[i];
+    }
+    p.images = &shadows_;
+    return grad;
+  }
+
+ private:
+  Renderer& renderer_;
+  std::vector<Scene> scenes_;
+  std::vector<Image> targets_, references_, shadows_;
+};
+
+}  // namespace
+
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
                  const std::vector<ShadowStage>& stages, const FitObserver& observer,
                  const FitCheckpoints& checkpoints) {
   const int total = prepare_fit("fit_shadows", problem.targets, problem.directions.size(), "lights",
                                 stages, mesh);
-  const int full = problem.targets.front().width;
-  const size_t nl = problem.directions.size();
-  check_resume(checkpoints, stages.size(), total);
-  int iteration = 0;
-  for (size_t si = 0; si < stages.size(); ++si) {
-    const ShadowStage& stage = stages[si];
-    const int iterations = std::max(stage.iterations, 0);
-    if (stage_done(checkpoints, si)) {
-      iteration += iterations;
-      continue;
-    }
-    const int first = enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
-    iteration += first;
-    const Topology topo = topology(mesh.faces, mesh.vertices.size());
-    RenderParams params = problem.params;
-    params.light_sigma = stage.light_sigma;
-    params.shadow_map_size = stage.map_size;
-    std::vector<Scene> scenes;
-    std::vector<Image> targets, references;
-    for (size_t l = 0; l < nl; ++l) {
-      targets.push_back(downsample(problem.targets[l], full / stage.resolution));
-      Scene wall =
-          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, false);
-      wall.lights.front().size = stage.light_size;
-      references.push_back(renderer.render(wall).front().color);
-      scenes.push_back(
-          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, true));
-      scenes.back().lights.front().size = stage.light_size;
-    }
-    Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
-    std::vector<Image> shadows(nl);
-    for (int it = first; it < stage.iterations; ++it) {
-      FitProgress p;
-      p.iteration = ++iteration;
-      p.total = total;
-      p.stage = int(si);
-      std::vector<glm::dvec3> grad(mesh.vertices.size(), glm::dvec3(0.0));
-      for (size_t l = 0; l < nl; ++l) {
-        scenes[l].meshes.front().vertices = mesh.vertices;
-        const std::vector<RenderOutput> out = renderer.render(scenes[l]);
-        shadows[l] = shadow_image(out.front().color, references[l]);
-        Image g;
-        p.loss += mse_loss(shadows[l], targets[l], &g);
-        p.ious.push_back(binary_iou(shadows[l], binarize(targets[l])));
-        OutputGrads og;
-        og.color = shadow_image_backward(g, references[l]);
-        const SceneGrads sg = renderer.backward(scenes[l], {og});
-        for (size_t i = 0; i < grad.size(); ++i) grad[i] += sg.vertices.front()[i];
-      }
-      p.regulariser = regularise(mesh, topo, stage.weights, &grad);
-      p.mesh = &mesh;
-      p.images = &shadows;
-      if (observer) observer(p);
-      adam.step(mesh.vertices, grad);
-      after_step(checkpoints, iteration, total, si, mesh, adam);
-    }
-  }
-  return mesh;
+  return fit_stages(std::move(mesh), stages, total, observer, checkpoints,
+                    [&](const ShadowStage& stage, const Mesh& m) {
+                      return ShadowLoss(renderer, problem, stage, m);
+                    });
 }
 
 }  // namespace penumbra::optim
