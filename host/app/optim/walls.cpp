@@ -216,57 +216,52 @@ bool orthogonal(const std::vector<glm::dvec3>& d) {
   return true;
 }
 
-Scene room_scene(const Mesh& shape, const std::vector<glm::dvec3>& directions, int width,
-                 int height, const WallSetup& w, glm::dvec3 shape_albedo) {
-  if (!orthogonal(directions))
-    throw Error("room_scene: the light directions must be mutually orthogonal");
-  Scene scene;
-  Mesh s = shape;
-  s.albedo.assign(s.vertices.size(), shape_albedo);
-  s.albedo_mode = AlbedoMode::PerVertex;
-  scene.meshes.push_back(s);
+namespace {
+
+// The room's wall across the light along `d` (unit, `up` its view_up): a grid of 8 × 8 quads,
+// so that the perspective camera sees no long thin triangles.
+Mesh room_wall(const glm::dvec3& d, const glm::dvec3& up, double W) {
+  const glm::dvec3 right = glm::normalize(glm::cross(d, up)), wup = glm::cross(right, d);
+  Mesh wall;
+  wall.name = "wall";
+  constexpr int kCells = 8;
+  for (int j = 0; j <= kCells; ++j)
+    for (int i = 0; i <= kCells; ++i)
+      wall.vertices.push_back(W * d + W * (2.0 * i / kCells - 1) * right +
+                              W * (2.0 * j / kCells - 1) * wup);
+  for (int j = 0; j < kCells; ++j)
+    for (int i = 0; i < kCells; ++i) {
+      const int a = j * (kCells + 1) + i, b = a + 1, c = a + kCells + 1, e = c + 1;
+      wall.faces.emplace_back(a, e, b);
+      wall.faces.emplace_back(a, c, e);
+    }
+  wall.albedo.assign(wall.vertices.size(), glm::dvec3(0.8));
+  return wall;
+}
+
+// The room's directional light along `d` (unit, `up` its view_up), its map covering the wall.
+Light room_light(const glm::dvec3& d, const glm::dvec3& up, double intensity, const WallSetup& w) {
   const double W = w.wall_distance;
-  glm::dvec3 open(0.0);
-  // Walls of slightly different brightness, so that the corner reads.
-  const double intensity[3] = {0.85, 0.7, 0.55};
-  for (size_t k = 0; k < directions.size(); ++k) {
-    const glm::dvec3& dir = directions[k];
-    const glm::dvec3 d = glm::normalize(dir);
-    open -= d;
-    const glm::dvec3 up = view_up(d);
-    const glm::dvec3 right = glm::normalize(glm::cross(d, up)), wup = glm::cross(right, d);
-    Mesh wall;
-    wall.name = "wall";
-    // A grid of 8 × 8 quads, so that the perspective camera sees no long thin triangles.
-    constexpr int kCells = 8;
-    for (int j = 0; j <= kCells; ++j)
-      for (int i = 0; i <= kCells; ++i)
-        wall.vertices.push_back(W * d + W * (2.0 * i / kCells - 1) * right +
-                                W * (2.0 * j / kCells - 1) * wup);
-    for (int j = 0; j < kCells; ++j)
-      for (int i = 0; i < kCells; ++i) {
-        const int a = j * (kCells + 1) + i, b = a + 1, c = a + kCells + 1, e = c + 1;
-        wall.faces.emplace_back(a, e, b);
-        wall.faces.emplace_back(a, c, e);
-      }
-    wall.albedo.assign(wall.vertices.size(), glm::dvec3(0.8));
-    scene.meshes.push_back(wall);
-    Light light;
-    light.type = LightType::Directional;
-    light.direction = d;
-    light.color = glm::dvec3(intensity[k % 3]);
-    LightFrustum& f = light.frustum;
-    f.fitted = true;
-    f.target = glm::dvec3(0.0);
-    f.up = up;
-    f.half_size = W;
-    f.distance = w.light_distance;
-    f.near = 0.2 * w.light_distance;
-    f.far = w.light_distance + W + 0.5;
-    scene.lights.push_back(light);
-  }
-  // Look into the corner from the open side; from a little above when there is no floor (with
-  // a floor, from higher up the object would hide its own shadow there).
+  Light light;
+  light.type = LightType::Directional;
+  light.direction = d;
+  light.color = glm::dvec3(intensity);
+  LightFrustum& f = light.frustum;
+  f.fitted = true;
+  f.target = glm::dvec3(0.0);
+  f.up = up;
+  f.half_size = W;
+  f.distance = w.light_distance;
+  f.near = 0.2 * w.light_distance;
+  f.far = w.light_distance + W + 0.5;
+  return light;
+}
+
+// Look into the corner from the open side (`open`, the sum of the directions' opposites); from a
+// little above when there is no floor (with a floor, from higher up the object would hide its
+// own shadow there).
+Camera room_camera(const std::vector<glm::dvec3>& directions, const glm::dvec3& open, double W,
+                   int width, int height) {
   bool floor = false;
   for (const glm::dvec3& d : directions) floor |= std::abs(glm::normalize(d).y) > 0.5;
   glm::dvec3 view = open + glm::dvec3(0, floor ? -0.3 : 0.35, 0);
@@ -282,7 +277,31 @@ Scene room_scene(const Mesh& shape, const std::vector<glm::dvec3>& directions, i
   cam.far = 10 * W;
   cam.width = width;
   cam.height = height;
-  scene.cameras.push_back(cam);
+  return cam;
+}
+
+}  // namespace
+
+Scene room_scene(const Mesh& shape, const std::vector<glm::dvec3>& directions, int width,
+                 int height, const WallSetup& w, glm::dvec3 shape_albedo) {
+  if (!orthogonal(directions))
+    throw Error("room_scene: the light directions must be mutually orthogonal");
+  Scene scene;
+  Mesh s = shape;
+  s.albedo.assign(s.vertices.size(), shape_albedo);
+  s.albedo_mode = AlbedoMode::PerVertex;
+  scene.meshes.push_back(s);
+  glm::dvec3 open(0.0);
+  // Walls of slightly different brightness, so that the corner reads.
+  const double intensity[3] = {0.85, 0.7, 0.55};
+  for (size_t k = 0; k < directions.size(); ++k) {
+    const glm::dvec3 d = glm::normalize(directions[k]);
+    open -= d;
+    const glm::dvec3 up = view_up(d);
+    scene.meshes.push_back(room_wall(d, up, w.wall_distance));
+    scene.lights.push_back(room_light(d, up, intensity[k % 3], w));
+  }
+  scene.cameras.push_back(room_camera(directions, open, w.wall_distance, width, height));
   scene.ambient = {0.2, 0.2, 0.2};
   scene.background = {1, 1, 1};
   RenderParams& p = scene.params;
