@@ -219,6 +219,12 @@ class FitRecorder {
   std::string save_scene(Renderer& renderer, const Mesh& result,
                          const std::vector<glm::dvec3>& directions, int size,
                          const optim::WallSetup& setup) const;
+  // The end of a fit judged by its hard shadows (fit-shadows, shadow-art): the shadows on
+  // `walls` at the targets' size, then finish(), save_scene() in `room` (`scene_size` pixels)
+  // and report(), the seconds taken before the files are written.
+  void finish_on_walls(Renderer& renderer, const Mesh& result,
+                       const std::vector<glm::dvec3>& directions, const optim::WallSetup& walls,
+                       const optim::WallSetup& room, int scene_size);
   // DIR/name.
   std::string path(const std::string& name) const;
 

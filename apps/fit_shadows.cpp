@@ -115,12 +115,7 @@ int run_fit_shadows(const FitShadowsArgs& a) {
   FitRecorder recorder("fit-shadows", a.output, problem.targets, a.iterations, a.gif_every, clock);
   const Mesh result =
       fit_shadows(renderer, sphere, problem, stages, recorder.observer(), checkpoints.hooks());
-  // Final: the hard shadows at the targets' size.
-  const std::vector<Image> hard = hard_shadows(renderer, result, directions, size, w);
-  const double total_seconds = clock.seconds();
-  const std::vector<double> ious = recorder.finish(result, hard);
-  const std::string scene_png = recorder.save_scene(renderer, result, directions, 400, w);
-  recorder.report(total_seconds, ious, scene_png);
+  recorder.finish_on_walls(renderer, result, directions, w, w, 400);
   return 0;
 }
 

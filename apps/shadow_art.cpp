@@ -119,15 +119,10 @@ int run_shadow_art(const ShadowArtArgs& a) {
   FitRecorder recorder("shadow-art", a.output, problem.targets, n, a.gif_every, clock);
   const Mesh result =
       fit_silhouettes(renderer, start, problem, stages, recorder.observer(), checkpoints.hooks());
-  // Final: the hard shadow on each wall, at the targets' size.
   const WallSetup walls;
-  const std::vector<Image> shadows = hard_shadows(renderer, result, directions, size, walls);
-  const double total_seconds = clock.seconds();
-  const std::vector<double> ious = recorder.finish(result, shadows);
   WallSetup room = walls;
   room.wall_distance = 2.0;  // closer walls: a tighter picture (the shadows are the same)
-  const std::string scene_png = recorder.save_scene(renderer, result, directions, 512, room);
-  recorder.report(total_seconds, ious, scene_png);
+  recorder.finish_on_walls(renderer, result, directions, walls, room, 512);
   return 0;
 }
 
