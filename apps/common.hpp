@@ -203,6 +203,10 @@ class FitRecorder {
   // The fit's observer: a progress line, and an animation frame every gif_every iterations and
   // at the last.
   void update(const optim::FitProgress& p);
+  // update() as the fit's observer.
+  optim::FitObserver observer() {
+    return [this](const optim::FitProgress& p) { update(p); };
+  }
   // The IoU of each final mask with its target; holds the final frame in the animation, then
   // writes result.png and mesh.obj.
   std::vector<double> finish(const Mesh& result, const std::vector<Image>& masks);
@@ -215,6 +219,12 @@ class FitRecorder {
   std::string save_scene(Renderer& renderer, const Mesh& result,
                          const std::vector<glm::dvec3>& directions, int size,
                          const optim::WallSetup& setup) const;
+  // The end of a fit judged by its hard shadows (fit-shadows, shadow-art): the shadows on
+  // `walls` at the targets' size, then finish(), save_scene() in `room` (`scene_size` pixels)
+  // and report(), the seconds taken before the files are written.
+  void finish_on_walls(Renderer& renderer, const Mesh& result,
+                       const std::vector<glm::dvec3>& directions, const optim::WallSetup& walls,
+                       const optim::WallSetup& room, int scene_size);
   // DIR/name.
   std::string path(const std::string& name) const;
 

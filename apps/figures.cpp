@@ -13,6 +13,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "common.hpp"
 #include "penumbra/context.hpp"
@@ -43,26 +44,27 @@ Image depth_picture(const Image& S, double background) {
   return out;
 }
 
-int run_figures(const FiguresArgs& a) {
-  const auto t0 = std::chrono::steady_clock::now();
-  Scene base = load_scene_source(a.source);
-  base.cameras.resize(1);
-  const Scene accurate_base = base;               // for the comparison of the two models at the end
-  base.params.shadow_model = ShadowModel::Paper;  // the paper's figures
-  refit_light_frusta(base);
-  make_dirs(a.output);
-  Context context(a.device);
-  Renderer renderer(context, Precision::Float);
-  int files = 0;
-  auto save = [&](const Image& image, const std::string& name) {
-    const std::string path = (fs::path(a.output) / name).string();
+// Writes the pictures into one folder, each with a line "wrote PATH", and counts them.
+class FigureWriter {
+ public:
+  explicit FigureWriter(std::string dir) : dir_(std::move(dir)) {}
+  void save(const Image& image, const std::string& name) {
+    const std::string path = (fs::path(dir_) / name).string();
     save_png(image, path);
     std::printf("wrote %s\n", path.c_str());
-    ++files;
-  };
+    ++files_;
+  }
+  int files() const { return files_; }
 
-  // Figure 1: (a) γ_s = 0.01, β = 0.5, σ_s = 0.5 at σ = 1e-5, γ = 1e-4; (b–d) γ_s = 2/3, β = 2,
-  // σ_s = 2·10⁴·σ with (σ, γ) = (1e-5, 1e-4), (1e-4, 1e-3), (10^-3.2, 10^-2.2).
+ private:
+  std::string dir_;
+  int files_ = 0;
+};
+
+// Figure 1: (a) γ_s = 0.01, β = 0.5, σ_s = 0.5 at σ = 1e-5, γ = 1e-4; (b–d) γ_s = 2/3, β = 2,
+// σ_s = 2·10⁴·σ with (σ, γ) = (1e-5, 1e-4), (1e-4, 1e-3), (10^-3.2, 10^-2.2); Figure 2: the
+// shadow map of (a).
+void save_hard_sweep(Renderer& renderer, const Scene& base, FigureWriter& out) {
   struct Setting {
     const char* name;
     double gamma_s, beta, sigma, gamma, sigma_s;
@@ -79,13 +81,15 @@ int run_figures(const FiguresArgs& a) {
     p.sampling = Sampling::Truncated;
     p.gamma_s = s.gamma_s, p.beta = s.beta, p.sigma = s.sigma, p.gamma = s.gamma;
     p.sigma_s = s.sigma_s;
-    save(renderer.render(scene).front().color, s.name);
+    out.save(renderer.render(scene).front().color, s.name);
     if (&s == &sweep[0])
-      save(depth_picture(renderer.shadow_maps().front(), scene.lights.front().frustum.far),
-           "fig2_depth_map.png");
+      out.save(depth_picture(renderer.shadow_maps().front(), scene.lights.front().frustum.far),
+               "fig2_depth_map.png");
   }
+}
 
-  // Figure 4 and 5: soft shadows, the camera at four points of its orbit.
+// Figure 4 and 5: soft shadows, the camera at four points of its orbit; then the light growing.
+void save_soft_shadows(Renderer& renderer, const Scene& base, FigureWriter& out) {
   Scene soft = base;
   soft.params.shadows = Shadows::Soft;
   soft.params.sampling = Sampling::Truncated;
@@ -94,30 +98,49 @@ int run_figures(const FiguresArgs& a) {
     frame.cameras.front() = orbit(base.cameras.front(), std::acos(-1.0) / 2 * k);
     char name[32];
     std::snprintf(name, sizeof name, "fig4_soft_%03d.png", 90 * k);
-    save(renderer.render(frame).front().color, name);
-    if (k == 0) save(renderer.penumbra_maps().front(), "fig5_penumbra_map.png");
+    out.save(renderer.render(frame).front().color, name);
+    if (k == 0) out.save(renderer.penumbra_maps().front(), "fig5_penumbra_map.png");
   }
   for (double size : {0.0, 0.5, 1.5}) {
     Scene scene = soft;
     for (Light& l : scene.lights) l.size = size;
     char name[32];
     std::snprintf(name, sizeof name, "soft_size_%.1f.png", size);
-    save(renderer.render(scene).front().color, name);
+    out.save(renderer.render(scene).front().color, name);
   }
-  // The two shadow models side by side (docs/shadows.md, "The accurate model").
+}
+
+// The two shadow models side by side (docs/shadows.md, "The accurate model").
+void save_shadow_models(Renderer& renderer, const Scene& base, FigureWriter& out) {
   for (Shadows mode : {Shadows::Hard, Shadows::Soft})
     for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate}) {
-      Scene scene = accurate_base;
+      Scene scene = base;
       scene.params.shadows = mode;
       scene.params.shadow_model = model;
       for (Light& l : scene.lights) l.size = mode == Shadows::Soft ? 0.5 : 0.0;
       refit_light_frusta(scene);
-      save(renderer.render(scene).front().color,
-           "model_" + word(model) + "_" + word(mode) + ".png");
+      out.save(renderer.render(scene).front().color,
+               "model_" + word(model) + "_" + word(mode) + ".png");
     }
+}
+
+int run_figures(const FiguresArgs& a) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Scene base = load_scene_source(a.source);
+  base.cameras.resize(1);
+  const Scene accurate_base = base;               // for the comparison of the two models at the end
+  base.params.shadow_model = ShadowModel::Paper;  // the paper's figures
+  refit_light_frusta(base);
+  make_dirs(a.output);
+  Context context(a.device);
+  Renderer renderer(context, Precision::Float);
+  FigureWriter out(a.output);
+  save_hard_sweep(renderer, base, out);
+  save_soft_shadows(renderer, base, out);
+  save_shadow_models(renderer, accurate_base, out);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("figures: files=%d seconds=%.2f dir=%s\n", files, seconds, a.output.c_str());
+  std::printf("figures: files=%d seconds=%.2f dir=%s\n", out.files(), seconds, a.output.c_str());
   return 0;
 }
 

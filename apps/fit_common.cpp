@@ -195,6 +195,18 @@ std::string FitRecorder::save_scene(Renderer& renderer, const Mesh& result,
   return scene_png;
 }
 
+void FitRecorder::finish_on_walls(Renderer& renderer, const Mesh& result,
+                                  const std::vector<glm::dvec3>& directions,
+                                  const optim::WallSetup& walls, const optim::WallSetup& room,
+                                  int scene_size) {
+  const std::vector<Image> shadows =
+      optim::hard_shadows(renderer, result, directions, size_, walls);
+  const double total_seconds = clock_.seconds();
+  const std::vector<double> ious = finish(result, shadows);
+  const std::string scene_png = save_scene(renderer, result, directions, scene_size, room);
+  report(total_seconds, ious, scene_png);
+}
+
 void FitRecorder::report(double seconds, const std::vector<double>& ious,
                          const std::string& scene_png) const {
   std::printf("wrote %s, %s%s%s and %s\n", path("mesh.obj").c_str(), path("result.png").c_str(),

@@ -45,33 +45,23 @@ int map_size_for(int resolution, double texels_per_pixel, const optim::WallSetup
   return std::max(16, int(std::ceil(texels / 16.0)) * 16);
 }
 
-int run_fit_shadows(const FitShadowsArgs& a) {
-  using namespace optim;
+// The shadow mode to fit, after checking the options that need no input files.
+Shadows checked_shadows(const FitShadowsArgs& a) {
   check_fit_counts(a.iterations, 2, a.gif_every);
   check_radius(a.radius);
   if (!(a.light_size >= 0 && a.light_size < 1))
     throw Error("--light-size must be in [0, 1) (got " + std::to_string(a.light_size) + ")");
   const Shadows mode = parse_shadows(a.shadows);
   if (mode == Shadows::None) throw Error("--shadows must be hard or soft (got 'none')");
+  return mode;
+}
 
-  // Targets and lights: the bundled shadows for lights along −z and −x, or the user's own with
-  // the lights along −z, −x, −y in order (or --light-dir, one per target).
-  std::vector<std::string> files = a.targets;
-  if (files.empty())
-    files = {data_dir() + "/targets/shadow_back.png", data_dir() + "/targets/shadow_side.png"};
-  const std::vector<glm::dvec3> directions = light_directions(a.light_dirs, files.size());
-
-  ShadowProblem problem;
-  problem.directions = directions;
-  problem.params = ShadowProblem::default_shadow_fit_params(
-      parse_word<ShadowModel>("--shadow-model", a.shadow_model));
-  problem.params.shadows = mode;
-  const int size = load_fit_targets(files, 512, problem.targets);
-  const WallSetup& w = problem.setup;
-
-  // Coarse to fine (docs/applications.md): the icosphere at about 48 pixels with a map of about
-  // one texel per pixel, then subdivided at the targets' size with a map of two texels per
-  // pixel. σ_L puts √σ_L at about half a texel: the shadow's edge is as soft as the map allows.
+// Coarse to fine (docs/applications.md): the icosphere at about 48 pixels with a map of about
+// one texel per pixel, then subdivided at the targets' size with a map of two texels per
+// pixel. σ_L puts √σ_L at about half a texel: the shadow's edge is as soft as the map allows.
+std::vector<optim::ShadowStage> shadow_stages(const FitShadowsArgs& a, Shadows mode, int size,
+                                              const optim::WallSetup& w) {
+  using namespace optim;
   const int n = a.iterations;
   const int r0 = stage_resolution(size, 48);
   std::vector<ShadowStage> stages(2);
@@ -89,27 +79,43 @@ int run_fit_shadows(const FitShadowsArgs& a) {
   const int fine = n / 2;
   stages[0] = {r0, n - fine, m0, light_sigma(m0), 0.01, 0, reg, size0};
   stages[1] = {size, fine, m1, light_sigma(m1), 0.003, 1, reg, size0 / 4};
+  return stages;
+}
+
+int run_fit_shadows(const FitShadowsArgs& a) {
+  using namespace optim;
+  const Shadows mode = checked_shadows(a);
+
+  // Targets and lights: the bundled shadows for lights along −z and −x, or the user's own with
+  // the lights along −z, −x, −y in order (or --light-dir, one per target).
+  std::vector<std::string> files = a.targets;
+  if (files.empty())
+    files = {data_dir() + "/targets/shadow_back.png", data_dir() + "/targets/shadow_side.png"};
+  const std::vector<glm::dvec3> directions = light_directions(a.light_dirs, files.size());
+
+  ShadowProblem problem;
+  problem.directions = directions;
+  problem.params = ShadowProblem::default_shadow_fit_params(
+      parse_word<ShadowModel>("--shadow-model", a.shadow_model));
+  problem.params.shadows = mode;
+  const int size = load_fit_targets(files, 512, problem.targets);
+  const WallSetup& w = problem.setup;
+  const std::vector<ShadowStage> stages = shadow_stages(a, mode, size, w);
 
   const Mesh sphere = start_sphere(a.radius);
   const FitCheckpointFile checkpoints(
       a.checkpoints, a.output, "fit-shadows",
-      "fit-shadows iterations=" + std::to_string(n) + " radius=" + std::to_string(a.radius) +
-          " shadows=" + a.shadows + " shadow-model=" + a.shadow_model +
-          " light-size=" + std::to_string(a.light_size) + " targets=" + joined(files) +
-          " light-dirs=" + joined(a.light_dirs));
+      "fit-shadows iterations=" + std::to_string(a.iterations) +
+          " radius=" + std::to_string(a.radius) + " shadows=" + a.shadows +
+          " shadow-model=" + a.shadow_model + " light-size=" + std::to_string(a.light_size) +
+          " targets=" + joined(files) + " light-dirs=" + joined(a.light_dirs));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   const Stopwatch clock;
-  FitRecorder recorder("fit-shadows", a.output, problem.targets, n, a.gif_every, clock);
-  const Mesh result = fit_shadows(
-      renderer, sphere, problem, stages, [&](const FitProgress& p) { recorder.update(p); },
-      checkpoints.hooks());
-  // Final: the hard shadows at the targets' size.
-  const std::vector<Image> hard = hard_shadows(renderer, result, directions, size, w);
-  const double total_seconds = clock.seconds();
-  const std::vector<double> ious = recorder.finish(result, hard);
-  const std::string scene_png = recorder.save_scene(renderer, result, directions, 400, w);
-  recorder.report(total_seconds, ious, scene_png);
+  FitRecorder recorder("fit-shadows", a.output, problem.targets, a.iterations, a.gif_every, clock);
+  const Mesh result =
+      fit_shadows(renderer, sphere, problem, stages, recorder.observer(), checkpoints.hooks());
+  recorder.finish_on_walls(renderer, result, directions, w, w, 400);
   return 0;
 }
 

@@ -33,15 +33,18 @@ struct FitSilhouetteArgs {
   CheckpointOptions checkpoints;
 };
 
-int run_fit_silhouette(const FitSilhouetteArgs& a) {
-  using namespace optim;
-  check_fit_counts(a.iterations, 4, a.gif_every);
-  check_radius(a.radius);
+// The target files and the view of each (files[i] is seen from views[i]).
+struct TargetViews {
+  std::vector<std::string> files, views;
+  std::vector<glm::dvec3> directions;
+};
 
-  // Targets and views: bundled targets for the named views (default front and side), or the
-  // user's own, paired with --view in order.
-  std::vector<std::string> views = a.views;
-  std::vector<std::string> files = a.targets;
+// Targets and views: bundled targets for the named views (default front and side), or the
+// user's own, paired with --view in order.
+TargetViews target_views(const FitSilhouetteArgs& a) {
+  TargetViews t{a.targets, a.views, {}};
+  std::vector<std::string>& views = t.views;
+  std::vector<std::string>& files = t.files;
   if (files.empty()) {
     if (views.empty()) views = {"front", "side"};
     for (const std::string& v : views)
@@ -53,9 +56,8 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
                   " targets but at most 3 views (front, side, top); give --view for each");
     views.assign(order.begin(), order.begin() + long(files.size()));
   }
-  std::vector<glm::dvec3> directions;
-  directions.reserve(views.size());
-  for (const std::string& v : views) directions.push_back(named_view(v));
+  t.directions.reserve(views.size());
+  for (const std::string& v : views) t.directions.push_back(optim::named_view(v));
   if (files.size() < views.size())
     throw Error("fewer targets (" + std::to_string(files.size()) + ") than views (" +
                 std::to_string(views.size()) + "): give one --target per --view");
@@ -65,40 +67,54 @@ int run_fit_silhouette(const FitSilhouetteArgs& a) {
   for (size_t i = 0; i < views.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (views[i] == views[j]) throw Error("view '" + views[i] + "' is given twice");
+  return t;
+}
 
-  SilhouetteProblem problem;
-  problem.directions = directions;
-  problem.half_height = kHalfHeight;
-  const int size = load_fit_targets(files, 1024, problem.targets);
-
-  // Coarse to fine (docs/applications.md): the icosphere at about 32 pixels with a wide σ
-  // (√σ half a pixel), then subdivided at about 64 pixels, then at the targets' size with σ
-  // narrowing to a tenth of a pixel so that the soft silhouette's edge sits where the hard one
-  // does. Regularisers: strong while the sphere moves far, weak for the fine fit.
-  const int n = a.iterations;
-  const int r0 = stage_resolution(size, 32), r1 = std::max(r0, stage_resolution(size, 64));
+// Coarse to fine (docs/applications.md): the icosphere at about 32 pixels with a wide σ
+// (√σ half a pixel), then subdivided at about 64 pixels, then at the targets' size with σ
+// narrowing to a tenth of a pixel so that the soft silhouette's edge sits where the hard one
+// does. Regularisers: strong while the sphere moves far, weak for the fine fit.
+std::vector<optim::SilhouetteStage> silhouette_stages(int n, int size) {
+  using optim::EdgeLoss;
+  const int r0 = optim::stage_resolution(size, 32);
+  const int r1 = std::max(r0, optim::stage_resolution(size, 64));
   const auto sigma = sigma_for_pixels;
-  std::vector<SilhouetteStage> stages(4);
+  std::vector<optim::SilhouetteStage> stages(4);
   stages[0] = {r0, n / 2, sigma(0.5, r0), 0.01, 0, {1.0, 0.0, 0.01, EdgeLoss::Variance}};
   stages[1] = {r1, n / 4, sigma(0.32, r1), 0.005, 1, {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
   stages[2] = {size, n / 6, sigma(0.2, size), 0.002, 0, {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
   stages[3] = {size, n - n / 2 - n / 4 - n / 6,           sigma(0.09, size), 0.001,
                0,    {0.2, 0.0, 5e-4, EdgeLoss::Variance}};
+  return stages;
+}
+
+int run_fit_silhouette(const FitSilhouetteArgs& a) {
+  using namespace optim;
+  check_fit_counts(a.iterations, 4, a.gif_every);
+  check_radius(a.radius);
+  const TargetViews t = target_views(a);
+
+  SilhouetteProblem problem;
+  problem.directions = t.directions;
+  problem.half_height = kHalfHeight;
+  const int size = load_fit_targets(t.files, 1024, problem.targets);
+  const int n = a.iterations;
+  const std::vector<SilhouetteStage> stages = silhouette_stages(n, size);
 
   const Mesh sphere = start_sphere(a.radius);
-  const FitCheckpointFile checkpoints(a.checkpoints, a.output, "fit-silhouette",
-                                      "fit-silhouette iterations=" + std::to_string(n) +
-                                          " radius=" + std::to_string(a.radius) +
-                                          " targets=" + joined(files) + " views=" + joined(views));
+  const FitCheckpointFile checkpoints(
+      a.checkpoints, a.output, "fit-silhouette",
+      "fit-silhouette iterations=" + std::to_string(n) + " radius=" + std::to_string(a.radius) +
+          " targets=" + joined(t.files) + " views=" + joined(t.views));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   const Stopwatch clock;
   FitRecorder recorder("fit-silhouette", a.output, problem.targets, n, a.gif_every, clock);
-  const Mesh result = fit_silhouettes(
-      renderer, sphere, problem, stages, [&](const FitProgress& p) { recorder.update(p); },
-      checkpoints.hooks());
+  const Mesh result =
+      fit_silhouettes(renderer, sphere, problem, stages, recorder.observer(), checkpoints.hooks());
   // Final: hard silhouettes at the targets' size.
-  const std::vector<Image> hard = hard_silhouettes(renderer, result, directions, kHalfHeight, size);
+  const std::vector<Image> hard =
+      hard_silhouettes(renderer, result, t.directions, kHalfHeight, size);
   const double total_seconds = clock.seconds();
   recorder.report(total_seconds, recorder.finish(result, hard));
   return 0;

@@ -37,48 +37,54 @@ struct ShadowArtArgs {
   CheckpointOptions checkpoints;
 };
 
-int run_shadow_art(const ShadowArtArgs& a) {
-  using namespace optim;
-  check_fit_counts(a.iterations, 3, a.gif_every);
+// The target files and the direction of the light whose shadow shows each.
+struct TargetLights {
+  std::vector<std::string> files;
+  std::vector<glm::dvec3> directions;
+};
 
-  std::vector<std::string> files = a.targets;
+TargetLights target_lights(const ShadowArtArgs& a) {
+  TargetLights t{a.targets, {}};
+  std::vector<std::string>& files = t.files;
   if (files.empty())
     for (const char* letter : {"g", "e", "b"})
       files.push_back(data_dir() + "/targets/letter_" + letter + ".png");
   if (files.size() < 2 || files.size() > 3)
     throw Error("shadow-art takes two or three targets (got " + std::to_string(files.size()) + ")");
-  const std::vector<glm::dvec3> directions = light_directions(a.light_dirs, files.size());
+  t.directions = light_directions(a.light_dirs, files.size());
+  const std::vector<glm::dvec3>& directions = t.directions;
   for (size_t i = 0; i < directions.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (std::abs(glm::dot(directions[i], directions[j])) > 0.999)
         throw Error("lights " + std::to_string(j) + " and " + std::to_string(i) +
                     " are (anti)parallel: their shadows would be the same silhouette");
+  return t;
+}
 
-  SilhouetteProblem problem;
-  problem.directions = directions;
-  problem.half_height = kHalfHeight;
-  const int size = load_fit_targets(files, 1024, problem.targets);
-
-  const Stopwatch clock;
-
-  // The starting object: the visual hull of the targets on a grid of about 32³ voxels over the
-  // cube the views share, meshed by surface nets and smoothed a little. A coarse pixel counts as
-  // covered from a third of its area on: the meshing and smoothing pull the surface inwards.
+// The starting object: the visual hull of the targets on a grid of about 32³ voxels over the
+// cube the views share, meshed by surface nets and smoothed a little. A coarse pixel counts as
+// covered from a third of its area on: the meshing and smoothing pull the surface inwards.
+Mesh visual_hull_start(const optim::SilhouetteProblem& problem, int size) {
+  using namespace optim;
   const int grid = stage_resolution(size, 32);
   std::vector<Image> coarse;
   for (const Image& t : problem.targets)
     coarse.push_back(binarize(downsample(t, size / grid), 0.35));
-  const std::vector<unsigned char> hull = visual_hull(coarse, directions, kHalfHeight, grid, 1.0);
+  const std::vector<unsigned char> hull =
+      visual_hull(coarse, problem.directions, kHalfHeight, grid, 1.0);
   if (std::count(hull.begin(), hull.end(), 1) == 0)
     throw Error("the targets have no object in common: no voxel of the " + std::to_string(grid) +
                 "^3 grid projects onto every target (are the targets consistent with the "
                 "light directions?)");
   Mesh start = surface_nets(hull, grid, 1.0, 2);
   start.name = "shadow_art";
+  return start;
+}
 
-  // Coarse to fine: about 64 pixels, then the targets' size with σ narrowing to a tenth of a
-  // pixel (√σ in pixels 0.32, 0.2, 0.09), as in fit-silhouette.
-  const int n = a.iterations;
+// Coarse to fine: about 64 pixels, then the targets' size with σ narrowing to a tenth of a
+// pixel (√σ in pixels 0.32, 0.2, 0.09), as in fit-silhouette.
+std::vector<optim::SilhouetteStage> shadow_art_stages(int n, int size) {
+  using namespace optim;
   const int r1 = stage_resolution(size, 64);
   const auto sigma = sigma_for_pixels;
   const RegulariserWeights reg{0.2, 0.0, 5e-4, EdgeLoss::Variance};
@@ -86,25 +92,37 @@ int run_shadow_art(const ShadowArtArgs& a) {
   stages[0] = {r1, n * 2 / 5, sigma(0.32, r1), 0.003, 0, reg};
   stages[1] = {size, n * 2 / 5, sigma(0.2, size), 0.002, 0, reg};
   stages[2] = {size, n - 2 * (n * 2 / 5), sigma(0.09, size), 0.001, 0, reg};
+  return stages;
+}
+
+int run_shadow_art(const ShadowArtArgs& a) {
+  using namespace optim;
+  check_fit_counts(a.iterations, 3, a.gif_every);
+  const TargetLights t = target_lights(a);
+  const std::vector<glm::dvec3>& directions = t.directions;
+
+  SilhouetteProblem problem;
+  problem.directions = directions;
+  problem.half_height = kHalfHeight;
+  const int size = load_fit_targets(t.files, 1024, problem.targets);
+
+  const Stopwatch clock;
+  const Mesh start = visual_hull_start(problem, size);
+  const int n = a.iterations;
+  const std::vector<SilhouetteStage> stages = shadow_art_stages(n, size);
 
   const FitCheckpointFile checkpoints(a.checkpoints, a.output, "shadow-art",
                                       "shadow-art iterations=" + std::to_string(n) + " targets=" +
-                                          joined(files) + " light-dirs=" + joined(a.light_dirs));
+                                          joined(t.files) + " light-dirs=" + joined(a.light_dirs));
   Context context(a.device);
   Renderer renderer(context, Precision::Float);
   FitRecorder recorder("shadow-art", a.output, problem.targets, n, a.gif_every, clock);
-  const Mesh result = fit_silhouettes(
-      renderer, start, problem, stages, [&](const FitProgress& p) { recorder.update(p); },
-      checkpoints.hooks());
-  // Final: the hard shadow on each wall, at the targets' size.
+  const Mesh result =
+      fit_silhouettes(renderer, start, problem, stages, recorder.observer(), checkpoints.hooks());
   const WallSetup walls;
-  const std::vector<Image> shadows = hard_shadows(renderer, result, directions, size, walls);
-  const double total_seconds = clock.seconds();
-  const std::vector<double> ious = recorder.finish(result, shadows);
   WallSetup room = walls;
   room.wall_distance = 2.0;  // closer walls: a tighter picture (the shadows are the same)
-  const std::string scene_png = recorder.save_scene(renderer, result, directions, 512, room);
-  recorder.report(total_seconds, ious, scene_png);
+  recorder.finish_on_walls(renderer, result, directions, walls, room, 512);
   return 0;
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "optim/stages.hpp"
 #include "penumbra/error.hpp"
@@ -34,56 +36,56 @@ Scene silhouette_scene(const Mesh& mesh, const std::vector<glm::dvec3>& directio
   return scene;
 }
 
+namespace {
+
+// One stage's loss of fit_silhouettes: the soft IoU of each view's silhouette with its target,
+// at the stage's resolution.
+class SilhouetteLoss {
+ public:
+  SilhouetteLoss(Renderer& renderer, const SilhouetteProblem& problem, const SilhouetteStage& stage,
+                 const Mesh& mesh)
+      : renderer_(renderer),
+        scene_(silhouette_scene(mesh, problem.directions, problem.half_height, stage.resolution,
+                                stage.sigma)) {
+    const int full = problem.targets.front().width;
+    for (const Image& t : problem.targets)
+      targets_.push_back(downsample(t, full / stage.resolution));
+    grads_.resize(targets_.size());
+    silhouettes_.resize(targets_.size());
+  }
+
+  std::vector<glm::dvec3> operator()(const Mesh& mesh, FitProgress& p) {
+    scene_.meshes.front().vertices = mesh.vertices;
+    const std::vector<RenderOutput> out = renderer_.render(scene_);
+    for (size_t v = 0; v < targets_.size(); ++v) {
+      grads_[v] = OutputGrads{};
+      p.loss += soft_iou_loss(out[v].silhouette, targets_[v], &grads_[v].silhouette);
+      silhouettes_[v] = out[v].silhouette;
+      p.ious.push_back(binary_iou(out[v].silhouette, binarize(targets_[v])));
+    }
+    p.images = &silhouettes_;
+    return renderer_.backward(scene_, grads_).vertices.front();
+  }
+
+ private:
+  Renderer& renderer_;
+  Scene scene_;
+  std::vector<Image> targets_;
+  std::vector<OutputGrads> grads_;
+  std::vector<Image> silhouettes_;
+};
+
+}  // namespace
+
 Mesh fit_silhouettes(Renderer& renderer, Mesh mesh, const SilhouetteProblem& problem,
                      const std::vector<SilhouetteStage>& stages, const FitObserver& observer,
                      const FitCheckpoints& checkpoints) {
   const int total = prepare_fit("fit_silhouettes", problem.targets, problem.directions.size(),
                                 "views", stages, mesh);
-  const int full = problem.targets.front().width;
-  check_resume(checkpoints, stages.size(), total);
-  int iteration = 0;
-  for (size_t si = 0; si < stages.size(); ++si) {
-    const SilhouetteStage& stage = stages[si];
-    const int iterations = std::max(stage.iterations, 0);
-    if (stage_done(checkpoints, si)) {
-      iteration += iterations;
-      continue;
-    }
-    const int first = enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
-    iteration += first;
-    const Topology topo = topology(mesh.faces, mesh.vertices.size());
-    std::vector<Image> targets;
-    for (const Image& t : problem.targets)
-      targets.push_back(downsample(t, full / stage.resolution));
-    Scene scene = silhouette_scene(mesh, problem.directions, problem.half_height, stage.resolution,
-                                   stage.sigma);
-    Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
-    std::vector<OutputGrads> grads(targets.size());
-    std::vector<Image> silhouettes(targets.size());
-    for (int it = first; it < stage.iterations; ++it) {
-      scene.meshes.front().vertices = mesh.vertices;
-      const std::vector<RenderOutput> out = renderer.render(scene);
-      FitProgress p;
-      p.iteration = ++iteration;
-      p.total = total;
-      p.stage = int(si);
-      for (size_t v = 0; v < targets.size(); ++v) {
-        grads[v] = OutputGrads{};
-        p.loss += soft_iou_loss(out[v].silhouette, targets[v], &grads[v].silhouette);
-        silhouettes[v] = out[v].silhouette;
-        p.ious.push_back(binary_iou(out[v].silhouette, binarize(targets[v])));
-      }
-      const SceneGrads g = renderer.backward(scene, grads);
-      std::vector<glm::dvec3> grad = g.vertices.front();
-      p.regulariser = regularise(mesh, topo, stage.weights, &grad);
-      p.mesh = &mesh;
-      p.images = &silhouettes;
-      if (observer) observer(p);
-      adam.step(mesh.vertices, grad);
-      after_step(checkpoints, iteration, total, si, mesh, adam);
-    }
-  }
-  return mesh;
+  return fit_stages(std::move(mesh), stages, total, observer, checkpoints,
+                    [&](const SilhouetteStage& stage, const Mesh& m) {
+                      return SilhouetteLoss(renderer, problem, stage, m);
+                    });
 }
 
 std::vector<Image> hard_silhouettes(Renderer& renderer, const Mesh& mesh,

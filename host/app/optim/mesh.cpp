@@ -6,6 +6,7 @@
 #include <map>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "penumbra/error.hpp"
 #include "penumbra/optim.hpp"
@@ -84,34 +85,37 @@ std::vector<unsigned char> visual_hull(const std::vector<Image>& targets,
   return occ;
 }
 
-Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int smooth_steps,
-                  glm::dvec3 albedo) {
-  if (occ.size() != size_t(n) * n * n)
-    throw Error("surface_nets: occupancy of " + std::to_string(occ.size()) +
-                " values for a grid of " + std::to_string(n) + "^3");
-  // Samples on a padded grid p ∈ [0, n + 1] (0 and n + 1 outside); sample p is voxel p − 1.
-  const int P = n + 2;
-  auto inside = [&](int x, int y, int z) {
+namespace {
+
+// The occupancy grid read on a padded grid of samples p ∈ [0, n + 1] per axis (0 and n + 1
+// outside); sample p is voxel p − 1.
+struct PaddedGrid {
+  const std::vector<unsigned char>& occ;
+  int n;
+  bool inside(int x, int y, int z) const {
     if (x < 1 || y < 1 || z < 1 || x > n || y > n || z > n) return false;
     return occ[(size_t(z - 1) * n + (y - 1)) * n + (x - 1)] != 0;
-  };
-  const double h = 2.0 * half / n;
-  // Dual cells c ∈ [0, n] per axis, corners c and c + 1.
-  const int C = n + 1;
-  std::vector<int> cell_vertex(size_t(C) * C * C, -1);
-  Mesh mesh;
-  mesh.name = "hull";
+  }
+};
+
+// One vertex in every dual cell (c ∈ [0, n] per axis, corners c and c + 1) whose corners are
+// not all inside or all outside, at the mean of the midpoints of its edges that cross the
+// surface. Returns each cell's vertex in `mesh` (−1: none), indexed (z·(n + 1) + y)·(n + 1) + x.
+std::vector<int> place_cell_vertices(const PaddedGrid& g, double half, Mesh& mesh) {
   static const int corner[8][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
                                    {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
   static const int edge[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
                                   {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+  const double h = 2.0 * half / g.n;
+  const int C = g.n + 1;
+  std::vector<int> cell_vertex(size_t(C) * C * C, -1);
   for (int z = 0; z < C; ++z)
     for (int y = 0; y < C; ++y)
       for (int x = 0; x < C; ++x) {
         bool in[8];
         int count = 0;
         for (int k = 0; k < 8; ++k) {
-          in[k] = inside(x + corner[k][0], y + corner[k][1], z + corner[k][2]);
+          in[k] = g.inside(x + corner[k][0], y + corner[k][1], z + corner[k][2]);
           count += in[k] ? 1 : 0;
         }
         if (count == 0 || count == 8) continue;
@@ -130,20 +134,26 @@ Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int
         cell_vertex[(size_t(z) * C + y) * C + x] = int(mesh.vertices.size());
         mesh.vertices.push_back(glm::dvec3(-half) + (p - 0.5) * h);
       }
+  return cell_vertex;
+}
+
+// The quad a b c d as two triangles, split along the shorter diagonal.
+void add_quad(Mesh& mesh, int a, int b, int c, int d) {
+  const auto& V = mesh.vertices;
+  if (glm::length(V[size_t(a)] - V[size_t(c)]) <= glm::length(V[size_t(b)] - V[size_t(d)])) {
+    mesh.faces.emplace_back(a, b, c);
+    mesh.faces.emplace_back(a, c, d);
+  } else {
+    mesh.faces.emplace_back(a, b, d);
+    mesh.faces.emplace_back(b, c, d);
+  }
+}
+
+// Every sample edge (s, s + e_axis) between an inside and an outside sample: a quad of the
+// four cells around it, wound so that its normal points from inside to outside.
+void add_quads(const PaddedGrid& g, const std::vector<int>& cell_vertex, Mesh& mesh) {
+  const int P = g.n + 2, C = g.n + 1;
   auto cell = [&](int x, int y, int z) { return cell_vertex[(size_t(z) * C + y) * C + x]; };
-  auto add_quad = [&](int a, int b, int c, int d) {
-    // Split along the shorter diagonal.
-    const auto& V = mesh.vertices;
-    if (glm::length(V[size_t(a)] - V[size_t(c)]) <= glm::length(V[size_t(b)] - V[size_t(d)])) {
-      mesh.faces.emplace_back(a, b, c);
-      mesh.faces.emplace_back(a, c, d);
-    } else {
-      mesh.faces.emplace_back(a, b, d);
-      mesh.faces.emplace_back(b, c, d);
-    }
-  };
-  // Every sample edge (s, s + e_axis) between an inside and an outside sample: a quad of the
-  // four cells around it, wound so that its normal points from inside to outside.
   for (int z = 0; z < P; ++z)
     for (int y = 0; y < P; ++y)
       for (int x = 0; x < P; ++x) {
@@ -152,12 +162,12 @@ Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int
           int t[3] = {x, y, z};
           t[axis] += 1;
           if (t[axis] >= P) continue;
-          const bool a = inside(s[0], s[1], s[2]), b = inside(t[0], t[1], t[2]);
+          const bool a = g.inside(s[0], s[1], s[2]), b = g.inside(t[0], t[1], t[2]);
           if (a == b) continue;
           const int bi = (axis + 1) % 3, ci = (axis + 2) % 3;
           // The four cells share the edge: cell index along `axis` is s[axis]; along the other
           // two it is s − 1 or s.
-          if (s[bi] < 1 || s[ci] < 1 || s[bi] > n || s[ci] > n) continue;  // never on the pad
+          if (s[bi] < 1 || s[ci] < 1 || s[bi] > g.n || s[ci] > g.n) continue;  // never on the pad
           int q[4];
           const int db[4] = {-1, 0, 0, -1}, dc[4] = {-1, -1, 0, 0};
           for (int k = 0; k < 4; ++k) {
@@ -168,15 +178,17 @@ Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int
             q[k] = cell(c[0], c[1], c[2]);
           }
           if (a)  // inside at the lower end: normal along +axis
-            add_quad(q[0], q[1], q[2], q[3]);
+            add_quad(mesh, q[0], q[1], q[2], q[3]);
           else
-            add_quad(q[3], q[2], q[1], q[0]);
+            add_quad(mesh, q[3], q[2], q[1], q[0]);
         }
       }
-  if (mesh.faces.empty()) throw Error("surface_nets: the occupancy grid is empty");
-  // Laplacian smoothing (λ = 0.5) rounds off the voxel staircase.
+}
+
+// Laplacian smoothing (λ = 0.5) rounds off the voxel staircase.
+void smooth(Mesh& mesh, int steps) {
   const Topology topo = topology(mesh.faces, mesh.vertices.size());
-  for (int step = 0; step < smooth_steps; ++step) {
+  for (int step = 0; step < steps; ++step) {
     std::vector<glm::dvec3> next = mesh.vertices;
     for (size_t i = 0; i < next.size(); ++i) {
       const auto& nb = topo.neighbours[i];
@@ -187,6 +199,22 @@ Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int
     }
     mesh.vertices.swap(next);
   }
+}
+
+}  // namespace
+
+Mesh surface_nets(const std::vector<unsigned char>& occ, int n, double half, int smooth_steps,
+                  glm::dvec3 albedo) {
+  if (occ.size() != size_t(n) * n * n)
+    throw Error("surface_nets: occupancy of " + std::to_string(occ.size()) +
+                " values for a grid of " + std::to_string(n) + "^3");
+  const PaddedGrid grid{occ, n};
+  Mesh mesh;
+  mesh.name = "hull";
+  const std::vector<int> cell_vertex = place_cell_vertices(grid, half, mesh);
+  add_quads(grid, cell_vertex, mesh);
+  if (mesh.faces.empty()) throw Error("surface_nets: the occupancy grid is empty");
+  smooth(mesh, smooth_steps);
   mesh.albedo.assign(mesh.vertices.size(), albedo);
   mesh.albedo_mode = AlbedoMode::PerVertex;
   return mesh;

@@ -1,6 +1,6 @@
 #pragma once
 // The stage loop shared by fit_silhouettes and fit_shadows (internal): their inputs, where a
-// (possibly resumed) fit enters each stage, and its checkpoints.
+// (possibly resumed) fit enters each stage, its checkpoints, and the loop itself (fit_stages).
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -49,5 +49,44 @@ Adam stage_optimiser(const FitCheckpoints& checkpoints, size_t stage, size_t val
 // After the step of iteration `iteration` (1-based, of `total`): saves a checkpoint when due.
 void after_step(const FitCheckpoints& checkpoints, int iteration, int total, size_t stage,
                 const Mesh& mesh, const Adam& adam);
+
+// The stage loop of a fit, resumable from `checkpoints`: each stage not finished before the
+// resumed state is entered (enter_stage), then `stage_loss(stage, mesh)` makes the stage's
+// loss, a callable `loss(mesh, p)` that renders `mesh`, adds to p.loss and p.ious, points
+// p.images at what it compared and returns the gradient of its loss by the vertices. The
+// regularisers, the observer, the Adam step and the checkpoints are the loop's. `total` is
+// prepare_fit's.
+template <class Stage, class StageLoss>
+Mesh fit_stages(Mesh mesh, const std::vector<Stage>& stages, int total, const FitObserver& observer,
+                const FitCheckpoints& checkpoints, const StageLoss& stage_loss) {
+  check_resume(checkpoints, stages.size(), total);
+  int iteration = 0;
+  for (size_t si = 0; si < stages.size(); ++si) {
+    const Stage& stage = stages[si];
+    const int iterations = std::max(stage.iterations, 0);
+    if (stage_done(checkpoints, si)) {
+      iteration += iterations;
+      continue;
+    }
+    const int first = enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
+    iteration += first;
+    const Topology topo = topology(mesh.faces, mesh.vertices.size());
+    auto loss = stage_loss(stage, mesh);
+    Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
+    for (int it = first; it < stage.iterations; ++it) {
+      FitProgress p;
+      p.iteration = ++iteration;
+      p.total = total;
+      p.stage = int(si);
+      std::vector<glm::dvec3> grad = loss(mesh, p);
+      p.regulariser = regularise(mesh, topo, stage.weights, &grad);
+      p.mesh = &mesh;
+      if (observer) observer(p);
+      adam.step(mesh.vertices, grad);
+      after_step(checkpoints, iteration, total, si, mesh, adam);
+    }
+  }
+  return mesh;
+}
 
 }  // namespace penumbra::optim

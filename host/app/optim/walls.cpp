@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "optim/stages.hpp"
 #include "penumbra/error.hpp"
@@ -139,69 +141,68 @@ RenderParams ShadowProblem::default_shadow_fit_params(ShadowModel model) {
   return p;
 }
 
+namespace {
+
+// One stage's loss of fit_shadows: the mean squared error of each light's shadow on its wall
+// with its target, at the stage's resolution. The walls without the shape, rendered once, are
+// the references the shadows are measured against.
+class ShadowLoss {
+ public:
+  ShadowLoss(Renderer& renderer, const ShadowProblem& problem, const ShadowStage& stage,
+             const Mesh& mesh)
+      : renderer_(renderer) {
+    const int full = problem.targets.front().width;
+    RenderParams params = problem.params;
+    params.light_sigma = stage.light_sigma;
+    params.shadow_map_size = stage.map_size;
+    for (size_t l = 0; l < problem.directions.size(); ++l) {
+      targets_.push_back(downsample(problem.targets[l], full / stage.resolution));
+      Scene wall =
+          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, false);
+      wall.lights.front().size = stage.light_size;
+      references_.push_back(renderer.render(wall).front().color);
+      scenes_.push_back(
+          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, true));
+      scenes_.back().lights.front().size = stage.light_size;
+    }
+    shadows_.resize(problem.directions.size());
+  }
+
+  std::vector<glm::dvec3> operator()(const Mesh& mesh, FitProgress& p) {
+    std::vector<glm::dvec3> grad(mesh.vertices.size(), glm::dvec3(0.0));
+    for (size_t l = 0; l < scenes_.size(); ++l) {
+      scenes_[l].meshes.front().vertices = mesh.vertices;
+      const std::vector<RenderOutput> out = renderer_.render(scenes_[l]);
+      shadows_[l] = shadow_image(out.front().color, references_[l]);
+      Image g;
+      p.loss += mse_loss(shadows_[l], targets_[l], &g);
+      p.ious.push_back(binary_iou(shadows_[l], binarize(targets_[l])));
+      OutputGrads og;
+      og.color = shadow_image_backward(g, references_[l]);
+      const SceneGrads sg = renderer_.backward(scenes_[l], {og});
+      for (size_t i = 0; i < grad.size(); ++i) grad[i] += sg.vertices.front()[i];
+    }
+    p.images = &shadows_;
+    return grad;
+  }
+
+ private:
+  Renderer& renderer_;
+  std::vector<Scene> scenes_;
+  std::vector<Image> targets_, references_, shadows_;
+};
+
+}  // namespace
+
 Mesh fit_shadows(Renderer& renderer, Mesh mesh, const ShadowProblem& problem,
                  const std::vector<ShadowStage>& stages, const FitObserver& observer,
                  const FitCheckpoints& checkpoints) {
   const int total = prepare_fit("fit_shadows", problem.targets, problem.directions.size(), "lights",
                                 stages, mesh);
-  const int full = problem.targets.front().width;
-  const size_t nl = problem.directions.size();
-  check_resume(checkpoints, stages.size(), total);
-  int iteration = 0;
-  for (size_t si = 0; si < stages.size(); ++si) {
-    const ShadowStage& stage = stages[si];
-    const int iterations = std::max(stage.iterations, 0);
-    if (stage_done(checkpoints, si)) {
-      iteration += iterations;
-      continue;
-    }
-    const int first = enter_stage(checkpoints, si, iteration, iterations, stage.subdivisions, mesh);
-    iteration += first;
-    const Topology topo = topology(mesh.faces, mesh.vertices.size());
-    RenderParams params = problem.params;
-    params.light_sigma = stage.light_sigma;
-    params.shadow_map_size = stage.map_size;
-    std::vector<Scene> scenes;
-    std::vector<Image> targets, references;
-    for (size_t l = 0; l < nl; ++l) {
-      targets.push_back(downsample(problem.targets[l], full / stage.resolution));
-      Scene wall =
-          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, false);
-      wall.lights.front().size = stage.light_size;
-      references.push_back(renderer.render(wall).front().color);
-      scenes.push_back(
-          wall_scene(mesh, problem.directions[l], stage.resolution, params, problem.setup, true));
-      scenes.back().lights.front().size = stage.light_size;
-    }
-    Adam adam = stage_optimiser(checkpoints, si, 3 * mesh.vertices.size(), stage.lr);
-    std::vector<Image> shadows(nl);
-    for (int it = first; it < stage.iterations; ++it) {
-      FitProgress p;
-      p.iteration = ++iteration;
-      p.total = total;
-      p.stage = int(si);
-      std::vector<glm::dvec3> grad(mesh.vertices.size(), glm::dvec3(0.0));
-      for (size_t l = 0; l < nl; ++l) {
-        scenes[l].meshes.front().vertices = mesh.vertices;
-        const std::vector<RenderOutput> out = renderer.render(scenes[l]);
-        shadows[l] = shadow_image(out.front().color, references[l]);
-        Image g;
-        p.loss += mse_loss(shadows[l], targets[l], &g);
-        p.ious.push_back(binary_iou(shadows[l], binarize(targets[l])));
-        OutputGrads og;
-        og.color = shadow_image_backward(g, references[l]);
-        const SceneGrads sg = renderer.backward(scenes[l], {og});
-        for (size_t i = 0; i < grad.size(); ++i) grad[i] += sg.vertices.front()[i];
-      }
-      p.regulariser = regularise(mesh, topo, stage.weights, &grad);
-      p.mesh = &mesh;
-      p.images = &shadows;
-      if (observer) observer(p);
-      adam.step(mesh.vertices, grad);
-      after_step(checkpoints, iteration, total, si, mesh, adam);
-    }
-  }
-  return mesh;
+  return fit_stages(std::move(mesh), stages, total, observer, checkpoints,
+                    [&](const ShadowStage& stage, const Mesh& m) {
+                      return ShadowLoss(renderer, problem, stage, m);
+                    });
 }
 
 }  // namespace penumbra::optim
@@ -215,57 +216,52 @@ bool orthogonal(const std::vector<glm::dvec3>& d) {
   return true;
 }
 
-Scene room_scene(const Mesh& shape, const std::vector<glm::dvec3>& directions, int width,
-                 int height, const WallSetup& w, glm::dvec3 shape_albedo) {
-  if (!orthogonal(directions))
-    throw Error("room_scene: the light directions must be mutually orthogonal");
-  Scene scene;
-  Mesh s = shape;
-  s.albedo.assign(s.vertices.size(), shape_albedo);
-  s.albedo_mode = AlbedoMode::PerVertex;
-  scene.meshes.push_back(s);
+namespace {
+
+// The room's wall across the light along `d` (unit, `up` its view_up): a grid of 8 × 8 quads,
+// so that the perspective camera sees no long thin triangles.
+Mesh room_wall(const glm::dvec3& d, const glm::dvec3& up, double W) {
+  const glm::dvec3 right = glm::normalize(glm::cross(d, up)), wup = glm::cross(right, d);
+  Mesh wall;
+  wall.name = "wall";
+  constexpr int kCells = 8;
+  for (int j = 0; j <= kCells; ++j)
+    for (int i = 0; i <= kCells; ++i)
+      wall.vertices.push_back(W * d + W * (2.0 * i / kCells - 1) * right +
+                              W * (2.0 * j / kCells - 1) * wup);
+  for (int j = 0; j < kCells; ++j)
+    for (int i = 0; i < kCells; ++i) {
+      const int a = j * (kCells + 1) + i, b = a + 1, c = a + kCells + 1, e = c + 1;
+      wall.faces.emplace_back(a, e, b);
+      wall.faces.emplace_back(a, c, e);
+    }
+  wall.albedo.assign(wall.vertices.size(), glm::dvec3(0.8));
+  return wall;
+}
+
+// The room's directional light along `d` (unit, `up` its view_up), its map covering the wall.
+Light room_light(const glm::dvec3& d, const glm::dvec3& up, double intensity, const WallSetup& w) {
   const double W = w.wall_distance;
-  glm::dvec3 open(0.0);
-  // Walls of slightly different brightness, so that the corner reads.
-  const double intensity[3] = {0.85, 0.7, 0.55};
-  for (size_t k = 0; k < directions.size(); ++k) {
-    const glm::dvec3& dir = directions[k];
-    const glm::dvec3 d = glm::normalize(dir);
-    open -= d;
-    const glm::dvec3 up = view_up(d);
-    const glm::dvec3 right = glm::normalize(glm::cross(d, up)), wup = glm::cross(right, d);
-    Mesh wall;
-    wall.name = "wall";
-    // A grid of 8 × 8 quads, so that the perspective camera sees no long thin triangles.
-    constexpr int kCells = 8;
-    for (int j = 0; j <= kCells; ++j)
-      for (int i = 0; i <= kCells; ++i)
-        wall.vertices.push_back(W * d + W * (2.0 * i / kCells - 1) * right +
-                                W * (2.0 * j / kCells - 1) * wup);
-    for (int j = 0; j < kCells; ++j)
-      for (int i = 0; i < kCells; ++i) {
-        const int a = j * (kCells + 1) + i, b = a + 1, c = a + kCells + 1, e = c + 1;
-        wall.faces.emplace_back(a, e, b);
-        wall.faces.emplace_back(a, c, e);
-      }
-    wall.albedo.assign(wall.vertices.size(), glm::dvec3(0.8));
-    scene.meshes.push_back(wall);
-    Light light;
-    light.type = LightType::Directional;
-    light.direction = d;
-    light.color = glm::dvec3(intensity[k % 3]);
-    LightFrustum& f = light.frustum;
-    f.fitted = true;
-    f.target = glm::dvec3(0.0);
-    f.up = up;
-    f.half_size = W;
-    f.distance = w.light_distance;
-    f.near = 0.2 * w.light_distance;
-    f.far = w.light_distance + W + 0.5;
-    scene.lights.push_back(light);
-  }
-  // Look into the corner from the open side; from a little above when there is no floor (with
-  // a floor, from higher up the object would hide its own shadow there).
+  Light light;
+  light.type = LightType::Directional;
+  light.direction = d;
+  light.color = glm::dvec3(intensity);
+  LightFrustum& f = light.frustum;
+  f.fitted = true;
+  f.target = glm::dvec3(0.0);
+  f.up = up;
+  f.half_size = W;
+  f.distance = w.light_distance;
+  f.near = 0.2 * w.light_distance;
+  f.far = w.light_distance + W + 0.5;
+  return light;
+}
+
+// Look into the corner from the open side (`open`, the sum of the directions' opposites); from a
+// little above when there is no floor (with a floor, from higher up the object would hide its
+// own shadow there).
+Camera room_camera(const std::vector<glm::dvec3>& directions, const glm::dvec3& open, double W,
+                   int width, int height) {
   bool floor = false;
   for (const glm::dvec3& d : directions) floor |= std::abs(glm::normalize(d).y) > 0.5;
   glm::dvec3 view = open + glm::dvec3(0, floor ? -0.3 : 0.35, 0);
@@ -281,7 +277,31 @@ Scene room_scene(const Mesh& shape, const std::vector<glm::dvec3>& directions, i
   cam.far = 10 * W;
   cam.width = width;
   cam.height = height;
-  scene.cameras.push_back(cam);
+  return cam;
+}
+
+}  // namespace
+
+Scene room_scene(const Mesh& shape, const std::vector<glm::dvec3>& directions, int width,
+                 int height, const WallSetup& w, glm::dvec3 shape_albedo) {
+  if (!orthogonal(directions))
+    throw Error("room_scene: the light directions must be mutually orthogonal");
+  Scene scene;
+  Mesh s = shape;
+  s.albedo.assign(s.vertices.size(), shape_albedo);
+  s.albedo_mode = AlbedoMode::PerVertex;
+  scene.meshes.push_back(s);
+  glm::dvec3 open(0.0);
+  // Walls of slightly different brightness, so that the corner reads.
+  const double intensity[3] = {0.85, 0.7, 0.55};
+  for (size_t k = 0; k < directions.size(); ++k) {
+    const glm::dvec3 d = glm::normalize(directions[k]);
+    open -= d;
+    const glm::dvec3 up = view_up(d);
+    scene.meshes.push_back(room_wall(d, up, w.wall_distance));
+    scene.lights.push_back(room_light(d, up, intensity[k % 3], w));
+  }
+  scene.cameras.push_back(room_camera(directions, open, w.wall_distance, width, height));
   scene.ambient = {0.2, 0.2, 0.2};
   scene.background = {1, 1, 1};
   RenderParams& p = scene.params;
