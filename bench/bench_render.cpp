@@ -3,7 +3,8 @@
 // none / hard / soft × sampling truncated / exact / gemm (exact on CLBlast), image size, shadow-map
 // size, face count, σ_s and the number of lights. Every case is the bundled turnaround scene
 // (data/scenes/turnaround.json) with one setting changed from the reference point
-//   image 256², map 256², 1312 faces (1280-face sphere + 32-face ground), σ_s = 2, 1 light.
+//   image 256², map 256², 1312 faces (1280-face sphere + 32-face ground), σ_s = 2, 1 light,
+// the paper's shadow model (Case::model).
 //
 // Names: [large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L.
 // Cases under large/ (1024² images or maps, 200k faces, soft exact at 256² maps, ...) take far

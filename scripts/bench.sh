@@ -116,7 +116,8 @@ if [[ $accuracy -eq 1 ]]; then
 fi
 
 # --- per-kernel profile --------------------------------------------------------------------
-# One forward frame of the bundled scene (256², 256² map) per mode, rendered by the CLI with
+# One forward frame of the bundled scene (256², 256² map) per mode with the paper's shadow model
+# (the model of the suite's render cases), rendered by the CLI with
 # PENUMBRA_PROFILE=1: the device time per kernel is printed at exit (PoCL's own POCL_TRACING=cq
 # profiler corrupts memory in PoCL 3.1: docs/faults.md). A failed run's exit status is recorded
 # and the report says the profile is unavailable.
@@ -125,7 +126,7 @@ while read -r shadows sampling; do
   f="out/bench/profile_fwd_${shadows}_${sampling}.txt"
   status=0
   PENUMBRA_PROFILE=1 timeout 600 "$BUILD/penumbra" render -o out/bench/profile.png \
-    --shadows "$shadows" --sampling "$sampling" > "$f" 2>&1 || status=$?
+    --shadow-model paper --shadows "$shadows" --sampling "$sampling" > "$f" 2>&1 || status=$?
   echo "exit status $status" >> "$f"
   echo "bench: profile $shadows/$sampling: exit status $status"
 done <<'MODES'
