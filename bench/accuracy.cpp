@@ -252,6 +252,17 @@ Rendered render_visibility(Renderer& r, const Scene& s) {
   return out;
 }
 
+// Whether a 4-neighbour of pixel p is lit (visibility ≥ 0.5) in the truth.
+bool beside_truth_light(const GroundTruth& T, size_t p) {
+  const int x = int(p % size_t(T.W)), y = int(p / size_t(T.W));
+  const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
+  for (int k = 0; k < 4; ++k) {
+    const int u = x + dx[k], v = y + dy[k];
+    if (u >= 0 && v >= 0 && u < T.W && v < T.H && T.vis[size_t(v) * T.W + u] >= 0.5) return true;
+  }
+  return false;
+}
+
 AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered) {
   const GroundTruth& T = truth(c.scene, truth_for(c.shadows));
   const Regions& R = regions(c.scene);
@@ -280,6 +291,7 @@ AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered) {
       ++m.contact_pixels;
       m.contact_shadow_pixels += true_shadow;
       leaking += true_shadow && !shadow;
+      m.leaking_on_edge += true_shadow && !shadow && beside_truth_light(T, p);
     }
   }
   m.area_ratio = m.true_shadow_pixels ? double(rendered_shadow) / m.true_shadow_pixels : 0.0;

@@ -77,6 +77,7 @@ struct AccuracyMetrics {
   std::optional<double> leak;
   int ground_pixels = 0, shadow_pixels = 0, true_shadow_pixels = 0, lit_pixels = 0,
       contact_pixels = 0, contact_shadow_pixels = 0;
+  int leaking_on_edge = 0;  // leaking contact pixels beside a pixel the truth lights
 };
 AccuracyMetrics measure(const AccuracyCase& c, const Rendered& rendered);
 

@@ -31,13 +31,13 @@ struct KnownMiss {
   const char* test;  // <scene>_<mode>_<target>
   const char* measured;
 };
-// Measured on this project's 2-core machine (main at f5c909c: the model's own σ_s, γ_s and β
-// defaults); docs/benchmarks.md has the whole table. Remove an entry when the model meets its
-// target.
+// Measured on this project's 2-core machine with the model's defaults (the maps hold only the
+// casters, their coverage weighting the compare); docs/benchmarks.md has the whole table.
+// Remove an entry when the model meets its target. The leak: 2 of the 33 contact pixels the
+// truth shadows render at 0.52 and 0.59, both on the shadow's edge (beside a pixel the truth
+// lights); the contact pixels inside the truth's shadow render at most 0.015.
 const std::vector<KnownMiss> kKnownMisses = {
-    {"knot_h0_hard_rmse", "0.0522"},
-    {"knot_h0_3_hard_rmse", "0.0536"},
-    {"knot_h1_hard_rmse", "0.0526"},
+    {"knot_h0_hard_leak", "0.0606"},
 };
 
 bool known_miss(const std::string& test) {
@@ -79,7 +79,8 @@ void check(const std::string& scene, Shadows shadows, const std::string& target)
   } else if (target == "leak") {
     ASSERT_TRUE(m.leak.has_value()) << "no truth shadow at the contact";
     EXPECT_LE(*m.leak, T::leak) << m.contact_shadow_pixels << " of " << m.contact_pixels
-                                << " contact pixels shadowed by the truth";
+                                << " contact pixels shadowed by the truth; of those leaking, "
+                                << m.leaking_on_edge << " beside a pixel the truth lights";
   }
 }
 

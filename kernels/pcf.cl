@@ -3,8 +3,11 @@
 // backward (docs/shadows.md, "The accurate model"):
 //   d_ij = d + ∇_μ d·((i, j) − μ)            receiver-plane depth at texel (i, j) (slope
 //                                            limited for faces nearly edge-on: slope_limit)
-//   c_ij = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij)   1 lit … 0 behind an occluder
+//   c_ij = 1 − A_ij·smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij)   1 lit … 0 behind an occluder
 //   s    = Σ g'_ij(σ)·c_ij / Σ g'_ij(σ)      Gaussian weights of variance σ around μ
+// A_ij is the casters' coverage of texel (i, j) (the light pass's silhouette, only faces that
+// can cast a shadow in the map): a texel an outline crosses occludes in part, which puts the
+// shadow's edge where the outline is, not where the soft depth S first reaches the caster.
 // Hard shadows filter with σ = σ_s. Soft shadows (PCSS) first search for blockers with weights
 // h' of variance σ_b (the light's L_SEARCH_SIGMA): o = 1 − c, κ = PCF_KAPPA,
 //   z_b = (Σ h'·o·S + κ·d·Σh') / (Σ h'·o + κ·Σh')   mean blocker depth (→ d with no blocker)
@@ -20,6 +23,7 @@
 //   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd)
 //   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
+//   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
 // Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of a
 // row (pcf_gather).
 #include "common/window.clh"
@@ -71,12 +75,15 @@ inline real2 slope_limit_bwd(__global const real* P, int light, real d, real2 gr
   return (g - u * dot(u, g)) * (limit / len);
 }
 
-// c and dc/dΔ at Δ = d_ij − S_ij for ROW texels: a C¹ step, exactly 1 (lit) for Δ ≤ β − 2γ_s.
-inline realR lit_term(realR S, realR dij, __global const real* P, realR* dc) {
+// c and dc/dΔ at Δ = d_ij − S_ij for ROW texels of coverage A: a C¹ step, exactly 1 (lit) for
+// Δ ≤ β − 2γ_s, 1 − A behind the casters; `step` gets the step itself (dc/dA = −step).
+inline realR lit_term(realR S, realR A, realR dij, __global const real* P, realR* dc,
+                      realR* step) {
   real gs = P[P_GAMMA_S];
   realR t = clamp((dij - S - (P[P_BETA] - 2 * gs)) / (4 * gs), (real)0, (real)1);
-  *dc = -6 * t * (1 - t) / (4 * gs);
-  return 1 - t * t * (3 - 2 * t);
+  *step = t * t * (3 - 2 * t);
+  *dc = -A * 6 * t * (1 - t) / (4 * gs);
+  return 1 - A * *step;
 }
 
 // The cut of the filter's (ε_λ) or the search's Gaussian weights; none when exact.
@@ -104,18 +111,19 @@ inline Window pcf_window(real2 mu, real sigma, real eps, int Wm, int Hm) {
 // Σ w, Σ w·c, Σ w·S, Σ w·c·S over the window of variance `sigma` (w = g'), of the filter or
 // of the blocker `search`.
 inline real4 window_sums(Receiver x, real sigma, int search, __global const real* P,
-                         __global const real* S, int Wm, int Hm) {
+                         __global const real* S, __global const real* A, int Wm, int Hm) {
   Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
-  realR sw = 0, swc = 0, sws = 0, swcs = 0, dc;
+  realR sw = 0, swc = 0, sws = 0, swcs = 0, dc, step;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.mu.y, sigma);
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
       realR g = window_row(&c, i0, w.x1, gy, x.mu, sigma, w.eps);
-      realR Sv = loadR(S, j * Wm + i0, min(ROW, Wm - i0));
+      const int n = min(ROW, Wm - i0);
+      realR Sv = loadR(S, j * Wm + i0, n), Av = loadR(A, j * Wm + i0, n);
       realR dij = x.d + x.grad.x * ((real)i0 + LANER - x.mu.x) + x.grad.y * (j - x.mu.y);
-      realR lit = lit_term(Sv, dij, P, &dc);
+      realR lit = lit_term(Sv, Av, dij, P, &dc, &step);
       sw += g;
       swc += g * lit;
       sws += g * Sv;
@@ -168,8 +176,8 @@ inline real blocker_depth(real4 sums, real d, real* V) {
 }
 
 __kernel void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                         __global const real* S, __global real4* rec_light,
-                         __global real4* rec_light2) {
+                         __global const real* S, __global const real* A,
+                         __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   int at = r * nl + light;
@@ -177,11 +185,11 @@ __kernel void pcf_sample(__global const real* P, int nrec, int light, int nl, in
   real sigma = P[P_SIGMA_S], zb = x.d, V, dzb, dd, dsize, dw;
   if (soft_mode(P)) {
     LightDisc L = light_disc(P, light);
-    zb = blocker_depth(window_sums(x, L.sigma_b, 1, P, S, Wm, Hm), x.d, &V);
+    zb = blocker_depth(window_sums(x, L.sigma_b, 1, P, S, A, Wm, Hm), x.d, &V);
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
   }
-  real4 f = window_sums(x, sigma, 0, P, S, Wm, Hm);
+  real4 f = window_sums(x, sigma, 0, P, S, A, Wm, Hm);
   rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
   rec_light2[at].zw = (real2)(sigma, zb);
 }
@@ -197,9 +205,10 @@ typedef struct {
 } Moments;
 
 inline Moments window_moments(Receiver x, real sigma, int search, real ref,
-                              __global const real* P, __global const real* S, int Wm, int Hm) {
+                              __global const real* P, __global const real* S,
+                              __global const real* A, int Wm, int Hm) {
   Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
-  realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc;
+  realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc, step;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
   for (int j = w.y0; j <= w.y1; ++j) {
@@ -208,8 +217,9 @@ inline Moments window_moments(Receiver x, real sigma, int search, real ref,
       realR lam = window_row(&c, i0, w.x1, gy, x.mu, sigma, w.eps);
       realR g = select((realR)0, lam + w.eps, lam > 0);
       realR offx = (real)i0 + LANER - x.mu.x;
-      realR Sv = loadR(S, j * Wm + i0, min(ROW, Wm - i0));
-      realR lit = lit_term(Sv, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc);
+      const int n = min(ROW, Wm - i0);
+      realR Sv = loadR(S, j * Wm + i0, n), Av = loadR(A, j * Wm + i0, n);
+      realR lit = lit_term(Sv, Av, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
       realR v = search ? (1 - lit) * (Sv - ref) + PCF_KAPPA * (x.d - ref) : lit - ref;
       realR qv = search ? -(Sv - ref) * dc : dc;
       mux += g * offx * v;
@@ -229,7 +239,8 @@ inline Moments window_moments(Receiver x, real sigma, int search, real ref,
 
 // Backward per fragment: dL/dμ, dL/dd, dL/d∇_μ d, dL/dD_L, and the scales the gather needs.
 __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                             __global const real* S, __global const real4* rec_light,
+                             __global const real* S, __global const real* A,
+                             __global const real4* rec_light,
                              __global const real4* rec_light2, __global real4* rec_lgrad,
                              __global real4* rec_lgrad2) {
   int r = get_global_id(0);
@@ -238,7 +249,7 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
   // Through the filter, σ held: s = Σ w·c / Σ w.
-  Moments f = window_moments(x, sigma, 0, s, P, S, Wm, Hm);
+  Moments f = window_moments(x, sigma, 0, s, P, S, A, Wm, Hm);
   if (!(f.w > 0)) {
     rec_lgrad[at] = 0;
     rec_lgrad2[at] = 0;
@@ -257,7 +268,7 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
     gd += gw * dd;
     real gzb = gw * dzb;
     Moments b;
-    if (gzb != 0) b = window_moments(x, L.sigma_b, 1, zb, P, S, Wm, Hm);
+    if (gzb != 0) b = window_moments(x, L.sigma_b, 1, zb, P, S, A, Wm, Hm);
     real V = gzb != 0 ? b.wo + PCF_KAPPA * b.w : 0;  // blocker_depth's denominator
     if (V > 0) {
       gzb_v = gzb / V;
@@ -271,21 +282,24 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
   rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
 }
 
-// dL/dS per texel, gathered in a fixed order (no atomics) from the fragments whose filter or
-// search window holds it (from the nearby texel buckets when truncated; every fragment when
-// exact): Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ).
+// dL/dS and dL/dA per texel, gathered in a fixed order (no atomics) from the fragments whose
+// filter or search window holds it (from the nearby texel buckets when truncated; every
+// fragment when exact), with o = 1 − c and `step` the compare's smooth step:
+//   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
+//   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
 __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                         int reach, __global const real* S, __global const real4* rec_light,
+                         int reach, __global const real* S, __global const real* A,
+                         __global const real4* rec_light,
                          __global const real4* rec_light2, __global const real4* rec_lgrad,
                          __global const real4* rec_lgrad2, __global const int* bucket_offsets,
                          __global const int* bucket_counts, __global const int* bucket_recs,
-                         __global real* gS) {
+                         __global real* gS, __global real* gA) {
   int i0 = get_global_id(0) * ROW, j = get_global_id(1);
   if (i0 >= Wm || j >= Hm) return;
   const int n = min(ROW, Wm - i0), soft = soft_mode(P);
   const real sigma_b = light_disc(P, light).sigma_b;
-  const realR Sv = loadR(S, j * Wm + i0, n);
-  realR acc = 0, dc;
+  const realR Sv = loadR(S, j * Wm + i0, n), Av = loadR(A, j * Wm + i0, n);
+  realR acc = 0, accA = 0, dc, step;
   const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
 #if EXACT
   for (int r = 0; r < nrec; ++r) {
@@ -305,15 +319,18 @@ __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, in
     real sigma = rec_light2[at].z, zb = rec_light2[at].w, a = rec_lgrad[at].x;
     real b = rec_lgrad2[at].z, offy = j - x.mu.y;
     realR offx = (real)i0 + LANER - x.mu.x;
-    realR lit = lit_term(Sv, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc);
+    realR lit = lit_term(Sv, Av, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
     realR g = fmax(axis_weight(offx, sigma) * axis_weight(offy, sigma) - eps, (realR)0);
     acc -= a * g * dc;
+    accA -= a * g * step;
     if (soft && b != 0) {
       realR h = fmax(axis_weight(offx, sigma_b) * axis_weight(offy, sigma_b) - eps_b, (realR)0);
       acc += b * h * ((1 - lit) + (Sv - zb) * dc);
+      accA += b * h * step * (Sv - zb);
     }
   }
-  real out[ROW];
+  real out[ROW], outA[ROW];
   vstoreR(acc, 0, out);
-  for (int l = 0; l < n; ++l) gS[j * Wm + i0 + l] = out[l];
+  vstoreR(accA, 0, outA);
+  for (int l = 0; l < n; ++l) gS[j * Wm + i0 + l] = out[l], gA[j * Wm + i0 + l] = outA[l];
 }

@@ -23,6 +23,7 @@
 //   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
 //   image N × real4 (R, G, B, silhouette A); aux N × real4 (I_z, m, Z, Σ log(1 − D));
 //   depth N × real (I_z again, densely, as the shadow map S when rendering from a light)
+//   cover N × real (A again, densely, as the map's caster coverage when rendering from a light)
 // Launch of count/fragments: global (ceil(W/TILE)·TILE/PPW, ceil(H/TILE)·TILE), local
 // (TILE/PPW, TILE): one work-group per tile, PPW consecutive pixels of a row per work-item.
 // resolve and resolve_bwd: one work-item per pixel. raster_bwd: one work-item per face, which
@@ -249,7 +250,7 @@ __kernel void raster_resolve(__global const real* P, int W, int H,
                              __global const int* pix_offset, __global const int* pix_n,
                              __global const real4* rec_frag, __global const real4* rec_shade,
                              __global const real4* rec_light, __global real4* image,
-                             __global real4* aux, __global real* depth) {
+                             __global real4* aux, __global real* depth, __global real* cover) {
   int pix = get_global_id(0);
   if (pix >= W * H) return;
   const int nl = (int)P[P_NLIGHTS];
@@ -263,9 +264,11 @@ __kernel void raster_resolve(__global const real* P, int W, int H,
     acc += fr.x * fragment_colour(r, nl, rec_shade, rec_light);
     accz += fr.x * fr.y;
   }
-  image[pix] = (real4)(acc / Z, 1 - exp(ax.w));
+  real A = 1 - exp(ax.w);
+  image[pix] = (real4)(acc / Z, A);
   aux[pix] = (real4)(accz / Z, ax.y, Z, ax.w);
   depth[pix] = accz / Z;
+  cover[pix] = A;
 }
 
 // Backward of raster_resolve. gimage N × real4 (dL/dR, dL/dG, dL/dB, dL/dA), gdepth N × real

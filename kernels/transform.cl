@@ -6,9 +6,28 @@
 //   faces    F × int4    vertex indices (w unused)
 //   fbbox    F × int4    pixel bounding box (x0, y0, x1, y1) of the face's coverage, widened by
 //                        the coverage cut-off radius; empty (x0 > x1) for a dropped face
-//   fnormal  F × real4   unit world normal (xyz) and signed screen area (w; 0 if dropped)
+//   fnormal  F × real4   unit world normal (xyz) and signed screen area (w; 0 if dropped:
+//                        behind the near plane, edge-on, culled, or casting no shadow)
 // Launch: one work-item per vertex (transform_fwd, transform_bwd) or per face (face_setup).
 #include "common/geometry.clh"
+
+// The scene's bounding box may lie this far (times its diagonal) behind a face's plane and the
+// face still count as casting no shadow: rounding of a receiver under everything (a ground).
+#define CASTER_TOL RL(1e-5)
+
+// A face facing the light (`to_light`: towards it from V0) with the whole scene on the light's
+// side of its plane shadows nothing: a ground under everything, a wall. The accurate model keeps
+// such faces out of the light's map, whose coverage is then that of the casters alone.
+inline int casts_no_shadow(real3 V0, real3 n, real3 to_light, __global const real* P) {
+  if (!(dot(n, to_light) > 0)) return 0;
+  real3 lo = p_vec3(P, P_SCENE_LO), hi = p_vec3(P, P_SCENE_HI);
+  real tol = CASTER_TOL * length(hi - lo);
+  for (int c = 0; c < 8; ++c) {
+    real3 corner = (real3)(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
+    if (dot(n, corner - V0) < -tol) return 0;
+  }
+  return 1;
+}
 
 __kernel void transform_fwd(__global const real4* vworld, __global const real* P, int nv,
                             __global real4* vscreen) {
@@ -38,11 +57,10 @@ __kernel void face_setup(__global const real4* vworld, __global const real4* vsc
   real nearz = P[P_NEAR];
   int valid = s0.z >= nearz && s1.z >= nearz && s2.z >= nearz && nlen > 0 &&
               fabs(area) > tiny * (dot(e1, e1) + dot(e2, e2));
-  if (valid && P[P_CULL] > 0) {
-    __global const real* fr = P + P_FRAME;
-    real3 to_cam = fr[FR_ORTHO] > 0 ? -p_vec3(fr, FR_FWD) : p_vec3(fr, FR_EYE) - V0;
-    valid = dot(n, to_cam) > 0;
-  }
+  __global const real* fr = P + P_FRAME;
+  real3 to_view = fr[FR_ORTHO] > 0 ? -p_vec3(fr, FR_FWD) : p_vec3(fr, FR_EYE) - V0;
+  if (valid && P[P_CULL] > 0) valid = dot(n, to_view) > 0;
+  if (valid && P[P_CASTERS_ONLY] > 0) valid = !casts_no_shadow(V0, n, to_view, P);
   int4 box = (int4)(1, 1, 0, 0);
   if (valid) {
     // Pixel centres: x = (2px + 1 − W)/H, y = (H − 2py − 1)/H. One pixel of margin on each

@@ -121,17 +121,17 @@ double luminance(const Image& color, std::pair<int, int> p) {
 // ---------------------------------------------------------------------------------------------
 // The reference's light pass against closed-form depths.
 
-// A directional light straight down onto a flat ground, with a frustum given (not fitted):
-// the orthographic light looks from 4 above the origin over [−3, 3]², so texels over the ground
-// ([−2, 2]²) see it at depth 4 and the corner texels see the background at the far plane.
-TEST(ShadowReference, FlatGroundDepthFromAbove) {
+// A directional light straight down onto a ground (flat unless `variation`), with a frustum
+// given (not fitted): the orthographic light looks from 4 above the origin over [−3, 3]².
+Scene ground_from_above(ShadowModel model, double variation = 0.05) {
   Scene s;
-  s.meshes = {ground(2.0, 2)};
+  s.meshes = {ground(2.0, 2, variation)};
   s.cameras = {Camera{}};
   s.lights = {directional_light({0, -1, 0}, {1, 1, 1})};
   s.params.sigma = 3e-4;
   s.params.gamma = 3e-3;
   s.params.shadow_map_size = 24;
+  s.params.shadow_model = model;
   auto& fr = s.lights[0].frustum;
   fr.fitted = true;
   fr.target = {0, 0, 0};
@@ -140,7 +140,13 @@ TEST(ShadowReference, FlatGroundDepthFromAbove) {
   fr.distance = 4.0;
   fr.near = 1.0;
   fr.far = 8.0;
-  const Image S = penumbra::reference::shadow_map(s, 0);
+  return s;
+}
+
+// The paper model's map holds every face: texels over the ground ([−2, 2]²) see it at depth 4
+// and the corner texels see the background at the far plane.
+TEST(ShadowReference, FlatGroundDepthFromAbove) {
+  const Image S = penumbra::reference::shadow_map(ground_from_above(ShadowModel::Paper), 0);
   ASSERT_EQ(S.width, 24);
   ASSERT_EQ(S.height, 24);
   ASSERT_EQ(S.channels, 1);
@@ -149,6 +155,27 @@ TEST(ShadowReference, FlatGroundDepthFromAbove) {
   EXPECT_NEAR(S.at(5, 18), 4.0, 1e-9);  // centre 1.625 off both axes: on the ground
   EXPECT_NEAR(S.at(0, 0), 8.0, 1e-9);   // centre 2.875 off both axes: beyond it
   EXPECT_NEAR(S.at(23, 23), 8.0, 1e-9);
+}
+
+// The accurate model's map holds only what can cast a shadow: a flat ground with the whole
+// scene above it casts none and is left out (the far plane everywhere); a card 1 above it, whose
+// plane has the ground beyond it, stays (depth 3 over [−1, 1]²), in the reference and kernels.
+TEST(ShadowReference, AccurateMapLeavesOutWhatCastsNoShadow) {
+  Scene s = ground_from_above(ShadowModel::Accurate, 0.0);
+  EXPECT_NEAR(penumbra::reference::shadow_map(s, 0).at(11, 11), 8.0, 1e-9);
+  Mesh card = ground(1.0, 1, 0.0);
+  for (auto& v : card.vertices) v.y += 1;
+  s.meshes.push_back(card);
+  const Image S = penumbra::reference::shadow_map(s, 0);
+  EXPECT_NEAR(S.at(11, 11), 3.0, 1e-9);
+  EXPECT_NEAR(S.at(5, 18), 8.0, 1e-9);  // over the ground, beyond the card
+  REQUIRE_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  s.params.shadows = Shadows::Hard;
+  ASSERT_NO_THROW(r.render(s));
+  expect_close(r.shadow_maps().at(0), S, 1e-9, true, "accurate map");
+  s.params.shadow_model = ShadowModel::Paper;
+  EXPECT_NEAR(penumbra::reference::shadow_map(s, 0).at(5, 18), 4.0, 1e-9);
 }
 
 // A point light straight above a ground quad: the texel at the map centre looks straight down
@@ -161,7 +188,8 @@ TEST(ShadowReference, PointLightCentreTexelAndFitting) {
   s.lights = {point_light({0, 5, 0}, {1, 1, 1})};
   s.params.sigma = 3e-4;
   s.params.gamma = 3e-3;
-  s.params.shadow_map_size = 25;  // odd: texel (12, 12) is the centre
+  s.params.shadow_map_size = 25;               // odd: texel (12, 12) is the centre
+  s.params.shadow_model = ShadowModel::Paper;  // whose map holds the ground (see below)
   ASSERT_FALSE(s.lights[0].frustum.fitted);
   const Image S = penumbra::reference::shadow_map(s, 0);
   EXPECT_NEAR(S.at(12, 12), 5.0, 1e-9);

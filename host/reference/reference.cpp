@@ -61,7 +61,39 @@ struct ShadowMap {
   View view;
   Image S;  // W_s × H_s, row-major, row 0 at the top
   Image P;  // the penumbra map, same layout (soft shadows only; empty otherwise)
+  Image A;  // the silhouette of the light pass: its faces' coverage (the accurate model's)
 };
+
+// The scene without the faces that cannot cast a shadow from `light`: those facing it with the
+// whole bounding box on its side of their plane (within 1e-5 of the box's diagonal).
+Scene casters_only(const Scene& scene, const Light& light) {
+  const Bounds b = bounds(scene);
+  const double tol = 1e-5 * glm::length(b.hi - b.lo);
+  Scene out = scene;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& in = scene.meshes[m];
+    Mesh& kept = out.meshes[m];
+    kept.faces.clear();
+    if (in.albedo_mode == AlbedoMode::PerFace) kept.albedo.clear();
+    for (size_t fi = 0; fi < in.faces.size(); ++fi) {
+      const dvec3 V0 = in.vertices[size_t(in.faces[fi].x)];
+      const dvec3 n = glm::normalize(glm::cross(in.vertices[size_t(in.faces[fi].y)] - V0,
+                                                in.vertices[size_t(in.faces[fi].z)] - V0));
+      const dvec3 to_light =
+          light.type == LightType::Point ? light.position - V0 : -light.direction;
+      bool shadows_nothing = glm::dot(n, to_light) > 0;
+      for (int c = 0; c < 8 && shadows_nothing; ++c) {
+        const dvec3 corner(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y,
+                           c & 4 ? b.hi.z : b.lo.z);
+        shadows_nothing = glm::dot(n, corner - V0) >= -tol;
+      }
+      if (shadows_nothing) continue;
+      kept.faces.push_back(in.faces[fi]);
+      if (in.albedo_mode == AlbedoMode::PerFace) kept.albedo.push_back(in.albedo[fi]);
+    }
+  }
+  return out;
+}
 
 ShadowMap light_pass(const Scene& scene, size_t index) {
   const RenderParams& p = scene.params;
@@ -69,8 +101,10 @@ ShadowMap light_pass(const Scene& scene, size_t index) {
   const double sigma = light_pass_sigma(p);
   const double gamma = light_pass_gamma(p);
   const Shader no_colour = [](const Face&, const dvec3&) { return dvec3(0.0); };
-  RenderOutput out = raster(scene, view, sigma, gamma, dvec3(0.0), no_colour);
-  return {view, std::move(out.depth), Image()};
+  const bool accurate = p.shadow_model == ShadowModel::Accurate;
+  RenderOutput out = raster(accurate ? casters_only(scene, scene.lights[index]) : scene, view,
+                            sigma, gamma, dvec3(0.0), no_colour);
+  return {view, std::move(out.depth), Image(), std::move(out.silhouette)};
 }
 
 // The penumbra map P of light `index` (SPEC §3, paper eqs. 9–10, outer penumbra only) from its
@@ -235,11 +269,11 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
   return acc / sum;
 }
 
-// The accurate model (kernels/pcf.cl): c = 1 − smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
-double lit_step(double delta, const RenderParams& p) {
+// The accurate model (kernels/pcf.cl): c = 1 − A·smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
+double lit_step(double delta, double A, const RenderParams& p) {
   const double t = std::clamp(
       (delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
-  return 1 - t * t * (3 - 2 * t);
+  return 1 - A * t * t * (3 - 2 * t);
 }
 
 // Σw, Σw·c, Σw·S, Σw·c·S over the Gaussian window of variance `sigma` around μ.
@@ -262,7 +296,8 @@ std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec
       const double dx = i - mu.x, dy = j - mu.y;
       const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * sigma)) - eps;
       if (!(g > 0.0)) continue;
-      const double S = map.S.at(i, j), c = lit_step(d + grad.x * dx + grad.y * dy - S, p);
+      const double S = map.S.at(i, j);
+      const double c = lit_step(d + grad.x * dx + grad.y * dy - S, map.A.at(i, j), p);
       sums[0] += g, sums[1] += g * c, sums[2] += g * S, sums[3] += g * c * S;
     }
   return sums;

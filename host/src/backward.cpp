@@ -68,6 +68,7 @@ BackwardSums Renderer::Impl::start_backward() {
   for (const ViewState& lv : light_views) {
     sums.maps.emplace_back(size_t(lv.W) * lv.H, 0.0);
     sums.penumbra_maps.emplace_back(size_t(lv.W) * lv.H, 0.0);
+    sums.covers.emplace_back(size_t(lv.W) * lv.H, 0.0);
   }
   // vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd
   std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
@@ -108,6 +109,7 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
                   : detail::shadow_backward(kernels, rp, v, int(l), light_views[l]);
     accumulate(ctx, precision, sums.maps[l], gm.S);
     if (gm.P()) accumulate(ctx, precision, sums.penumbra_maps[l], gm.P);
+    if (gm.A()) accumulate(ctx, precision, sums.covers[l], gm.A);
   }
   stage("faces");
   auto gl = backward_faces(v, gimage_buf, gdepth_buf, sums, nullptr);
@@ -130,7 +132,9 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
         detail::penumbra_backward_texels(kernels, geometry, lv, gpen, &sums.light_size[light]));
   }
   stage("shadow map");
-  auto gimage_buf = detail::zero_reals(ctx, precision, ntex * 4);
+  std::vector<double> gimage(ntex * 4, 0.0);  // the coverage is the view's silhouette
+  for (size_t t = 0; t < ntex; ++t) gimage[t * 4 + 3] = sums.covers[light][t];
+  auto gimage_buf = detail::upload_reals(ctx, precision, gimage);
   auto gdepth_buf = detail::upload_reals(ctx, precision, sums.maps[light]);
   detail::raster_resolve_backward(kernels, lv, gimage_buf, gdepth_buf);
   backward_faces(lv, gimage_buf, gdepth_buf, sums, &sums.frames[light], gpen() ? &gpen : nullptr);

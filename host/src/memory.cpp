@@ -20,18 +20,20 @@ struct Sizes {
 
 // Fragments per pixel of a camera's view and per texel of a light's map that the estimate
 // assumes. Measured on the bundled scene (FaultsMemory.EstimateCoversWhatIsAllocated): 1.1–1.2
-// per pixel of the camera's view; more per texel of a light's map, which the ground covers
-// almost whole (the accurate model fits the frustum to the occluders), faces near an edge each
-// keeping a fragment on the texels within their coverage cut-off.
-constexpr double kFragmentsPerPixel = 1.25, kFragmentsPerTexel = 1.5;
+// per pixel of the camera's view; more per texel of the paper model's map, which the ground
+// covers almost whole, faces near an edge each keeping a fragment on the texels within their
+// coverage cut-off; fewer in the accurate model's, which holds only the casters (the ground
+// casts no shadow) in a frustum fitted to them.
+constexpr double kFragmentsPerPixel = 1.25, kFragmentsPerTexel = 1.5, kCasterFragmentsPerTexel = 1;
 
 size_t fragments(size_t pixels, double per_pixel) { return size_t(double(pixels) * per_pixel); }
 
 // One view of W×H pixels with `lights` lights in its shading (raster.cpp's buffers).
-// `per_pixel`: fragments per pixel (kFragmentsPerPixel or kFragmentsPerTexel).
+// `per_pixel`: fragments per pixel (kFragmentsPerPixel or a map's per texel).
 size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, double per_pixel) {
-  const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1);  // counts, offsets,
-                                                                        // runs, aux, image, depth
+  const size_t per_pixel_bytes =
+      4 * sizeof(int) + z.rs * (4 + 4 + 1 + 1);  // counts, offsets,
+                                                 // runs, aux, image, depth, cover
   // face, fragment, shading (1 + lights), two light records (lights)
   size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + 3 * lights);
   size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
@@ -70,9 +72,12 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   if (p.shadows == Shadows::None) return bytes;
   const size_t texels = size_t(p.shadow_map_size) * size_t(p.shadow_map_size);
   for (size_t l = 0; l < lights; ++l) {
-    bytes += view_bytes(z, texels, 0, backward, kFragmentsPerTexel);
-    if (p.shadows == Shadows::Soft) bytes += z.nf * 16 + texels * 3 * z.rs;  // P and its sums
-    if (backward) bytes += texels * 6 * z.rs;  // gradients of S (and P), image, depth
+    bytes += view_bytes(
+        z, texels, 0, backward,
+        p.shadow_model == ShadowModel::Accurate ? kCasterFragmentsPerTexel : kFragmentsPerTexel);
+    if (p.shadows == Shadows::Soft && p.shadow_model == ShadowModel::Paper)
+      bytes += z.nf * 16 + texels * 3 * z.rs;  // the penumbra map P and its sums
+    if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
     if (p.sampling != Sampling::Truncated && p.shadows == Shadows::Hard &&
         p.shadow_model == ShadowModel::Paper) {
       size_t most = 0;  // the batches live one camera at a time

@@ -24,7 +24,7 @@ Packed pack(const Scene& s);
 // dL/d(its frame) from its own pass.
 struct BackwardSums {
   std::vector<double> vertices, albedo, lights, light_size;
-  std::vector<std::vector<double>> maps, penumbra_maps, frames;
+  std::vector<std::vector<double>> maps, penumbra_maps, covers, frames;
 };
 
 struct Renderer::Impl {

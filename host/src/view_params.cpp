@@ -141,6 +141,12 @@ std::vector<double> light_view_params(const Scene& s, size_t i) {
                                       light_frame(s.lights[i]));
   P[P_SHADOWS] = 0;
   P[P_LIGHT_SIZE] = s.lights[i].size;
+  if (r.shadow_model == ShadowModel::Accurate) {  // the map holds the casters alone (pcf.cl)
+    const Bounds b = bounds(s);
+    P[P_CASTERS_ONLY] = 1;
+    put3(P, P_SCENE_LO, b.lo);
+    put3(P, P_SCENE_HI, b.hi);
+  }
   return P;
 }
 

@@ -37,7 +37,11 @@
 #define P_FRAME 24       /* the view's camera frame (FR_SIZE reals) */
 #define P_SHADOW_MODEL 38 /* 0 paper (filter then compare, penumbra map), 1 accurate (pcf.cl) */
 #define P_RECEIVER_PLANE 39 /* 1: fragments keep their receiver-plane depth gradient ∇_μ d */
-#define P_LIGHTS 40      /* P_LIGHT_STRIDE reals per light: */
+#define P_CASTERS_ONLY 40 /* a light's view in the accurate model: 1 drops the faces that cannot
+                             cast a shadow (transform.cl's casts_no_shadow) */
+#define P_SCENE_LO 41    /* the scene's bounding box, xyz (with P_CASTERS_ONLY) */
+#define P_SCENE_HI 44
+#define P_LIGHTS 48      /* P_LIGHT_STRIDE reals per light: */
 #define L_POS 0          /*   position (point) or travel direction (directional), xyz */
 #define L_POINT 3        /*   1 point light, 0 directional */
 #define L_COLOR 4        /*   RGB intensity */

@@ -119,7 +119,8 @@ struct ViewState {
   cl::Buffer pix_count, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
   cl::Buffer rec_wg, rec_lgrad, rec_lgrad2;  // backward
-  cl::Buffer image, aux, depth;  // outputs (depth is the shadow map S of a light's view)
+  // Outputs; of a light's view, depth is its shadow map S and cover the coverage A of its faces.
+  cl::Buffer image, aux, depth, cover;
   // A light's view with soft shadows: its penumbra map (penumbra.cl).
   cl::Buffer pen_boxes, pen_map, pen_sums;
   Bins pen_bins;
@@ -167,7 +168,7 @@ void shadow_forward(Kernels& k, const RenderParams& p, ViewState& v, int light,
 // Completes rec_lgrad (and rec_lgrad2) of `v` for `light` and returns dL/d(the light's shadow
 // map) and, for soft shadows, dL/d(its penumbra map).
 struct MapGrads {
-  cl::Buffer S, P;
+  cl::Buffer S, P, A;  // dL/d(shadow map, penumbra map (paper), coverage (accurate))
 };
 MapGrads shadow_backward(Kernels& k, const RenderParams& p, ViewState& v, int light,
                          const ViewState& lv);

@@ -15,16 +15,16 @@ struct PcfSampleArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_sample";
   MapLookup at;
-  const cl::Buffer &S, &rec_light, &rec_light2;
-  auto fields() const { return std::tie(at, S, rec_light, rec_light2); }
+  const cl::Buffer &S, &A, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, A, rec_light, rec_light2); }
 };
 
 struct PcfSampleBwdArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_sample_bwd";
   MapLookup at;
-  const cl::Buffer &S, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
-  auto fields() const { return std::tie(at, S, rec_light, rec_light2, rec_lgrad, rec_lgrad2); }
+  const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  auto fields() const { return std::tie(at, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2); }
 };
 
 struct PcfGatherArgs {
@@ -32,11 +32,11 @@ struct PcfGatherArgs {
   static constexpr const char* kernel = "pcf_gather";
   MapLookup at;
   cl_int reach;
-  const cl::Buffer &S, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   BinLists buckets;
-  const cl::Buffer& gS;
+  const cl::Buffer &gS, &gA;
   auto fields() const {
-    return std::tie(at, reach, S, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets, gS);
+    return std::tie(at, reach, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets, gS, gA);
   }
 };
 
@@ -62,8 +62,8 @@ void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const V
   const int n = int(v.nrec);
   if (n == 0) return;
   const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
-  auto& s =
-      bind_args(k, PcfSampleArgs{at, lv.depth, v.rec_light, v.rec_light2}, exact_define(sampling));
+  auto& s = bind_args(k, PcfSampleArgs{at, lv.depth, lv.cover, v.rec_light, v.rec_light2},
+                      exact_define(sampling));
   launch_1d(k.ctx(), s, n);
 }
 
@@ -73,12 +73,14 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
   const int Wm = lv.W, Hm = lv.H, n = int(v.nrec), nl = v.nlights;
   MapGrads g;
   g.S = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
+  g.A = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
   if (n == 0) return g;
   const char* variant = exact_define(p.sampling);
   const MapLookup at{v.P, n, light, nl, Wm, Hm};
-  auto& sb = bind_args(
-      k, PcfSampleBwdArgs{at, lv.depth, v.rec_light, v.rec_light2, v.rec_lgrad, v.rec_lgrad2},
-      variant);
+  auto& sb = bind_args(k,
+                       PcfSampleBwdArgs{at, lv.depth, lv.cover, v.rec_light, v.rec_light2,
+                                        v.rec_lgrad, v.rec_lgrad2},
+                       variant);
   launch_1d(ctx, sb, n);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
   if (p.sampling == Sampling::Truncated)
@@ -87,8 +89,8 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
     bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
   const int reach = gather_reach(k, p, search_sigma, v, light);
   auto& ga = bind_args(k,
-                       PcfGatherArgs{at, reach, lv.depth, v.rec_light, v.rec_light2, v.rec_lgrad,
-                                     v.rec_lgrad2, bins, g.S},
+                       PcfGatherArgs{at, reach, lv.depth, lv.cover, v.rec_light, v.rec_light2,
+                                     v.rec_lgrad, v.rec_lgrad2, bins, g.S, g.A},
                        variant);
   const int row = shadow_row_width(ctx.info());  // texels per item
   launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));

@@ -39,9 +39,11 @@ struct RasterResolveArgs {
   static constexpr const char* kernel = "raster_resolve";
   const cl::Buffer& P;
   cl_int W, H;
-  const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux, &depth;
+  const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux, &depth,
+      &cover;
   auto fields() const {
-    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux, depth);
+    return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux, depth,
+                    cover);
   }
 };
 
@@ -140,8 +142,10 @@ void raster_resolve(Kernels& k, ViewState& v) {
   const size_t npix = size_t(v.W) * v.H;
   v.image = alloc_reals(k.ctx(), k.precision(), npix * 4);
   v.depth = alloc_reals(k.ctx(), k.precision(), npix);
-  auto& res = bind_args(k, RasterResolveArgs{v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag,
-                                             v.rec_shade, v.rec_light, v.image, v.aux, v.depth});
+  v.cover = alloc_reals(k.ctx(), k.precision(), npix);
+  auto& res =
+      bind_args(k, RasterResolveArgs{v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade,
+                                     v.rec_light, v.image, v.aux, v.depth, v.cover});
   launch_1d(k.ctx(), res, npix);
 }
 
