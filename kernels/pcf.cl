@@ -24,8 +24,8 @@
 //   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
-// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of a
-// row (pcf_gather).
+// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of
+// GATHER_ROWS rows (pcf_gather).
 #include "common/window.clh"
 
 #ifndef EXACT
@@ -248,9 +248,11 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
   int at = r * nl + light;
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
-  // Through the filter, σ held: s = Σ w·c / Σ w.
-  Moments f = window_moments(x, sigma, 0, s, P, S, A, Wm, Hm);
-  if (!(f.w > 0)) {
+  // Through the filter, σ held: s = Σ w·c / Σ w. Nothing to do where dL/ds = 0 (a fragment
+  // unlit from this light, or outside the loss): every gradient is 0.
+  Moments f;
+  if (G != 0) f = window_moments(x, sigma, 0, s, P, S, A, Wm, Hm);
+  if (G == 0 || !(f.w > 0)) {
     rec_lgrad[at] = 0;
     rec_lgrad2[at] = 0;
     return;
@@ -294,43 +296,60 @@ __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, in
                          __global const real4* rec_lgrad2, __global const int* bucket_offsets,
                          __global const int* bucket_counts, __global const int* bucket_recs,
                          __global real* gS, __global real* gA) {
-  int i0 = get_global_id(0) * ROW, j = get_global_id(1);
-  if (i0 >= Wm || j >= Hm) return;
-  const int n = min(ROW, Wm - i0), soft = soft_mode(P);
+  int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
+  if (i0 >= Wm || j0 >= Hm) return;
+  const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0), soft = soft_mode(P);
   const real sigma_b = light_disc(P, light).sigma_b;
-  const realR Sv = loadR(S, j * Wm + i0, n), Av = loadR(A, j * Wm + i0, n);
-  realR acc = 0, accA = 0, dc, step;
+  realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS], dc, step;
+  for (int t = 0; t < rows; ++t) {
+    Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
+    Av[t] = loadR(A, (j0 + t) * Wm + i0, n);
+    acc[t] = accA[t] = 0;
+  }
   const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
 #if EXACT
+  const real r2 = INFINITY;
   for (int r = 0; r < nrec; ++r) {
     if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
 #else
   const real leps = log(1 / eps), leps_b = log(1 / eps_b);
-  for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
+  for (int by = max(j0 - reach, 0); by <= min(j0 + rows - 1 + reach, Hm - 1); ++by)
     for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
       for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
         real r2 = 2 * rec_light2[r * nl + light].z * leps;  // the filter's window, and the search's
         if (soft) r2 = max(r2, 2 * sigma_b * leps_b);
-        if (!window_reaches(rec_light[r * nl + light].xy, i0, j, r2)) continue;
+        if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
 #endif
     int at = r * nl + light;
     Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
     real sigma = rec_light2[at].z, zb = rec_light2[at].w, a = rec_lgrad[at].x;
-    real b = rec_lgrad2[at].z, offy = j - x.mu.y;
-    realR offx = (real)i0 + LANER - x.mu.x;
-    realR lit = lit_term(Sv, Av, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
-    realR g = fmax(axis_weight(offx, sigma) * axis_weight(offy, sigma) - eps, (realR)0);
-    acc -= a * g * dc;
-    accA -= a * g * step;
-    if (soft && b != 0) {
-      realR h = fmax(axis_weight(offx, sigma_b) * axis_weight(offy, sigma_b) - eps_b, (realR)0);
-      acc += b * h * ((1 - lit) + (Sv - zb) * dc);
-      accA += b * h * step * (Sv - zb);
+    real b = rec_lgrad2[at].z;
+    const int search = soft && b != 0;
+    if (a == 0 && !search) continue;  // adds nothing (unlit from this light, or outside the loss)
+    realR offx = (real)i0 + LANER - x.mu.x, gx = axis_weight(offx, sigma), hx = 0;
+    if (search) hx = axis_weight(offx, sigma_b);
+    for (int t = 0; t < rows; ++t) {
+      real offy = j0 + t - x.mu.y;
+      if (!(offy * offy < r2)) continue;
+      realR lit = lit_term(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
+      realR g = fmax(gx * axis_weight(offy, sigma) - eps, (realR)0);
+      acc[t] -= a * g * dc;
+      accA[t] -= a * g * step;
+      if (search) {
+        realR h = fmax(hx * axis_weight(offy, sigma_b) - eps_b, (realR)0);
+        acc[t] += b * h * ((1 - lit) + (Sv[t] - zb) * dc);
+        accA[t] += b * h * step * (Sv[t] - zb);
+      }
     }
   }
-  real out[ROW], outA[ROW];
-  vstoreR(acc, 0, out);
-  vstoreR(accA, 0, outA);
-  for (int l = 0; l < n; ++l) gS[j * Wm + i0 + l] = out[l], gA[j * Wm + i0 + l] = outA[l];
+  for (int t = 0; t < rows; ++t) {
+    real out[ROW], outA[ROW];
+    vstoreR(acc[t], 0, out);
+    vstoreR(accA[t], 0, outA);
+    for (int l = 0; l < n; ++l) {
+      gS[(j0 + t) * Wm + i0 + l] = out[l];
+      gA[(j0 + t) * Wm + i0 + l] = outA[l];
+    }
+  }
 }

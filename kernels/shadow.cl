@@ -99,33 +99,40 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
 }
 
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed
-// order (no atomics). A work-item takes ROW consecutive texels of a row as one vector:
-// g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no bounds test is needed.
+// order (no atomics). A work-item takes ROW consecutive texels of GATHER_ROWS rows, each row
+// as one vector: g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no
+// bounds test is needed.
 __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real4* rec_light, __global const real4* rec_lgrad,
                             __global const int* bucket_offsets, __global const int* bucket_counts,
                             __global const int* bucket_recs, __global real* gS) {
-  int i0 = get_global_id(0) * ROW, j = get_global_id(1);
-  if (i0 >= Wm || j >= Hm) return;
+  int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
+  if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
-  realR acc = 0;
+  const int rows = min(GATHER_ROWS, Hm - j0);
+  realR acc[GATHER_ROWS];
+  for (int t = 0; t < rows; ++t) acc[t] = 0;
   int reach = bucket_reach(P);
-  for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
+  for (int by = max(j0 - reach, 0); by <= min(j0 + rows - 1 + reach, Hm - 1); ++by)
     for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx) {
       int b = by * Wm + bx;
       for (int k = 0; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
         real4 x = rec_light[r * nl + light];
-        if (!window_reaches(x.xy, i0, j, r2)) continue;
-        real gy = axis_weight(j - x.y, ss);
-        realR d = (real)i0 + LANER - x.x;
-        realR g = fmax(axis_weight(d, ss) * gy - eps, (realR)0);
-        acc += rec_lgrad[r * nl + light].x * g;
+        real a = rec_lgrad[r * nl + light].x;
+        if (a == 0 || !window_reaches(x.xy, i0, j0, rows, r2)) continue;
+        realR gx = axis_weight((real)i0 + LANER - x.x, ss);
+        for (int t = 0; t < rows; ++t) {
+          real dy = j0 + t - x.y;
+          if (dy * dy < r2) acc[t] += a * fmax(gx * axis_weight(dy, ss) - eps, (realR)0);
+        }
       }
     }
-  real out[ROW];
-  vstoreR(acc, 0, out);
-  for (int l = 0; l < ROW && i0 + l < Wm; ++l) gS[j * Wm + i0 + l] = out[l];
+  for (int t = 0; t < rows; ++t) {
+    real out[ROW];
+    vstoreR(acc[t], 0, out);
+    for (int l = 0; l < ROW && i0 + l < Wm; ++l) gS[(j0 + t) * Wm + i0 + l] = out[l];
+  }
 }
 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
@@ -302,6 +309,11 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
   real4 x = rec_light[r * nl + light];
   real2 grad = rec_light2[r * nl + light].xy;
   real gs = rec_lgrad[r * nl + light].x, s = x.w, ss = P[P_SIGMA_S];
+  if (gs == 0) {  // dL/ds = 0 (unlit from this light, or outside the loss): every gradient is 0
+    rec_lgrad[r * nl + light] = 0;
+    rec_lgrad2[r * nl + light] = 0;
+    return;
+  }
   Window w = soft_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
@@ -339,49 +351,59 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
 }
 
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
-// nearby texel buckets when truncated; every fragment when exact), in a fixed order; eight
-// texels of a row per work-item.
+// nearby texel buckets when truncated; every fragment when exact), in a fixed order; ROW
+// texels of GATHER_ROWS rows per work-item.
 __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                           __global const real* S, __global const real* Pmap,
                           __global const real4* rec_light, __global const real4* rec_light2,
                           __global const real4* rec_lgrad, __global const int* bucket_offsets,
                           __global const int* bucket_counts, __global const int* bucket_recs,
                           __global real* gS, __global real* gPmap) {
-  int i0 = get_global_id(0) * ROW, j = get_global_id(1);
-  if (i0 >= Wm || j >= Hm) return;
+  int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
+  if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S];
-  const int n = min(ROW, Wm - i0);
-  const realR Sv = loadR(S, j * Wm + i0, n), Pv = loadR(Pmap, j * Wm + i0, n);
-  realR accS = 0, accP = 0, dd, dP;
+  const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0);
+  realR Sv[GATHER_ROWS], Pv[GATHER_ROWS], accS[GATHER_ROWS], accP[GATHER_ROWS], dd, dP;
+  for (int t = 0; t < rows; ++t) {
+    Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
+    Pv[t] = loadR(Pmap, (j0 + t) * Wm + i0, n);
+    accS[t] = accP[t] = 0;
+  }
 #if EXACT
-  const real eps = 0;
+  const real eps = 0, r2 = INFINITY;
   for (int r = 0; r < nrec; ++r) {
     if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
 #else
   const real eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
   const int reach = bucket_reach(P);
-  for (int by = max(j - reach, 0); by <= min(j + reach, Hm - 1); ++by)
+  for (int by = max(j0 - reach, 0); by <= min(j0 + rows - 1 + reach, Hm - 1); ++by)
     for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
       for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
         int r = bucket_recs[bucket_offsets[b] + k];
-        if (!window_reaches(rec_light[r * nl + light].xy, i0, j, r2)) continue;
+        if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
 #endif
+    real k = rec_lgrad[r * nl + light].x;  // dL/ds / Σg'
+    if (k == 0) continue;  // adds nothing (unlit from this light, or outside the loss)
     real4 x = rec_light[r * nl + light];
-    real gy = axis_weight(j - x.y, ss);
-    if (gy <= eps) continue;
-    realR offx = (real)i0 + LANER - x.x;
-    realR g = fmax(axis_weight(offx, ss) * gy - eps, (realR)0);
+    realR offx = (real)i0 + LANER - x.x, gx = axis_weight(offx, ss);
     real2 grad = rec_light2[r * nl + light].xy;
-    soft_term(Sv, Pv, x.z + grad.x * offx + grad.y * (j - x.y), P, &dd, &dP);
-    realR a = rec_lgrad[r * nl + light].x * g;  // dL/ds / Σg' · g'
-    accS -= a * dd;
-    accP += a * dP;
+    for (int t = 0; t < rows; ++t) {
+      real dy = j0 + t - x.y, gy = axis_weight(dy, ss);
+      if (!(dy * dy < r2) || gy <= eps) continue;
+      realR g = fmax(gx * gy - eps, (realR)0);
+      soft_term(Sv[t], Pv[t], x.z + grad.x * offx + grad.y * dy, P, &dd, &dP);
+      realR a = k * g;
+      accS[t] -= a * dd;
+      accP[t] += a * dP;
+    }
   }
-  real outS[ROW], outP[ROW];
-  vstoreR(accS, 0, outS);
-  vstoreR(accP, 0, outP);
-  for (int l = 0; l < n; ++l) {
-    gS[j * Wm + i0 + l] = outS[l];
-    gPmap[j * Wm + i0 + l] = outP[l];
+  for (int t = 0; t < rows; ++t) {
+    real outS[ROW], outP[ROW];
+    vstoreR(accS[t], 0, outS);
+    vstoreR(accP[t], 0, outP);
+    for (int l = 0; l < n; ++l) {
+      gS[(j0 + t) * Wm + i0 + l] = outS[l];
+      gPmap[(j0 + t) * Wm + i0 + l] = outP[l];
+    }
   }
 }

@@ -31,7 +31,8 @@ std::string program_options(const std::string& file, Precision precision, const 
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
   if (file == "shadow.cl" || file == "pcf.cl")
-    o += " -DROW=" + std::to_string(shadow_row_width(device));
+    o += " -DROW=" + std::to_string(shadow_row_width(device)) +
+         " -DGATHER_ROWS=" + std::to_string(gather_rows(device));
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +

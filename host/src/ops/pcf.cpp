@@ -92,8 +92,7 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
                        PcfGatherArgs{at, reach, lv.depth, lv.cover, v.rec_light, v.rec_light2,
                                      v.rec_lgrad, v.rec_lgrad2, bins, g.S, g.A},
                        variant);
-  const int row = shadow_row_width(ctx.info());  // texels per item
-  launch(ctx, ga, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
+  launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
     auto g2 = download_reals(ctx, k.precision(), v.rec_lgrad2, size_t(n) * nl * 4);
     for (int r = 0; r < n; ++r) *gsize += g2[(size_t(r) * nl + light) * 4 + 3];

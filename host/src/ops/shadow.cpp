@@ -115,10 +115,6 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
 }
 
 // The gathers run a row of texels per work-item.
-void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
-  const int row = shadow_row_width(k.ctx().info());  // texels per item
-  launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, Hm), cl::NDRange(8, 8));
-}
 
 void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
                    const ViewState& lv) {
@@ -198,6 +194,12 @@ MapGrads exact_backward(Kernels& k, bool clblast, ViewState& v, const MapLookup&
 }
 
 }  // namespace
+
+void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
+  const int row = shadow_row_width(k.ctx().info()), rows = gather_rows(k.ctx().info());
+  launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, (Hm + rows - 1) / rows),
+         cl::NDRange(8, 8));
+}
 
 // The fragments bucketed by the texel nearest their μ (bin.cl with one-texel tiles).
 Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
