@@ -119,7 +119,7 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
 }
 
 // The penumbra map back to its shadow map, the light's size and the occluders; then the shadow
-// map back through the light's own raster pass.
+// map (and the accurate model's coverage) back through the light's own raster pass.
 void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
   ViewState& lv = light_views[light];
   const size_t ntex = size_t(lv.W) * lv.H;
@@ -132,9 +132,12 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
         detail::penumbra_backward_texels(kernels, geometry, lv, gpen, &sums.light_size[light]));
   }
   stage("shadow map");
-  std::vector<double> gimage(ntex * 4, 0.0);  // the coverage is the view's silhouette
-  for (size_t t = 0; t < ntex; ++t) gimage[t * 4 + 3] = sums.covers[light][t];
-  auto gimage_buf = detail::upload_reals(ctx, precision, gimage);
+  auto gimage_buf = detail::zero_reals(ctx, precision, ntex * 4);
+  if (scene.params.shadow_model == ShadowModel::Accurate) {  // coverage: the view's silhouette
+    std::vector<double> gimage(ntex * 4, 0.0);
+    for (size_t t = 0; t < ntex; ++t) gimage[t * 4 + 3] = sums.covers[light][t];
+    gimage_buf = detail::upload_reals(ctx, precision, gimage);
+  }
   auto gdepth_buf = detail::upload_reals(ctx, precision, sums.maps[light]);
   detail::raster_resolve_backward(kernels, lv, gimage_buf, gdepth_buf);
   backward_faces(lv, gimage_buf, gdepth_buf, sums, &sums.frames[light], gpen() ? &gpen : nullptr);
