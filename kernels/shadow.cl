@@ -11,7 +11,7 @@
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
 // Launch: one work-item per fragment (shadow_sample, shadow_sample_bwd, shadow_boxes, soft_*,
-// exact_*), one per texel (shadow_gather, soft_gather).
+// exact_*), one per ROW texels of GATHER_ROWS rows (shadow_gather, soft_gather).
 
 #include "common/window.clh"
 
