@@ -63,14 +63,18 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
                     ->check(one_of<Shadows>())
                     ->group(shadow_group);
   std::vector<std::string> sampling_words;
-  for (const auto& [value, w] : enum_words<Sampling>()) sampling_words.push_back(w);
+  std::string sampling_help = "shadow-filter sampling: ";
+  for (const SamplingMethod& m : sampling_methods()) {
+    sampling_words.push_back(m.word);
+    sampling_help +=
+        std::string(sampling_words.size() > 1 ? ", " : "") + m.word + " (" + m.sums + ")";
+  }
   sampling_words.push_back(gemm_shorthand());
-  o.o_sampling = cmd.add_option("--sampling", o.sampling,
-                                "shadow-filter sampling: truncated (Gaussian cut at ε_λ), exact "
-                                "(every texel); gemm: short for --sampling exact "
-                                "--exact-backend clblast")
-                     ->check(one_of(sampling_words))
-                     ->group(shadow_group);
+  o.o_sampling =
+      cmd.add_option("--sampling", o.sampling,
+                     sampling_help + "; gemm: short for --sampling exact --exact-backend clblast")
+          ->check(one_of(sampling_words))
+          ->group(shadow_group);
   o.o_exact_backend =
       cmd.add_option("--exact-backend", o.exact_backend,
                      "who computes the exact sum of the paper model's hard shadows: auto (the "

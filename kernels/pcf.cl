@@ -15,7 +15,7 @@
 //         lateral distance over depth), w = D_L·k·(d − z_b) (directional: D_L an angle)
 //   σ   = min(σ_s + w²/16, σ_b)             a disc of diameter w has variance w²/16 per axis
 // so the penumbra straddles the hard edge with the width a sphere light of diameter D_L casts.
-// Truncated sampling cuts each Gaussian at ε_λ (g' = max(0, g − ε_λ)); exact (EXACT=1) sums
+// Truncated sampling cuts each Gaussian at ε_λ (g' = max(0, g − ε_λ)); exact (EXACT) sums
 // g over the whole map.
 // Buffers (K fragments, nl lights, this light l):
 //   rec_light   K·nl × real4 (μx, μy, d, s): s is written here
@@ -28,9 +28,6 @@
 // GATHER_ROWS rows (pcf_gather).
 #include "common/window.clh"
 
-#ifndef EXACT
-#define EXACT 0
-#endif
 #define PCF_KAPPA RL(1e-3)
 // The blocker search cuts its Gaussian at this fraction of its peak (radius 2.45 standard
 // deviations): it only estimates a mean depth, at less than half the texels of a cut at ε_λ.
@@ -88,24 +85,12 @@ inline realR lit_term(realR S, realR A, realR dij, __global const real* P, realR
 
 // The cut of the filter's (ε_λ) or the search's Gaussian weights; none when exact.
 inline real window_eps(__global const real* P, int search) {
-  return EXACT ? 0 : search ? PCF_SEARCH_EPS : P[P_LAMBDA_EPS];
+  return sampling_eps(search ? PCF_SEARCH_EPS : P[P_LAMBDA_EPS]);
 }
 
 // The window of the Gaussian of variance `sigma` cut at `eps` around μ (empty outside the map).
 inline Window pcf_window(real2 mu, real sigma, real eps, int Wm, int Hm) {
-  Window w = {1, 1, 0, 0, 0};
-  if (!inside_map(mu, Wm, Hm)) return w;
-#if EXACT
-  w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
-#else
-  w.eps = eps;
-  real radius = sqrt(2 * sigma * log(1 / w.eps));
-  w.x0 = max((int)ceil(mu.x - radius), 0);
-  w.x1 = min((int)floor(mu.x + radius), Wm - 1);
-  w.y0 = max((int)ceil(mu.y - radius), 0);
-  w.y1 = min((int)floor(mu.y + radius), Hm - 1);
-#endif
-  return w;
+  return sampling_window(mu, sqrt(2 * sigma * log(1 / eps)), eps, Wm, Hm);
 }
 
 // Σ w, Σ w·c, Σ w·S, Σ w·c·S over the window of variance `sigma` (w = g'), of the filter or
@@ -307,20 +292,12 @@ __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, in
     acc[t] = accA[t] = 0;
   }
   const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
-#if EXACT
-  const real r2 = INFINITY;
-  for (int r = 0; r < nrec; ++r) {
-    if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
-#else
   const real leps = log(1 / eps), leps_b = log(1 / eps_b);
-  for (int by = max(j0 - reach, 0); by <= min(j0 + rows - 1 + reach, Hm - 1); ++by)
-    for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
-      for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
-        int r = bucket_recs[bucket_offsets[b] + k];
-        real r2 = 2 * rec_light2[r * nl + light].z * leps;  // the filter's window, and the search's
-        if (soft) r2 = max(r2, 2 * sigma_b * leps_b);
-        if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
-#endif
+  FOR_EACH_GATHER_FRAGMENT(r, reach) {
+    real r2 = 2 * rec_light2[r * nl + light].z * leps;  // the filter's window, and the search's
+    if (soft) r2 = max(r2, 2 * sigma_b * leps_b);
+    r2 = sampling_r2(r2);
+    if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
     int at = r * nl + light;
     Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
     real sigma = rec_light2[at].z, zb = rec_light2[at].w, a = rec_lgrad[at].x;

@@ -112,22 +112,16 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
   const int rows = min(GATHER_ROWS, Hm - j0);
   realR acc[GATHER_ROWS];
   for (int t = 0; t < rows; ++t) acc[t] = 0;
-  int reach = bucket_reach(P);
-  for (int by = max(j0 - reach, 0); by <= min(j0 + rows - 1 + reach, Hm - 1); ++by)
-    for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx) {
-      int b = by * Wm + bx;
-      for (int k = 0; k < bucket_counts[b]; ++k) {
-        int r = bucket_recs[bucket_offsets[b] + k];
-        real4 x = rec_light[r * nl + light];
-        real a = rec_lgrad[r * nl + light].x;
-        if (a == 0 || !window_reaches(x.xy, i0, j0, rows, r2)) continue;
-        realR gx = axis_weight((real)i0 + LANER - x.x, ss);
-        for (int t = 0; t < rows; ++t) {
-          real dy = j0 + t - x.y;
-          if (dy * dy < r2) acc[t] += a * fmax(gx * axis_weight(dy, ss) - eps, (realR)0);
-        }
-      }
+  FOR_EACH_GATHER_FRAGMENT(r, bucket_reach(P)) {
+    real4 x = rec_light[r * nl + light];
+    real a = rec_lgrad[r * nl + light].x;
+    if (a == 0 || !window_reaches(x.xy, i0, j0, rows, r2)) continue;
+    realR gx = axis_weight((real)i0 + LANER - x.x, ss);
+    for (int t = 0; t < rows; ++t) {
+      real dy = j0 + t - x.y;
+      if (dy * dy < r2) acc[t] += a * fmax(gx * axis_weight(dy, ss) - eps, (realR)0);
     }
+  }
   for (int t = 0; t < rows; ++t) {
     real out[ROW];
     vstoreR(acc[t], 0, out);
@@ -234,20 +228,7 @@ __kernel void exact_finish_bwd(__global const real* P, int r0, int n, int light,
 //   d_ij = d + ∇_μ d·((i, j) − μ),  front_ij = sigmoid((S_ij − d_ij + β)/γ_s),
 //   at_ij = sigmoid((d_ij − S_ij + β)/γ_s),  s = Σ λ_ij·front_ij·(1 − at_ij·(1 − P_ij)).
 // rec_light2 K·nl × real4 holds ∇_μ d (.xy); rec_lgrad2 receives dL/d∇_μ d (.xy).
-// EXACT=1 builds sum over the whole map (O(W_s·H_s) sigmoids per fragment).
-#ifndef EXACT
-#define EXACT 0
-#endif
-
-inline Window soft_window(real2 mu, __global const real* P, int Wm, int Hm) {
-#if EXACT
-  Window w = {1, 1, 0, 0, 0};
-  if (inside_map(mu, Wm, Hm)) w.x0 = 0, w.y0 = 0, w.x1 = Wm - 1, w.y1 = Hm - 1;
-  return w;
-#else
-  return sample_window(mu, P, Wm, Hm);
-#endif
-}
+// The EXACT build (window.clh) sums over the whole map (O(W_s·H_s) sigmoids per fragment).
 
 // front·(1 − at·(1 − P)) at ROW texels of a row at once, with its derivatives by d_ij and
 // by P_ij (its derivative by S_ij is minus the one by d_ij).
@@ -278,7 +259,7 @@ __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, i
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
   real2 grad = rec_light2[r * nl + light].xy;
-  Window w = soft_window(x.xy, P, Wm, Hm);
+  Window w = sample_window(x.xy, P, Wm, Hm);
   real ss = P[P_SIGMA_S];
   realR sum = 0, acc = 0, dd, dP;
   Columns c;
@@ -314,7 +295,7 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
     rec_lgrad2[r * nl + light] = 0;
     return;
   }
-  Window w = soft_window(x.xy, P, Wm, Hm);
+  Window w = sample_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
   // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s where g' > 0) and
@@ -369,19 +350,9 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
     Pv[t] = loadR(Pmap, (j0 + t) * Wm + i0, n);
     accS[t] = accP[t] = 0;
   }
-#if EXACT
-  const real eps = 0, r2 = INFINITY;
-  for (int r = 0; r < nrec; ++r) {
-    if (!inside_map(rec_light[r * nl + light].xy, Wm, Hm)) continue;
-#else
-  const real eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
-  const int reach = bucket_reach(P);
-  for (int by = max(j0 - reach, 0); by <= min(j0 + rows - 1 + reach, Hm - 1); ++by)
-    for (int bx = max(i0 - reach, 0); bx <= min(i0 + ROW - 1 + reach, Wm - 1); ++bx)
-      for (int k = 0, b = by * Wm + bx; k < bucket_counts[b]; ++k) {
-        int r = bucket_recs[bucket_offsets[b] + k];
-        if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
-#endif
+  const real eps = sampling_eps(P[P_LAMBDA_EPS]), r2 = sampling_r2(P[P_WINDOW_R2]);
+  FOR_EACH_GATHER_FRAGMENT(r, bucket_reach(P)) {
+    if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
     real k = rec_lgrad[r * nl + light].x;  // dL/ds / Σg'
     if (k == 0) continue;  // adds nothing (unlit from this light, or outside the loss)
     real4 x = rec_light[r * nl + light];

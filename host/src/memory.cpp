@@ -78,7 +78,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
     if (p.shadows == Shadows::Soft && p.shadow_model == ShadowModel::Paper)
       bytes += z.nf * 16 + texels * 3 * z.rs;  // the penumbra map P and its sums
     if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
-    if (p.sampling != Sampling::Truncated && p.shadows == Shadows::Hard &&
+    if (!sampling_method(p.sampling).windowed && p.shadows == Shadows::Hard &&
         p.shadow_model == ShadowModel::Paper) {
       size_t most = 0;  // the batches live one camera at a time
       for (const Camera& c : scene.cameras)

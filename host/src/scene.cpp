@@ -210,10 +210,24 @@ const std::vector<std::pair<Shadows, std::string>>& enum_words<Shadows>() {
       {Shadows::None, "none"}, {Shadows::Hard, "hard"}, {Shadows::Soft, "soft"}};
   return words;
 }
+const std::vector<SamplingMethod>& sampling_methods() {
+  static const std::vector<SamplingMethod> methods{
+      {Sampling::Truncated, "truncated", "Gaussian cut at ε_λ", true},
+      {Sampling::Exact, "exact", "every texel", false}};
+  return methods;
+}
+const SamplingMethod& sampling_method(Sampling s) {
+  for (const SamplingMethod& m : sampling_methods())
+    if (m.value == s) return m;
+  throw Error("sampling method " + std::to_string(int(s)) + " is not in sampling_methods()");
+}
 template <>
 const std::vector<std::pair<Sampling, std::string>>& enum_words<Sampling>() {
-  static const std::vector<std::pair<Sampling, std::string>> words{
-      {Sampling::Truncated, "truncated"}, {Sampling::Exact, "exact"}};
+  static const std::vector<std::pair<Sampling, std::string>> words = [] {
+    std::vector<std::pair<Sampling, std::string>> w;
+    for (const SamplingMethod& m : sampling_methods()) w.emplace_back(m.value, m.word);
+    return w;
+  }();
   return words;
 }
 template <>

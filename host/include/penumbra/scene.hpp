@@ -66,6 +66,19 @@ enum class Shadows { None, Hard, Soft };
 // How the Gaussian shadow filter is summed (docs/shadows.md): `Truncated` (the texels within
 // the window where the weight exceeds ε_λ) or `Exact` (every texel of the map).
 enum class Sampling { Truncated, Exact };
+// One row per sampling method, in scene.cpp's table: its word (scene files, --sampling,
+// Python), what it sums (--sampling's help), and whether that sum is a window around each
+// fragment (`windowed`: the gathers then find the fragments through texel buckets, and the
+// paper model's hard shadows take their per-fragment kernel) or the whole map (whose sum of
+// the paper model's hard shadows factors into matrix products).
+struct SamplingMethod {
+  Sampling value;
+  const char* word;
+  const char* sums;
+  bool windowed;
+};
+const std::vector<SamplingMethod>& sampling_methods();
+const SamplingMethod& sampling_method(Sampling s);
 // Who computes the exact sum of the paper model's hard shadows, which factors into two matrix
 // products: `Kernels` (penumbra's kernels/matmul.cl), `CLBlast` (CLBlast's GEMM), or `Auto`
 // (the tuning's choice for the device: ExactSumTuning::clblast, data/tuning/*.json). Every

@@ -49,7 +49,7 @@ std::vector<std::string> program_variants(const std::string& file, const Tuning&
   if (file == "shadow.cl" || file == "pcf.cl") {  // shadow.cl's hard-shadow kernels take none
     std::vector<std::string> v;
     if (file == "shadow.cl") v.push_back("");
-    for (const auto& [sampling, word] : enum_words<Sampling>()) v.push_back(exact_define(sampling));
+    for (const SamplingMethod& m : sampling_methods()) v.push_back(sampling_define(m.value));
     return v;
   }
   return {""};

@@ -4,6 +4,7 @@
 // shadow.cpp ↔ shadow.cl, matmul.cpp ↔ matmul.cl.
 #include <CL/opencl.hpp>
 #include <algorithm>
+#include <cctype>
 #include <functional>
 #include <map>
 #include <string>
@@ -91,9 +92,12 @@ inline int penumbra_lanes(const DeviceInfo& d, const Tuning& t) {
 // bin.cl's tile edge in pixels (1: the texel buckets of the shadow gathers).
 inline std::string bin_define(int tile) { return "-DTILE=" + std::to_string(tile); }
 
-// The build variant of the shadow lookups that sums over the whole map (-DEXACT=1).
-inline const char* exact_define(Sampling s) {
-  return s == Sampling::Exact ? "-DEXACT=1" : "-DEXACT=0";
+// The build variant of the shadow lookups for a sampling method: -DSAMPLING_<WORD> (the
+// word of sampling_methods() in capitals), which common/window.clh turns into its sum.
+inline std::string sampling_define(Sampling s) {
+  std::string word = sampling_method(s).word;
+  for (char& c : word) c = char(std::toupper(static_cast<unsigned char>(c)));
+  return "-DSAMPLING_" + word;
 }
 
 // Whether the matrix products of the paper model's exact hard shadows run on CLBlast (the

@@ -63,7 +63,7 @@ void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const V
   if (n == 0) return;
   const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
   auto& s = bind_args(k, PcfSampleArgs{at, lv.depth, lv.cover, v.rec_light, v.rec_light2},
-                      exact_define(sampling));
+                      sampling_define(sampling));
   launch_1d(k.ctx(), s, n);
 }
 
@@ -75,7 +75,7 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
   g.S = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
   g.A = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
   if (n == 0) return g;
-  const char* variant = exact_define(p.sampling);
+  const std::string variant = sampling_define(p.sampling);
   const MapLookup at{v.P, n, light, nl, Wm, Hm};
   auto& sb = bind_args(k,
                        PcfSampleBwdArgs{at, lv.depth, lv.cover, v.rec_light, v.rec_light2,
@@ -83,7 +83,7 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, Vi
                        variant);
   launch_1d(ctx, sb, n);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
-  if (p.sampling == Sampling::Truncated)
+  if (sampling_method(p.sampling).windowed)
     bins = texel_buckets(k, v, light, Wm, Hm);
   else
     bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);

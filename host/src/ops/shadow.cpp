@@ -138,14 +138,14 @@ void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
 
 MapGrads soft_backward(Kernels& k, Sampling sampling, ViewState& v, const MapLookup& at,
                        const ViewState& lv, MapGrads g) {
-  const char* variant = exact_define(sampling);
+  const std::string variant = sampling_define(sampling);
   auto& sb = bind_args(k,
                        SoftSampleBwdArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
                                          v.rec_lgrad, v.rec_lgrad2},
                        variant);
   launch_1d(k.ctx(), sb, at.nrec);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
-  if (sampling == Sampling::Truncated)
+  if (sampling_method(sampling).windowed)
     bins = texel_buckets(k, v, at.light, at.Wm, at.Hm);
   else
     bins.offsets = bins.counts = bins.items = alloc_ints(k.ctx(), 1);
@@ -217,9 +217,9 @@ void shadow_forward(Kernels& k, const RenderParams& p, ViewState& v, int light,
   const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
   if (p.shadows == Shadows::Soft) {
     auto& s = bind_args(k, SoftSampleArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2},
-                        exact_define(p.sampling));
+                        sampling_define(p.sampling));
     launch_1d(k.ctx(), s, n);
-  } else if (p.sampling == Sampling::Truncated) {
+  } else if (sampling_method(p.sampling).windowed) {
     auto& s = bind_args(k, ShadowSampleArgs{at, lv.depth, v.rec_light});
     launch_1d(k.ctx(), s, n);
   } else {
@@ -235,7 +235,7 @@ MapGrads shadow_backward(Kernels& k, const RenderParams& p, ViewState& v, int li
   if (n == 0) return g;
   const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
   if (p.shadows == Shadows::Soft) return soft_backward(k, p.sampling, v, at, lv, g);
-  if (p.sampling == Sampling::Truncated) return truncated_backward(k, v, at, lv, g);
+  if (sampling_method(p.sampling).windowed) return truncated_backward(k, v, at, lv, g);
   return exact_backward(k, exact_on_clblast(p, k.tuning()), v, at, lv, g);
 }
 
