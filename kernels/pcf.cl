@@ -320,13 +320,6 @@ __kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, in
       }
     }
   }
-  for (int t = 0; t < rows; ++t) {
-    real out[ROW], outA[ROW];
-    vstoreR(acc[t], 0, out);
-    vstoreR(accA[t], 0, outA);
-    for (int l = 0; l < n; ++l) {
-      gS[(j0 + t) * Wm + i0 + l] = out[l];
-      gA[(j0 + t) * Wm + i0 + l] = outA[l];
-    }
-  }
+  store_rows(acc, rows, n, i0, j0, Wm, gS);
+  store_rows(accA, rows, n, i0, j0, Wm, gA);
 }

@@ -122,11 +122,7 @@ __kernel void shadow_gather(__global const real* P, int nrec, int light, int nl,
       if (dy * dy < r2) acc[t] += a * fmax(gx * axis_weight(dy, ss) - eps, (realR)0);
     }
   }
-  for (int t = 0; t < rows; ++t) {
-    real out[ROW];
-    vstoreR(acc[t], 0, out);
-    for (int l = 0; l < ROW && i0 + l < Wm; ++l) gS[(j0 + t) * Wm + i0 + l] = out[l];
-  }
+  store_rows(acc, rows, min(ROW, Wm - i0), i0, j0, Wm, gS);
 }
 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
@@ -368,13 +364,6 @@ __kernel void soft_gather(__global const real* P, int nrec, int light, int nl, i
       accP[t] += a * dP;
     }
   }
-  for (int t = 0; t < rows; ++t) {
-    real outS[ROW], outP[ROW];
-    vstoreR(accS[t], 0, outS);
-    vstoreR(accP[t], 0, outP);
-    for (int l = 0; l < n; ++l) {
-      gS[(j0 + t) * Wm + i0 + l] = outS[l];
-      gPmap[(j0 + t) * Wm + i0 + l] = outP[l];
-    }
-  }
+  store_rows(accS, rows, n, i0, j0, Wm, gS);
+  store_rows(accP, rows, n, i0, j0, Wm, gPmap);
 }
