@@ -6,11 +6,12 @@
 //
 //   penumbra_truth_shadows MESH.obj SIZE OUT_DIR [x,y,z ...]
 //
-// Writes OUT_DIR/shadow_0.png, shadow_1.png, ... (SIZE × SIZE), one per direction (default:
-// 0,0,-1 and -1,0,0, fit-shadows' first two lights), and prints one line per file with the
-// shadow's pixel count.
+// Writes OUT_DIR/shadow_0.png, shadow_1.png, ... (SIZE × SIZE; OUT_DIR is made if missing), one
+// per direction (default: 0,0,-1 and -1,0,0, fit-shadows' first two lights), and prints one line
+// per file with the shadow's pixel count.
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,9 @@ int run(int argc, char** argv) {
   std::vector<glm::dvec3> directions = {{0, 0, -1}, {-1, 0, 0}};
   if (argc > 4) directions.clear();
   for (int i = 4; i < argc; ++i) directions.push_back(parse_direction(argv[i]));
+  std::error_code ec;  // OUT_DIR is made as the tool's other commands make theirs
+  std::filesystem::create_directories(argv[3], ec);
+  if (ec) throw Error("cannot create the folder " + std::string(argv[3]) + ": " + ec.message());
   for (size_t v = 0; v < directions.size(); ++v) {
     const Image shadow = truth_shadow(shape, directions[v], size);
     const std::string path = std::string(argv[3]) + "/shadow_" + std::to_string(v) + ".png";
