@@ -347,12 +347,15 @@ __kernel void raster_bwd(__global const real4* vscreen, __global const real4* vw
   if (bb.x <= bb.z) F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
   for (int py = bb.y; py <= bb.w; ++py) {
     for (int px = bb.x; px <= bb.z; ++px) {
+      int pix = py * W + px;
+      real4 gimg = gimage[pix];
+      // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
+      // nothing: every term below is a product with one of these or with dL/ds, which is 0 too.
+      if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) continue;
       real2 q = pixel_centre(px, py, W, H);
       Fragment fr;
       if (!fragment_fwd(q, F.p, F.z, F.area, P, &fr)) continue;
-      int pix = py * W + px;
       real D = sigmoid(fr.u);
-      real4 gimg = gimage[pix];
       // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D, with 1 − A = exp(Σ log(1 − D)).
       real gu = gimg.w * exp(aux[pix].w) * D;
       real gzf = 0, gb[3] = {0, 0, 0};
