@@ -29,6 +29,14 @@ void accumulate(Context& ctx, Precision precision, std::vector<double>& into,
   for (size_t i = 0; i < host.size(); ++i) into[i] += host[i];
 }
 
+// An image gradient (R, G, B, silhouette per pixel) with dL/d(silhouette) = `g`: a light view's
+// coverage A is its silhouette.
+std::vector<double> silhouette_grads(const std::vector<double>& g) {
+  std::vector<double> image(g.size() * 4, 0.0);
+  for (size_t i = 0; i < g.size(); ++i) image[i * 4 + 3] = g[i];
+  return image;
+}
+
 glm::dvec3 vec3_at(const std::vector<double>& a, size_t at) {
   return glm::dvec3(a[at], a[at + 1], a[at + 2]);
 }
@@ -132,12 +140,9 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
         detail::penumbra_backward_texels(kernels, geometry, lv, gpen, &sums.light_size[light]));
   }
   stage("shadow map");
-  auto gimage_buf = detail::zero_reals(ctx, precision, ntex * 4);
-  if (scene.params.shadow_model == ShadowModel::Accurate) {  // coverage: the view's silhouette
-    std::vector<double> gimage(ntex * 4, 0.0);
-    for (size_t t = 0; t < ntex; ++t) gimage[t * 4 + 3] = sums.covers[light][t];
-    gimage_buf = detail::upload_reals(ctx, precision, gimage);
-  }
+  auto gimage_buf = scene.params.shadow_model == ShadowModel::Accurate
+                        ? detail::upload_reals(ctx, precision, silhouette_grads(sums.covers[light]))
+                        : detail::zero_reals(ctx, precision, ntex * 4);
   auto gdepth_buf = detail::upload_reals(ctx, precision, sums.maps[light]);
   detail::raster_resolve_backward(kernels, lv, gimage_buf, gdepth_buf);
   backward_faces(lv, gimage_buf, gdepth_buf, sums, &sums.frames[light], gpen() ? &gpen : nullptr);

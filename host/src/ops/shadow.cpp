@@ -114,8 +114,6 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
   return std::max<size_t>(1, (size_t(96) << 20) / per);
 }
 
-// The gathers run a row of texels per work-item.
-
 void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
                    const ViewState& lv) {
   Context& ctx = k.ctx();
