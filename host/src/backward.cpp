@@ -9,8 +9,6 @@
 
 namespace penumbra {
 
-using detail::ViewState;
-
 namespace {
 
 void check_grad_image(const Image& g, int W, int H, int C, const char* what, size_t view) {
@@ -50,7 +48,7 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
   fitted = detail::normalised(fitted, norm);
   Packed now = pack(fitted);
   bool same = now.vworld == packed.vworld && now.faces == packed.faces &&
-              now.albedo == packed.albedo && fitted.cameras.size() == views.size() &&
+              now.albedo == packed.albedo && fitted.cameras.size() == camera_passes.size() &&
               fitted.lights.size() == scene.lights.size() &&
               fitted.params.shadows == scene.params.shadows;
   for (size_t c = 0; same && c < fitted.cameras.size(); ++c)
@@ -73,10 +71,11 @@ BackwardSums Renderer::Impl::start_backward() {
   sums.lights.assign((6 * nl + 1) * 4, 0.0);
   sums.light_size.assign(nl, 0.0);
   sums.frames.assign(nl, std::vector<double>(16, 0.0));
-  for (const ViewState& lv : light_views) {
-    sums.maps.emplace_back(size_t(lv.W) * lv.H, 0.0);
-    sums.penumbra_maps.emplace_back(size_t(lv.W) * lv.H, 0.0);
-    sums.covers.emplace_back(size_t(lv.W) * lv.H, 0.0);
+  for (const LightPass& lp : light_passes) {
+    const size_t ntex = size_t(lp.view.W) * lp.view.H;
+    sums.maps.emplace_back(ntex, 0.0);
+    sums.penumbra_maps.emplace_back(ntex, 0.0);
+    sums.covers.emplace_back(ntex, 0.0);
   }
   // vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd
   std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
@@ -90,12 +89,13 @@ BackwardSums Renderer::Impl::start_backward() {
 }
 
 void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardSums& sums) {
-  ViewState& v = views[camera];
+  const ViewPass& cp = camera_passes[camera];
+  const int W = cp.view.W, H = cp.view.H;
   stage("resolve");
-  check_grad_image(g.color, v.W, v.H, 3, "color", camera);
-  check_grad_image(g.silhouette, v.W, v.H, 1, "silhouette", camera);
-  check_grad_image(g.depth, v.W, v.H, 1, "depth", camera);
-  const size_t npix = size_t(v.W) * v.H;
+  check_grad_image(g.color, W, H, 3, "color", camera);
+  check_grad_image(g.silhouette, W, H, 1, "silhouette", camera);
+  check_grad_image(g.depth, W, H, 1, "depth", camera);
+  const size_t npix = size_t(W) * H;
   std::vector<double> gimage(npix * 4, 0.0);
   for (size_t i = 0; i < npix; ++i) {
     for (int k = 0; k < 3 && !g.color.data.empty(); ++k)
@@ -107,20 +107,25 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
   if (norm.scale != 1)  // dL/d(device depth) = dL/d(depth) / scale
     for (double& x : gdepth) x /= norm.scale;
   auto gdepth_buf = detail::upload_reals(ctx, precision, gdepth);
-  detail::raster_resolve_backward(kernels, v, gimage_buf, gdepth_buf);
+  auto fgr = detail::raster_resolve_backward(kernels, cp.view, cp.fragments, cp.resolved,
+                                             gimage_buf, gdepth_buf);
   const RenderParams& rp = scene.params;
-  for (size_t l = 0; l < light_views.size(); ++l) {
+  for (size_t l = 0; l < light_passes.size(); ++l) {
     stage("shadow lookups");
-    auto gm = rp.shadow_model == ShadowModel::Accurate
-                  ? detail::pcf_backward(kernels, rp, blocker_search_sigma(rp, scene.lights[l]), v,
-                                         int(l), light_views[l], &sums.light_size[l])
-                  : detail::shadow_backward(kernels, rp, v, int(l), light_views[l]);
+    const detail::LightMaps maps = light_passes[l].maps();
+    auto gm =
+        rp.shadow_model == ShadowModel::Accurate
+            ? detail::pcf_backward(kernels, rp, blocker_search_sigma(rp, scene.lights[l]), cp.view,
+                                   cp.fragments, fgr, int(l), maps, &sums.light_size[l])
+            : detail::shadow_backward(kernels, rp, cp.view, cp.fragments, fgr, int(l), maps);
     accumulate(ctx, precision, sums.maps[l], gm.S);
     if (gm.P()) accumulate(ctx, precision, sums.penumbra_maps[l], gm.P);
     if (gm.A()) accumulate(ctx, precision, sums.covers[l], gm.A);
   }
   stage("faces");
-  auto gl = backward_faces(v, gimage_buf, gdepth_buf, sums, nullptr);
+  auto fg = detail::raster_backward(kernels, geometry, cp.view, cp.screen, cp.fragments, fgr,
+                                    gimage_buf, gdepth_buf);
+  auto gl = sum_face_grads(cp, fg, sums, nullptr);
   std::vector<double>& glight = sums.lights;
   for (int f = 0; f < packed.nf; ++f)  // fixed order: reproducible
     for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl[f * glight.size() + i];
@@ -129,45 +134,49 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
 // The penumbra map back to its shadow map, the light's size and the occluders; then the shadow
 // map (and the accurate model's coverage) back through the light's own raster pass.
 void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
-  ViewState& lv = light_views[light];
-  const size_t ntex = size_t(lv.W) * lv.H;
+  const LightPass& lp = light_passes[light];
+  const cl::Buffer& S = lp.resolved.depth;
+  const size_t ntex = size_t(lp.view.W) * lp.view.H;
   cl::Buffer gpen;
   if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
     stage("penumbra map");
     gpen = detail::upload_reals(ctx, precision, sums.penumbra_maps[light]);
-    accumulate(
-        ctx, precision, sums.maps[light],
-        detail::penumbra_backward_texels(kernels, geometry, lv, gpen, &sums.light_size[light]));
+    accumulate(ctx, precision, sums.maps[light],
+               detail::penumbra_backward_texels(kernels, geometry, lp.view, lp.screen, S,
+                                                lp.penumbra, gpen, &sums.light_size[light]));
   }
   stage("shadow map");
   auto gimage_buf = scene.params.shadow_model == ShadowModel::Accurate
                         ? detail::upload_reals(ctx, precision, silhouette_grads(sums.covers[light]))
                         : detail::zero_reals(ctx, precision, ntex * 4);
   auto gdepth_buf = detail::upload_reals(ctx, precision, sums.maps[light]);
-  detail::raster_resolve_backward(kernels, lv, gimage_buf, gdepth_buf);
-  backward_faces(lv, gimage_buf, gdepth_buf, sums, &sums.frames[light], gpen() ? &gpen : nullptr);
+  auto fgr = detail::raster_resolve_backward(kernels, lp.view, lp.fragments, lp.resolved,
+                                             gimage_buf, gdepth_buf);
+  auto fg = detail::raster_backward(kernels, geometry, lp.view, lp.screen, lp.fragments, fgr,
+                                    gimage_buf, gdepth_buf);
+  if (gpen())
+    detail::penumbra_backward_faces(kernels, geometry, lp.view, lp.screen, S, lp.penumbra, gpen,
+                                    fg);
+  sum_face_grads(lp, fg, sums, &sums.frames[light]);
 }
 
-// Backward of one view for dL/d(image) and dL/d(depth) already on the device, after the
-// shadow backward (if any) has run between `resolve` and `faces`: adds dL/d(vertices), dL/d(albedo)
-// and dL/d(the view's frame) to the sums and returns the per-face light gradients.
-std::vector<double> Renderer::Impl::backward_faces(ViewState& v, const cl::Buffer& gimage,
-                                                   const cl::Buffer& gdepth, BackwardSums& sums,
-                                                   std::vector<double>* gframe,
-                                                   const cl::Buffer* gpenumbra) {
-  auto fg = detail::raster_backward(kernels, geometry, v, gimage, gdepth);
-  if (gpenumbra) detail::penumbra_backward_faces(kernels, geometry, v, *gpenumbra, fg);
-  cl::Buffer gv, gf;
-  detail::transform_backward(kernels, geometry, v, fg, gv, gf);
+// The face corners' gradients of one view through its transform: adds dL/d(vertices),
+// dL/d(albedo) and (gframe) dL/d(the view's frame) to the sums and returns the per-face light
+// gradients.
+std::vector<double> Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
+                                                   BackwardSums& sums,
+                                                   std::vector<double>* gframe) {
+  auto gv = detail::transform_backward(kernels, geometry, vp.view, vp.screen, fg);
   const Packed& p = packed;
-  accumulate(ctx, precision, sums.vertices, gv);
+  accumulate(ctx, precision, sums.vertices, gv.vertices);
   accumulate(ctx, precision, sums.albedo, fg.albedo);
   if (gframe) {  // Σ over vertices, in order
-    auto gf_host = detail::download_reals(ctx, precision, gf, size_t(p.nv) * 16);
+    auto gf_host = detail::download_reals(ctx, precision, gv.frame, size_t(p.nv) * 16);
     for (int vtx = 0; vtx < p.nv; ++vtx)
       for (int i = 0; i < 16; ++i) (*gframe)[i] += gf_host[size_t(vtx) * 16 + i];
   }
-  return detail::download_reals(ctx, precision, fg.light, size_t(p.nf) * (6 * v.nlights + 1) * 4);
+  return detail::download_reals(ctx, precision, fg.light,
+                                size_t(p.nf) * (6 * vp.view.nlights + 1) * 4);
 }
 
 SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
@@ -195,7 +204,7 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
     const size_t fo = size_t(2 * nl + 1 + 4 * l) * 4;
     const std::vector<double>& fr = sums.frames[l];
     glm::dvec3 gpos = vec3_at(gl, 8 * size_t(l));
-    if (!light_views.empty())
+    if (!light_passes.empty())
       gpos += detail::light_frame_backward(
           s.lights[l], vec3_at(gl, fo) + vec3_at(fr, 0), vec3_at(gl, fo + 4) + vec3_at(fr, 4),
           vec3_at(gl, fo + 8) + vec3_at(fr, 8), vec3_at(gl, fo + 12) + vec3_at(fr, 12));
@@ -220,7 +229,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   Impl& m = *impl_;
   m.check_backward(scene, grads);
   BackwardSums sums = m.start_backward();
-  const int nc = int(m.views.size()), lights = int(m.light_views.size());
+  const int nc = int(m.camera_passes.size()), lights = int(m.light_passes.size());
   const int passes = nc + lights;
   for (int c = 0; c < nc; ++c) {
     m.begin_pass("backward", "view", c, nc, c, passes);

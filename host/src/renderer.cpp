@@ -12,8 +12,6 @@
 
 namespace penumbra {
 
-using detail::ViewState;
-
 Packed pack(const Scene& s) {
   Packed p;
   for (auto& m : s.meshes) {
@@ -98,53 +96,60 @@ void Renderer::Impl::upload_geometry() {
   geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
 }
 
+// transform → raster → resolve: the shadow map S (and coverage A), then the penumbra map.
 void Renderer::Impl::shadow_map_pass(int light) {
-  ViewState& lv = light_views[light];
+  LightPass& lp = light_passes[light];
   const int size = scene.params.shadow_map_size;
   stage("shadow map");
-  render_view(lv, size, size, 0, detail::light_view_params(scene, light));
-  detail::raster_resolve(kernels, lv);
+  lp.view = view(size, size, 0, detail::light_view_params(scene, light));
+  lp.screen = detail::transform_forward(kernels, geometry, lp.view);
+  lp.fragments = detail::raster_fragments(kernels, geometry, lp.view, lp.screen);
+  lp.resolved = detail::raster_resolve(kernels, lp.view, lp.fragments);
   if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
     stage("penumbra map");
-    detail::penumbra_forward(kernels, geometry, lv);
+    lp.penumbra =
+        detail::penumbra_forward(kernels, geometry, lp.view, lp.screen, lp.resolved.depth);
   }
 }
 
+// transform → raster → the shadow lookups of every light → resolve.
 RenderOutput Renderer::Impl::camera_pass(int camera) {
   const Camera& cam = scene.cameras[camera];
-  ViewState& v = views[camera];
+  ViewPass& cp = camera_passes[camera];
   stage("raster");
   view_P.push_back(detail::view_params(scene, cam));
-  render_view(v, cam.width, cam.height, int(scene.lights.size()), view_P.back());
-  for (size_t l = 0; l < light_views.size(); ++l) {
+  cp.view = view(cam.width, cam.height, int(scene.lights.size()), view_P.back());
+  cp.screen = detail::transform_forward(kernels, geometry, cp.view);
+  cp.fragments = detail::raster_fragments(kernels, geometry, cp.view, cp.screen);
+  for (size_t l = 0; l < light_passes.size(); ++l) {
     stage("shadow lookups");
+    const detail::LightMaps maps = light_passes[l].maps();
     if (scene.params.shadow_model == ShadowModel::Accurate)
-      detail::pcf_forward(kernels, scene.params.sampling, v, int(l), light_views[l]);
+      detail::pcf_forward(kernels, scene.params.sampling, cp.view, cp.fragments, int(l), maps);
     else
-      detail::shadow_forward(kernels, scene.params, v, int(l), light_views[l]);
+      detail::shadow_forward(kernels, scene.params, cp.view, cp.fragments, int(l), maps);
   }
   stage("resolve");
-  detail::raster_resolve(kernels, v);
-  const size_t npix = size_t(v.W) * v.H;
-  auto image = detail::download_reals(ctx, precision, v.image, npix * 4);
+  cp.resolved = detail::raster_resolve(kernels, cp.view, cp.fragments);
+  return download(cp);
+}
+
+detail::View Renderer::Impl::view(int W, int H, int nlights, const std::vector<double>& P) {
+  return {W, H, nlights, detail::upload_reals(ctx, precision, P)};
+}
+
+RenderOutput Renderer::Impl::download(const ViewPass& cp) {
+  const int W = cp.view.W, H = cp.view.H;
+  const size_t npix = size_t(W) * H;
+  auto image = detail::download_reals(ctx, precision, cp.resolved.image, npix * 4);
   RenderOutput o;
-  o.color = channels(image, v.W, v.H, 0, 3);
-  o.silhouette = channels(image, v.W, v.H, 3, 1);
-  o.depth = Image(v.W, v.H, 1);
-  o.depth.data = detail::download_reals(ctx, precision, v.depth, npix);
+  o.color = channels(image, W, H, 0, 3);
+  o.silhouette = channels(image, W, H, 3, 1);
+  o.depth = Image(W, H, 1);
+  o.depth.data = detail::download_reals(ctx, precision, cp.resolved.depth, npix);
   if (norm.scale != 1)
     for (double& z : o.depth.data) z /= norm.scale;
   return o;
-}
-
-void Renderer::Impl::render_view(ViewState& v, int W, int H, int nlights,
-                                 const std::vector<double>& P) {
-  v.W = W;
-  v.H = H;
-  v.nlights = nlights;
-  v.P = detail::upload_reals(ctx, precision, P);
-  detail::transform_forward(kernels, geometry, v);
-  detail::raster_fragments(kernels, geometry, v);
 }
 
 namespace {
@@ -190,13 +195,13 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   m.prepare(scene);
   m.upload_geometry();
   const int nl = int(m.scene.lights.size()), nc = int(m.scene.cameras.size());
-  m.light_views.assign(m.scene.params.shadows != Shadows::None ? nl : 0, ViewState{});
-  const int lights = int(m.light_views.size()), passes = lights + nc;
+  m.light_passes.assign(m.scene.params.shadows != Shadows::None ? nl : 0, LightPass{});
+  const int lights = int(m.light_passes.size()), passes = lights + nc;
   for (int l = 0; l < lights; ++l) {
     m.begin_pass("render", "light", l, nl, l, passes);
     m.shadow_map_pass(l);
   }
-  m.views.assign(nc, ViewState{});
+  m.camera_passes.assign(nc, ViewPass{});
   m.view_P.clear();
   std::vector<RenderOutput> out;
   for (int c = 0; c < nc; ++c) {
@@ -207,13 +212,14 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
 }
 
 namespace {
-std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<ViewState>& views,
-                              cl::Buffer ViewState::*map, double unit = 1) {
+std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<LightPass>& passes,
+                              cl::Buffer detail::LightMaps::*map, double unit = 1) {
   std::vector<Image> maps;
-  for (auto& lv : views) {
-    if (!(lv.*map)()) continue;
-    Image img(lv.W, lv.H, 1);
-    img.data = detail::download_reals(ctx, p, lv.*map, size_t(lv.W) * lv.H);
+  for (auto& lp : passes) {
+    const detail::LightMaps m = lp.maps();
+    if (!(m.*map)()) continue;
+    Image img(m.W, m.H, 1);
+    img.data = detail::download_reals(ctx, p, m.*map, size_t(m.W) * m.H);
     if (unit != 1)
       for (double& x : img.data) x *= unit;
     maps.push_back(std::move(img));
@@ -223,12 +229,13 @@ std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<ViewS
 }  // namespace
 
 std::vector<Image> Renderer::shadow_maps() const {
-  return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::depth,
+  return light_maps(impl_->ctx, impl_->precision, impl_->light_passes, &detail::LightMaps::S,
                     1 / impl_->norm.scale);
 }
 
 std::vector<Image> Renderer::penumbra_maps() const {
-  return light_maps(impl_->ctx, impl_->precision, impl_->light_views, &ViewState::pen_map);
+  return light_maps(impl_->ctx, impl_->precision, impl_->light_passes,
+                    &detail::LightMaps::penumbra);
 }
 
 }  // namespace penumbra

@@ -27,6 +27,23 @@ struct BackwardSums {
   std::vector<std::vector<double>> maps, penumbra_maps, covers, frames;
 };
 
+// The stages' outputs of one view, from render(), kept for backward().
+struct ViewPass {
+  detail::View view;
+  detail::ScreenGeometry screen;
+  detail::Fragments fragments;
+  detail::Resolved resolved;
+};
+
+// A light's pass: its view (whose resolved depth is the shadow map S and cover the coverage A)
+// and, for the paper model's soft shadows, its penumbra map.
+struct LightPass : ViewPass {
+  detail::PenumbraMap penumbra;
+  detail::LightMaps maps() const {
+    return {view.W, view.H, resolved.depth, resolved.cover, penumbra.map};
+  }
+};
+
 struct Renderer::Impl {
   Context& ctx;
   Precision precision;
@@ -39,8 +56,8 @@ struct Renderer::Impl {
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
   detail::DeviceGeometry geometry;
-  std::vector<detail::ViewState> views;        // one per camera
-  std::vector<detail::ViewState> light_views;  // one per light, when shadows are on
+  std::vector<ViewPass> camera_passes;  // one per camera
+  std::vector<LightPass> light_passes;  // one per light, when shadows are on
   std::vector<std::vector<double>> view_P;
 
   // Progress (set_progress): the observer, where the call is, and which pass of how many.
@@ -59,7 +76,8 @@ struct Renderer::Impl {
   void upload_geometry();
   void shadow_map_pass(int light);       // the light's shadow map (and penumbra map)
   RenderOutput camera_pass(int camera);  // the camera's image, shadows looked up
-  void render_view(detail::ViewState& v, int W, int H, int nlights, const std::vector<double>& P);
+  detail::View view(int W, int H, int nlights, const std::vector<double>& P);
+  RenderOutput download(const ViewPass& cp);
 
   // Backward (backward.cpp), in order.
   void check_backward(const Scene& scene, const std::vector<OutputGrads>& grads);
@@ -67,10 +85,8 @@ struct Renderer::Impl {
   void camera_backward(int camera, const OutputGrads& grads, BackwardSums& sums);
   void light_backward(int light, BackwardSums& sums);
   SceneGrads scene_grads(const BackwardSums& sums) const;
-  std::vector<double> backward_faces(detail::ViewState& v, const cl::Buffer& gimage,
-                                     const cl::Buffer& gdepth, BackwardSums& sums,
-                                     std::vector<double>* gframe,
-                                     const cl::Buffer* gpenumbra = nullptr);
+  std::vector<double> sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
+                                     BackwardSums& sums, std::vector<double>* gframe);
 };
 
 }  // namespace penumbra

@@ -117,24 +117,56 @@ inline int gather_rows(const DeviceInfo& d) { return d.is_gpu ? 1 : 4; }
 // Launches a gather (shadow_gather, soft_gather, pcf_gather) over a W_s × H_s map.
 void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm);
 
-// Per-view device state (a camera, or a light rendering its shadow map).
-struct ViewState {
-  int W = 0, H = 0;
-  int nlights = 0;            // lights shaded in this view (0 for a light's own view)
-  cl::Buffer P;               // per-view parameters (kernels/common/layout.h)
+// The stages' inputs and outputs. A view (a camera, or a light rendering its shadow map) runs
+// transform → raster fragments → [shadow lookups] → resolve; each stage returns its own
+// struct and takes the structs it reads.
+
+// A view: its size, the lights it shades (0 for a light's own view) and its parameter block
+// P (kernels/common/layout.h).
+struct View {
+  int W = 0, H = 0, nlights = 0;
+  cl::Buffer P;
+};
+
+// transform: the vertices on the view's screen, each face's pixel box and normal.
+struct ScreenGeometry {
   cl::Buffer vscreen;         // nv × real4
   cl::Buffer fbbox, fnormal;  // nf × int4, nf × real4
-  Bins bins;
-  // Kept fragments (raster_fragments), see kernels/raster.cl.
-  size_t nrec = 0;  // capacity: Σ pix_count
-  cl::Buffer pix_count, pix_offset, pix_n;
+};
+
+// Raster passes 1–2: the kept fragments of every pixel (kernels/raster.cl). rec_light and
+// rec_light2 hold each fragment's shadow terms per light: s = 1 from the raster, written by
+// the shadow lookups. aux holds per-pixel sums of pass 1, completed by resolve.
+struct Fragments {
+  size_t nrec = 0;  // Σ over the pixels of their kept fragments
+  cl::Buffer aux, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
-  cl::Buffer rec_wg, rec_lgrad, rec_lgrad2;  // backward
-  // Outputs; of a light's view, depth is its shadow map S and cover the coverage A of its faces.
-  cl::Buffer image, aux, depth, cover;
-  // A light's view with soft shadows: its penumbra map (penumbra.cl).
-  cl::Buffer pen_boxes, pen_map, pen_sums;
-  Bins pen_bins;
+};
+
+// Raster pass 3: colour and silhouette (image), depth and coverage. Of a light's view, depth
+// is its shadow map S and cover the coverage A of its faces.
+struct Resolved {
+  cl::Buffer image, depth, cover;
+};
+
+// A light's view with the paper model's soft shadows: its penumbra map (penumbra.cl), with
+// the faces' boxes and bins and the per-texel sums its backward reads.
+struct PenumbraMap {
+  cl::Buffer boxes, map, sums;
+  Bins bins;
+};
+
+// What the shadow lookups read of a light's pass: its W × H shadow map S, the coverage A
+// (accurate model) and the penumbra map (paper model, soft shadows; empty otherwise).
+struct LightMaps {
+  int W = 0, H = 0;
+  cl::Buffer S, A, penumbra;
+};
+
+// Backward of resolve: per-fragment dL/d(weights) (rec_wg) and dL/ds (rec_lgrad, rec_lgrad2),
+// which the shadow backward completes.
+struct FragmentGrads {
+  cl::Buffer rec_wg, rec_lgrad, rec_lgrad2;
 };
 
 // Per-face-corner gradients written by raster_backward.
@@ -143,25 +175,33 @@ struct FaceGrads {
   cl::Buffer light;                  // nf × (6·nlights + 1) × real4
 };
 
-void transform_forward(Kernels& k, const DeviceGeometry& g, ViewState& v);
 // dL/d world vertex positions (nv × real4) and each vertex's share of dL/d(the view's frame)
-// (4·nv × real4: eye, fwd, right, up) from the per-corner gradients.
-void transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
-                        const FaceGrads& fg, cl::Buffer& gvertices, cl::Buffer& gframe);
+// (4·nv × real4: eye, fwd, right, up).
+struct VertexGrads {
+  cl::Buffer vertices, frame;
+};
+
+ScreenGeometry transform_forward(Kernels& k, const DeviceGeometry& g, const View& v);
+VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
+                               const ScreenGeometry& sg, const FaceGrads& fg);
 
 // Sorts `n` items with pixel boxes `boxes` (int4 (x0, y0, x1, y1), empty when x0 > x1) into
 // tiles of `tile` pixels over a W × H grid; each tile's list is in item order.
 Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int tile);
 
 // Passes 1–2 of the raster: the kept fragments of the view, with shadow terms s = 1.
-void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v);
-// Pass 3: colour, silhouette and depth from the fragments and their shadow terms.
-void raster_resolve(Kernels& k, ViewState& v);
+Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
+                           const ScreenGeometry& sg);
+// Pass 3: colour, silhouette, depth and coverage from the fragments and their shadow terms
+// (and I_z, Z into f.aux).
+Resolved raster_resolve(Kernels& k, const View& v, Fragments& f);
 // Backward of raster_resolve: per-fragment weights and dL/ds.
-void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
-                             const cl::Buffer& gdepth);
-// Backward of the fragments (after the shadow backward has completed rec_lgrad).
-FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
+FragmentGrads raster_resolve_backward(Kernels& k, const View& v, const Fragments& f,
+                                      const Resolved& r, const cl::Buffer& gimage,
+                                      const cl::Buffer& gdepth);
+// Backward of the fragments (after the shadow backward has completed fgr.rec_lgrad).
+FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
+                          const ScreenGeometry& sg, const Fragments& f, const FragmentGrads& fgr,
                           const cl::Buffer& gimage, const cl::Buffer& gdepth);
 
 // Row-major products by matmul.cl or (clblast) by CLBlast:
@@ -171,39 +211,44 @@ void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc);
 
-// Shadow terms of every fragment of camera view `v` for light `light`, sampled from the
-// light's shadow map `lv.depth` (and penumbra map `lv.pen_map` for soft shadows).
+// The paper model: shadow terms of every fragment `f` of camera view `v` for light `light`,
+// sampled from the light's shadow map (and penumbra map for soft shadows)
 // (p.shadows, p.sampling and, for the exact sum of hard shadows, exact_on_clblast).
-void shadow_forward(Kernels& k, const RenderParams& p, ViewState& v, int light,
-                    const ViewState& lv);
-// Completes rec_lgrad (and rec_lgrad2) of `v` for `light` and returns dL/d(the light's shadow
+void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments& f, int light,
+                    const LightMaps& m);
+// Completes fgr.rec_lgrad (and rec_lgrad2) for `light` and returns dL/d(the light's shadow
 // map) and, for soft shadows, dL/d(its penumbra map).
 struct MapGrads {
   cl::Buffer S, P, A;  // dL/d(shadow map, penumbra map (paper), coverage (accurate))
 };
-MapGrads shadow_backward(Kernels& k, const RenderParams& p, ViewState& v, int light,
-                         const ViewState& lv);
+MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, const Fragments& f,
+                         FragmentGrads& fgr, int light, const LightMaps& m);
 
-// The fragments of `v` bucketed by the texel nearest their μ in `light`'s map (bin.cl with
-// one-texel tiles), for the gathers that find the fragments whose window holds a texel.
-Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm);
+// The fragments `f` of `v` bucketed by the texel nearest their μ in `light`'s map (bin.cl
+// with one-texel tiles), for the gathers that find the fragments whose window holds a texel.
+Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, int light, int Wm, int Hm);
 
 // The accurate model (pcf.cl): shadow terms of every fragment of `v` for `light` by
-// percentage-closer filtering of the light's shadow map `lv.depth` (a blocker search first
-// for soft shadows).
-void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv);
-// Completes rec_lgrad (and rec_lgrad2) of `v` for `light`, returns dL/dS and adds dL/dD_L to
-// *gsize (soft shadows).
-MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, ViewState& v,
-                      int light, const ViewState& lv, double* gsize);
+// percentage-closer filtering of the light's shadow map (a blocker search first for soft
+// shadows).
+void pcf_forward(Kernels& k, Sampling sampling, const View& v, Fragments& f, int light,
+                 const LightMaps& m);
+// Completes fgr.rec_lgrad (and rec_lgrad2) for `light`, returns dL/dS and dL/dA and adds
+// dL/dD_L to *gsize (soft shadows).
+MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
+                      const Fragments& f, FragmentGrads& fgr, int light, const LightMaps& m,
+                      double* gsize);
 
-// The penumbra map of a light's view `lv` (after raster_resolve gave its shadow map).
-void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv);
+// The penumbra map of a light's view `lv` from its screen geometry and shadow map S.
+PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv,
+                             const ScreenGeometry& sg, const cl::Buffer& S);
 // Backward for dL/dP = gP: returns dL/dS through P (W·H reals) and adds dL/dD_L to *gsize.
-cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewState& lv,
-                                    const cl::Buffer& gP, double* gsize);
+cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, const View& lv,
+                                    const ScreenGeometry& sg, const cl::Buffer& S,
+                                    const PenumbraMap& pm, const cl::Buffer& gP, double* gsize);
 // Adds P's gradient by the light-screen positions and depths of the face corners to fg.screen.
-void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, ViewState& lv,
+void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, const View& lv,
+                             const ScreenGeometry& sg, const cl::Buffer& S, const PenumbraMap& pm,
                              const cl::Buffer& gP, FaceGrads& fg);
 
 }  // namespace penumbra::detail

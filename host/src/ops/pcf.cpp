@@ -43,12 +43,12 @@ struct PcfGatherArgs {
 // Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
 // ε_λ) or search window (σ_b cut at PCF_SEARCH_EPS) can hold a texel, plus one for the
 // bucket's rounding.
-int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const ViewState& v,
-                 int light) {
+int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
+                 const Fragments& f, int light) {
   double sigma = shadow_sigma_s(p), r2 = 0;  // hard shadows: every filter has σ_s
   if (p.shadows == Shadows::Soft) {          // the widest filter the forward chose (rec_light2.z)
-    auto rec = download_reals(k.ctx(), k.precision(), v.rec_light2, v.nrec * v.nlights * 4);
-    for (size_t r = 0; r < v.nrec; ++r)
+    auto rec = download_reals(k.ctx(), k.precision(), f.rec_light2, f.nrec * v.nlights * 4);
+    for (size_t r = 0; r < f.nrec; ++r)
       sigma = std::max(sigma, rec[(r * v.nlights + light) * 4 + 2]);
     r2 = 2 * search_sigma * std::log(1 / kSearchEps);
   }
@@ -58,43 +58,44 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
 
 }  // namespace
 
-void pcf_forward(Kernels& k, Sampling sampling, ViewState& v, int light, const ViewState& lv) {
-  const int n = int(v.nrec);
+void pcf_forward(Kernels& k, Sampling sampling, const View& v, Fragments& f, int light,
+                 const LightMaps& lm) {
+  const int n = int(f.nrec);
   if (n == 0) return;
-  const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
-  auto& s = bind_args(k, PcfSampleArgs{at, lv.depth, lv.cover, v.rec_light, v.rec_light2},
+  const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
+  auto& s = bind_args(k, PcfSampleArgs{at, lm.S, lm.A, f.rec_light, f.rec_light2},
                       sampling_define(sampling));
   launch_1d(k.ctx(), s, n);
 }
 
-MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, ViewState& v,
-                      int light, const ViewState& lv, double* gsize) {
+MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
+                      const Fragments& f, FragmentGrads& fgr, int light, const LightMaps& lm,
+                      double* gsize) {
   Context& ctx = k.ctx();
-  const int Wm = lv.W, Hm = lv.H, n = int(v.nrec), nl = v.nlights;
+  const int Wm = lm.W, Hm = lm.H, n = int(f.nrec), nl = v.nlights;
   MapGrads g;
   g.S = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
   g.A = zero_reals(ctx, k.precision(), size_t(Wm) * Hm);
   if (n == 0) return g;
   const std::string variant = sampling_define(p.sampling);
   const MapLookup at{v.P, n, light, nl, Wm, Hm};
-  auto& sb = bind_args(k,
-                       PcfSampleBwdArgs{at, lv.depth, lv.cover, v.rec_light, v.rec_light2,
-                                        v.rec_lgrad, v.rec_lgrad2},
-                       variant);
+  auto& sb = bind_args(
+      k, PcfSampleBwdArgs{at, lm.S, lm.A, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2},
+      variant);
   launch_1d(ctx, sb, n);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
   if (sampling_method(p.sampling).windowed)
-    bins = texel_buckets(k, v, light, Wm, Hm);
+    bins = texel_buckets(k, v, f, light, Wm, Hm);
   else
     bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
-  const int reach = gather_reach(k, p, search_sigma, v, light);
+  const int reach = gather_reach(k, p, search_sigma, v, f, light);
   auto& ga = bind_args(k,
-                       PcfGatherArgs{at, reach, lv.depth, lv.cover, v.rec_light, v.rec_light2,
-                                     v.rec_lgrad, v.rec_lgrad2, bins, g.S, g.A},
+                       PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2,
+                                     fgr.rec_lgrad, fgr.rec_lgrad2, bins, g.S, g.A},
                        variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
-    auto g2 = download_reals(ctx, k.precision(), v.rec_lgrad2, size_t(n) * nl * 4);
+    auto g2 = download_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4);
     for (int r = 0; r < n; ++r) *gsize += g2[(size_t(r) * nl + light) * 4 + 3];
   }
   return g;

@@ -26,10 +26,17 @@ struct TexelFaces {
   }
 };
 
-TexelFaces texel_faces(const DeviceGeometry& g, const ViewState& lv) {
-  const Bins& b = lv.pen_bins;
-  return {lv.vscreen, g.faces,  lv.fnormal, lv.pen_boxes, lv.P, lv.W,
-          lv.H,       lv.depth, b.tile,     b.tiles_x,    b};
+TexelFaces texel_faces(const DeviceGeometry& g, const View& lv, const ScreenGeometry& sg,
+                       const cl::Buffer& S, const PenumbraMap& pm) {
+  const Bins& b = pm.bins;
+  return {sg.vscreen, g.faces, sg.fnormal, pm.boxes, lv.P, lv.W, lv.H, S, b.tile, b.tiles_x, b};
+}
+
+// penumbra_fwd and penumbra_bwd_texel: rows of `lanes` texels per work-item.
+void launch_texels(Kernels& k, cl::Kernel& kernel, const View& lv) {
+  const int lanes = penumbra_lanes(k.ctx().info(), k.tuning());
+  launch(k.ctx(), kernel, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
+         cl::NDRange(std::max(1, 8 / lanes), 8));
 }
 
 struct PenumbraFwdArgs {
@@ -62,43 +69,42 @@ struct PenumbraBwdFaceArgs {
 
 }  // namespace
 
-void penumbra_forward(Kernels& k, const DeviceGeometry& g, ViewState& lv) {
+PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv,
+                             const ScreenGeometry& sg, const cl::Buffer& S) {
   Context& ctx = k.ctx();
-  const int kTile = k.tuning().penumbra.tile;
   const size_t ntex = size_t(lv.W) * lv.H;
-  lv.pen_boxes = alloc_ints(ctx, size_t(g.nf) * 4);
+  PenumbraMap pm;
+  pm.boxes = alloc_ints(ctx, size_t(g.nf) * 4);
   auto& bx = bind_args(
-      k, PenumbraBoxesArgs{lv.vscreen, g.faces, lv.fnormal, lv.P, g.nf, lv.W, lv.H, lv.pen_boxes});
+      k, PenumbraBoxesArgs{sg.vscreen, g.faces, sg.fnormal, lv.P, g.nf, lv.W, lv.H, pm.boxes});
   launch_1d(ctx, bx, g.nf);
-  lv.pen_bins = bin_boxes(k, lv.pen_boxes, g.nf, lv.W, lv.H, kTile);
-  lv.pen_map = alloc_reals(ctx, k.precision(), ntex);
-  lv.pen_sums = alloc_reals(ctx, k.precision(), ntex * 2);
-  auto& pf = bind_args(k, PenumbraFwdArgs{texel_faces(g, lv), lv.pen_map, lv.pen_sums});
-  const int lanes = penumbra_lanes(k.ctx().info(), k.tuning());
-  launch(ctx, pf, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
-         cl::NDRange(std::max(1, 8 / lanes), 8));
+  pm.bins = bin_boxes(k, pm.boxes, g.nf, lv.W, lv.H, k.tuning().penumbra.tile);
+  pm.map = alloc_reals(ctx, k.precision(), ntex);
+  pm.sums = alloc_reals(ctx, k.precision(), ntex * 2);
+  auto& pf = bind_args(k, PenumbraFwdArgs{texel_faces(g, lv, sg, S, pm), pm.map, pm.sums});
+  launch_texels(k, pf, lv);
+  return pm;
 }
 
-cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, ViewState& lv,
-                                    const cl::Buffer& gP, double* gsize) {
+cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, const View& lv,
+                                    const ScreenGeometry& sg, const cl::Buffer& S,
+                                    const PenumbraMap& pm, const cl::Buffer& gP, double* gsize) {
   Context& ctx = k.ctx();
   const size_t ntex = size_t(lv.W) * lv.H;
   cl::Buffer gS = alloc_reals(ctx, k.precision(), ntex),
              gDL = alloc_reals(ctx, k.precision(), ntex);
-  auto& pb =
-      bind_args(k, PenumbraBwdTexelArgs{texel_faces(g, lv), lv.pen_map, lv.pen_sums, gP, gS, gDL});
-  const int lanes = penumbra_lanes(ctx.info(), k.tuning());
-  launch(ctx, pb, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
-         cl::NDRange(std::max(1, 8 / lanes), 8));
+  auto& pb = bind_args(
+      k, PenumbraBwdTexelArgs{texel_faces(g, lv, sg, S, pm), pm.map, pm.sums, gP, gS, gDL});
+  launch_texels(k, pb, lv);
   for (double v : download_reals(ctx, k.precision(), gDL, ntex)) *gsize += v;  // texel order
   return gS;
 }
 
-void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, ViewState& lv,
+void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, const View& lv,
+                             const ScreenGeometry& sg, const cl::Buffer& S, const PenumbraMap& pm,
                              const cl::Buffer& gP, FaceGrads& fg) {
-  auto& pb = bind_args(
-      k, PenumbraBwdFaceArgs{lv.vscreen, g.faces, lv.fnormal, lv.pen_boxes, lv.P, g.nf, lv.W, lv.H,
-                             lv.depth, lv.pen_map, lv.pen_sums, gP, fg.screen});
+  auto& pb = bind_args(k, PenumbraBwdFaceArgs{sg.vscreen, g.faces, sg.fnormal, pm.boxes, lv.P, g.nf,
+                                              lv.W, lv.H, S, pm.map, pm.sums, gP, fg.screen});
   launch_1d(k.ctx(), pb, g.nf, 16);
 }
 

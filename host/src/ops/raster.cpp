@@ -76,39 +76,32 @@ struct RasterBwdArgs {
 };
 
 // Global and local sizes of the tiled passes (count, fragments).
-void launch_tiled(Kernels& k, cl::Kernel& kernel, const ViewState& v) {
+void launch_tiled(Kernels& k, cl::Kernel& kernel, const View& v) {
   const auto& t = k.tuning().raster;
   const size_t tiles_x = (v.W + t.tile - 1) / t.tile, tiles_y = (v.H + t.tile - 1) / t.tile;
   launch(k.ctx(), kernel, cl::NDRange(tiles_x * t.tile / t.pixels_per_item, tiles_y * t.tile),
          cl::NDRange(t.tile / t.pixels_per_item, t.tile));
 }
-}  // namespace
 
-void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
-  Context& ctx = k.ctx();
-  const Precision p = k.precision();
+// The faces binned into the raster's tiles; with brute_force the kernels ignore the bins and
+// get valid empty buffers.
+Bins raster_bins(Kernels& k, const DeviceGeometry& g, const View& v, const ScreenGeometry& sg) {
+  if (!k.tuning().raster.brute_force)
+    return bin_boxes(k, sg.fbbox, g.nf, v.W, v.H, k.tuning().raster.tile);
+  Bins b;
+  b.tiles_x = 1;
+  b.offsets = b.counts = b.items = alloc_ints(k.ctx(), 1);
+  return b;
+}
+
+// Each pixel's first fragment from its count (pix_count): offsets into the fragment arrays,
+// and their total, checked against the device's memory.
+std::vector<int> fragment_offsets(Kernels& k, const View& v, const cl::Buffer& pix_count,
+                                  size_t& total) {
   const size_t npix = size_t(v.W) * v.H;
-  if (k.tuning()
-          .raster.brute_force) {  // the kernels ignore the bins; give them valid empty buffers
-    v.bins = Bins{};
-    v.bins.tiles_x = 1;
-    v.bins.offsets = v.bins.counts = v.bins.items = alloc_ints(ctx, 1);
-  } else {
-    v.bins = bin_boxes(k, v.fbbox, g.nf, v.W, v.H, k.tuning().raster.tile);
-  }
-  v.aux = alloc_reals(ctx, p, npix * 4);
-  v.pix_count = alloc_ints(ctx, npix);
-  const int ppw = k.tuning().raster.pixels_per_item;
-  const cl::Buffer run_hits = alloc_ints(ctx, size_t(v.H) * ((v.W + ppw - 1) / ppw) * 2);  // ulong
-  auto& count =
-      bind_args(k, RasterCountArgs{v.vscreen, g.faces, v.fbbox, v.fnormal, v.P, v.W, v.H, g.nf,
-                                   v.bins.tiles_x, v.bins, v.aux, v.pix_count, run_hits});
-  launch_tiled(k, count, v);
-
-  // Fragment storage of exactly the counted size.
-  auto counts = download_ints(ctx, v.pix_count, npix);
+  auto counts = download_ints(k.ctx(), pix_count, npix);
   std::vector<int> offsets(npix);
-  size_t total = 0;
+  total = 0;
   for (size_t i = 0; i < npix; ++i) {
     offsets[i] = int(total);
     total += size_t(counts[i]);
@@ -117,50 +110,78 @@ void raster_fragments(Kernels& k, const DeviceGeometry& g, ViewState& v) {
     throw Error("the view keeps " + std::to_string(total) + " fragments, more than 2^31");
   // Fragment storage, forward and backward: face, weight, shading terms, light terms.
   const size_t per_fragment =
-      sizeof(int) + real_size(p) * 4 * (1 + (1 + v.nlights) + 4 * v.nlights + 1);
-  check_memory(ctx, total * per_fragment + npix * 13 * real_size(p),
+      sizeof(int) + real_size(k.precision()) * 4 * (1 + (1 + v.nlights) + 4 * v.nlights + 1);
+  check_memory(k.ctx(), total * per_fragment + npix * 13 * real_size(k.precision()),
                "a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view keeping " +
                    std::to_string(total) + " fragments");
-  v.nrec = total;
-  v.pix_offset = upload_ints(ctx, offsets);
-  v.pix_n = alloc_ints(ctx, npix);
-  v.rec_face = alloc_ints(ctx, total);
-  v.rec_frag = alloc_reals(ctx, p, total * 4);
-  v.rec_shade = alloc_reals(ctx, p, total * 4 * (1 + v.nlights));
-  v.rec_light = alloc_reals(ctx, p, total * 4 * v.nlights);
-  v.rec_light2 = alloc_reals(ctx, p, total * 4 * v.nlights);
-  auto& frag = bind_args(
-      k, RasterFragmentsArgs{v.vscreen,      g.vworld,    g.faces,    v.fbbox,     v.fnormal,
-                             g.albedo,       v.P,         v.W,        v.H,         g.nf,
-                             v.bins.tiles_x, v.bins,      v.aux,      v.pix_count, run_hits,
-                             v.pix_offset,   v.pix_n,     v.rec_face, v.rec_frag,  v.rec_shade,
-                             v.rec_light,    v.rec_light2});
-  launch_tiled(k, frag, v);
+  return offsets;
 }
 
-void raster_resolve(Kernels& k, ViewState& v) {
+}  // namespace
+
+Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
+                           const ScreenGeometry& sg) {
+  Context& ctx = k.ctx();
+  const Precision p = k.precision();
   const size_t npix = size_t(v.W) * v.H;
-  v.image = alloc_reals(k.ctx(), k.precision(), npix * 4);
-  v.depth = alloc_reals(k.ctx(), k.precision(), npix);
-  v.cover = alloc_reals(k.ctx(), k.precision(), npix);
+  const Bins bins = raster_bins(k, g, v, sg);
+  Fragments f;
+  f.aux = alloc_reals(ctx, p, npix * 4);
+  const cl::Buffer pix_count = alloc_ints(ctx, npix);
+  const int ppw = k.tuning().raster.pixels_per_item;
+  const cl::Buffer run_hits = alloc_ints(ctx, size_t(v.H) * ((v.W + ppw - 1) / ppw) * 2);  // ulong
+  auto& count =
+      bind_args(k, RasterCountArgs{sg.vscreen, g.faces, sg.fbbox, sg.fnormal, v.P, v.W, v.H, g.nf,
+                                   bins.tiles_x, bins, f.aux, pix_count, run_hits});
+  launch_tiled(k, count, v);
+
+  // Fragment storage of exactly the counted size.
+  f.pix_offset = upload_ints(ctx, fragment_offsets(k, v, pix_count, f.nrec));
+  f.pix_n = alloc_ints(ctx, npix);
+  f.rec_face = alloc_ints(ctx, f.nrec);
+  f.rec_frag = alloc_reals(ctx, p, f.nrec * 4);
+  f.rec_shade = alloc_reals(ctx, p, f.nrec * 4 * (1 + v.nlights));
+  f.rec_light = alloc_reals(ctx, p, f.nrec * 4 * v.nlights);
+  f.rec_light2 = alloc_reals(ctx, p, f.nrec * 4 * v.nlights);
+  auto& frag =
+      bind_args(k, RasterFragmentsArgs{
+                       sg.vscreen, g.vworld,    g.faces,     sg.fbbox,     sg.fnormal,   g.albedo,
+                       v.P,        v.W,         v.H,         g.nf,         bins.tiles_x, bins,
+                       f.aux,      pix_count,   run_hits,    f.pix_offset, f.pix_n,      f.rec_face,
+                       f.rec_frag, f.rec_shade, f.rec_light, f.rec_light2});
+  launch_tiled(k, frag, v);
+  return f;
+}
+
+Resolved raster_resolve(Kernels& k, const View& v, Fragments& f) {
+  const size_t npix = size_t(v.W) * v.H;
+  Resolved r;
+  r.image = alloc_reals(k.ctx(), k.precision(), npix * 4);
+  r.depth = alloc_reals(k.ctx(), k.precision(), npix);
+  r.cover = alloc_reals(k.ctx(), k.precision(), npix);
   auto& res =
-      bind_args(k, RasterResolveArgs{v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade,
-                                     v.rec_light, v.image, v.aux, v.depth, v.cover});
+      bind_args(k, RasterResolveArgs{v.P, v.W, v.H, f.pix_offset, f.pix_n, f.rec_frag, f.rec_shade,
+                                     f.rec_light, r.image, f.aux, r.depth, r.cover});
   launch_1d(k.ctx(), res, npix);
+  return r;
 }
 
-void raster_resolve_backward(Kernels& k, ViewState& v, const cl::Buffer& gimage,
-                             const cl::Buffer& gdepth) {
-  v.rec_wg = alloc_reals(k.ctx(), k.precision(), v.nrec * 4);
-  v.rec_lgrad = alloc_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
-  v.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), v.nrec * 4 * v.nlights);
-  auto& rb = bind_args(
-      k, RasterResolveBwdArgs{v.P, v.W, v.H, v.pix_offset, v.pix_n, v.rec_frag, v.rec_shade,
-                              v.rec_light, v.image, v.aux, gimage, gdepth, v.rec_wg, v.rec_lgrad});
+FragmentGrads raster_resolve_backward(Kernels& k, const View& v, const Fragments& f,
+                                      const Resolved& r, const cl::Buffer& gimage,
+                                      const cl::Buffer& gdepth) {
+  FragmentGrads fgr;
+  fgr.rec_wg = alloc_reals(k.ctx(), k.precision(), f.nrec * 4);
+  fgr.rec_lgrad = alloc_reals(k.ctx(), k.precision(), f.nrec * 4 * v.nlights);
+  fgr.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), f.nrec * 4 * v.nlights);
+  auto& rb = bind_args(k, RasterResolveBwdArgs{v.P, v.W, v.H, f.pix_offset, f.pix_n, f.rec_frag,
+                                               f.rec_shade, f.rec_light, r.image, f.aux, gimage,
+                                               gdepth, fgr.rec_wg, fgr.rec_lgrad});
   launch_1d(k.ctx(), rb, size_t(v.W) * v.H);
+  return fgr;
 }
 
-FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
+FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
+                          const ScreenGeometry& sg, const Fragments& f, const FragmentGrads& fgr,
                           const cl::Buffer& gimage, const cl::Buffer& gdepth) {
   Context& ctx = k.ctx();
   FaceGrads fg;
@@ -168,11 +189,12 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const ViewState& 
   fg.world = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.albedo = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.light = alloc_reals(ctx, k.precision(), size_t(g.nf) * (6 * v.nlights + 1) * 4);
-  auto& rb = bind_args(
-      k, RasterBwdArgs{v.vscreen,   g.vworld,     g.faces,   v.fbbox,    v.fnormal,   g.albedo,
-                       v.P,         v.W,          v.H,       g.nf,       v.aux,       gimage,
-                       gdepth,      v.pix_offset, v.pix_n,   v.rec_face, v.rec_light, v.rec_wg,
-                       v.rec_lgrad, v.rec_lgrad2, fg.screen, fg.world,   fg.albedo,   fg.light});
+  auto& rb =
+      bind_args(k, RasterBwdArgs{sg.vscreen, g.vworld,    g.faces,    sg.fbbox,      sg.fnormal,
+                                 g.albedo,   v.P,         v.W,        v.H,           g.nf,
+                                 f.aux,      gimage,      gdepth,     f.pix_offset,  f.pix_n,
+                                 f.rec_face, f.rec_light, fgr.rec_wg, fgr.rec_lgrad, fgr.rec_lgrad2,
+                                 fg.screen,  fg.world,    fg.albedo,  fg.light});
   launch_1d(ctx, rb, g.nf, 16);
   return fg;
 }

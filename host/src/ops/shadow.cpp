@@ -114,8 +114,8 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
   return std::max<size_t>(1, (size_t(96) << 20) / per);
 }
 
-void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
-                   const ViewState& lv) {
+void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup& at,
+                   const LightMaps& lm) {
   Context& ctx = k.ctx();
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
@@ -126,48 +126,49 @@ void exact_forward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
-        k, ExactWeightsArgs{v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gx, 0, Gy, norm});
+        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, norm});
     launch_1d(ctx, wts, m);
-    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lv.depth, Wm, 0.0, T, Hm);  // T = Gx·Sᵀ
-    auto& fin = bind_args(k, ExactFinishArgs{v.P, r0, m, light, nl, Hm, T, Gy, norm, v.rec_light});
+    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lm.S, Wm, 0.0, T, Hm);  // T = Gx·Sᵀ
+    auto& fin = bind_args(k, ExactFinishArgs{at.P, r0, m, light, nl, Hm, T, Gy, norm, f.rec_light});
     launch_1d(ctx, fin, m);
   }
 }
 
-MapGrads soft_backward(Kernels& k, Sampling sampling, ViewState& v, const MapLookup& at,
-                       const ViewState& lv, MapGrads g) {
+MapGrads soft_backward(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
+                       FragmentGrads& fgr, const MapLookup& at, const LightMaps& lm, MapGrads g) {
   const std::string variant = sampling_define(sampling);
   auto& sb = bind_args(k,
-                       SoftSampleBwdArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
-                                         v.rec_lgrad, v.rec_lgrad2},
+                       SoftSampleBwdArgs{at, lm.S, lm.penumbra, f.rec_light, f.rec_light2,
+                                         fgr.rec_lgrad, fgr.rec_lgrad2},
                        variant);
   launch_1d(k.ctx(), sb, at.nrec);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
   if (sampling_method(sampling).windowed)
-    bins = texel_buckets(k, v, at.light, at.Wm, at.Hm);
+    bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
   else
     bins.offsets = bins.counts = bins.items = alloc_ints(k.ctx(), 1);
   g.P = zero_reals(k.ctx(), k.precision(), size_t(at.Wm) * at.Hm);
   auto& ga = bind_args(k,
-                       SoftGatherArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2,
-                                      v.rec_lgrad, bins, g.S, g.P},
+                       SoftGatherArgs{at, lm.S, lm.penumbra, f.rec_light, f.rec_light2,
+                                      fgr.rec_lgrad, bins, g.S, g.P},
                        variant);
   launch_gather(k, ga, at.Wm, at.Hm);
   return g;
 }
 
-MapGrads truncated_backward(Kernels& k, ViewState& v, const MapLookup& at, const ViewState& lv,
-                            MapGrads g) {
-  auto& sb = bind_args(k, ShadowSampleBwdArgs{at, lv.depth, v.rec_light, v.rec_lgrad});
+MapGrads truncated_backward(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
+                            const MapLookup& at, const LightMaps& lm, MapGrads g) {
+  auto& sb = bind_args(k, ShadowSampleBwdArgs{at, lm.S, f.rec_light, fgr.rec_lgrad});
   launch_1d(k.ctx(), sb, at.nrec);
-  Bins bins = texel_buckets(k, v, at.light, at.Wm, at.Hm);  // texels gather from nearby fragments
-  auto& ga = bind_args(k, ShadowGatherArgs{at, v.rec_light, v.rec_lgrad, bins, g.S});
+  // texels gather from nearby fragments
+  Bins bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+  auto& ga = bind_args(k, ShadowGatherArgs{at, f.rec_light, fgr.rec_lgrad, bins, g.S});
   launch_gather(k, ga, at.Wm, at.Hm);
   return g;
 }
 
-MapGrads exact_backward(Kernels& k, bool clblast, ViewState& v, const MapLookup& at,
-                        const ViewState& lv, MapGrads g) {
+MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const FragmentGrads& fgr,
+                        const MapLookup& at, const LightMaps& lm, MapGrads g) {
   Context& ctx = k.ctx();
   const Precision p = k.precision();
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
@@ -179,12 +180,12 @@ MapGrads exact_backward(Kernels& k, bool clblast, ViewState& v, const MapLookup&
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
-        k, ExactWeightsArgs{v.P, r0, m, light, nl, Wm, Hm, v.rec_light, Gx, Gxd, 1, Gy, norm});
+        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gxd, 1, Gy, norm});
     launch_1d(ctx, wts, m);
-    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lv.depth, Wm, 0.0, T, Hm);    // Gx·Sᵀ
-    matmul_nt(k, clblast, m, Hm, Wm, Gxd, Wm, lv.depth, Wm, 0.0, Td, Hm);  // Gxd·Sᵀ
-    auto& fin = bind_args(k, ExactFinishBwdArgs{v.P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm,
-                                                v.rec_light, v.rec_lgrad});
+    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lm.S, Wm, 0.0, T, Hm);    // Gx·Sᵀ
+    matmul_nt(k, clblast, m, Hm, Wm, Gxd, Wm, lm.S, Wm, 0.0, Td, Hm);  // Gxd·Sᵀ
+    auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm,
+                                                f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
     matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
   }
@@ -200,41 +201,41 @@ void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
 }
 
 // The fragments bucketed by the texel nearest their μ (bin.cl with one-texel tiles).
-Bins texel_buckets(Kernels& k, ViewState& v, int light, int Wm, int Hm) {
-  const int n = int(v.nrec);
+Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, int light, int Wm, int Hm) {
+  const int n = int(f.nrec);
   cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
-  auto& bx = bind_args(k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, v.rec_light, boxes});
+  auto& bx = bind_args(k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, boxes});
   launch_1d(k.ctx(), bx, n);
   return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
 
-void shadow_forward(Kernels& k, const RenderParams& p, ViewState& v, int light,
-                    const ViewState& lv) {
-  const int n = int(v.nrec);
+void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments& f, int light,
+                    const LightMaps& lm) {
+  const int n = int(f.nrec);
   if (n == 0) return;
-  const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
+  const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
   if (p.shadows == Shadows::Soft) {
-    auto& s = bind_args(k, SoftSampleArgs{at, lv.depth, lv.pen_map, v.rec_light, v.rec_light2},
+    auto& s = bind_args(k, SoftSampleArgs{at, lm.S, lm.penumbra, f.rec_light, f.rec_light2},
                         sampling_define(p.sampling));
     launch_1d(k.ctx(), s, n);
   } else if (sampling_method(p.sampling).windowed) {
-    auto& s = bind_args(k, ShadowSampleArgs{at, lv.depth, v.rec_light});
+    auto& s = bind_args(k, ShadowSampleArgs{at, lm.S, f.rec_light});
     launch_1d(k.ctx(), s, n);
   } else {
-    exact_forward(k, exact_on_clblast(p, k.tuning()), v, at, lv);
+    exact_forward(k, exact_on_clblast(p, k.tuning()), f, at, lm);
   }
 }
 
-MapGrads shadow_backward(Kernels& k, const RenderParams& p, ViewState& v, int light,
-                         const ViewState& lv) {
+MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, const Fragments& f,
+                         FragmentGrads& fgr, int light, const LightMaps& lm) {
   MapGrads g;
-  g.S = zero_reals(k.ctx(), k.precision(), size_t(lv.W) * lv.H);
-  const int n = int(v.nrec);
+  g.S = zero_reals(k.ctx(), k.precision(), size_t(lm.W) * lm.H);
+  const int n = int(f.nrec);
   if (n == 0) return g;
-  const MapLookup at{v.P, n, light, v.nlights, lv.W, lv.H};
-  if (p.shadows == Shadows::Soft) return soft_backward(k, p.sampling, v, at, lv, g);
-  if (sampling_method(p.sampling).windowed) return truncated_backward(k, v, at, lv, g);
-  return exact_backward(k, exact_on_clblast(p, k.tuning()), v, at, lv, g);
+  const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
+  if (p.shadows == Shadows::Soft) return soft_backward(k, p.sampling, v, f, fgr, at, lm, g);
+  if (sampling_method(p.sampling).windowed) return truncated_backward(k, v, f, fgr, at, lm, g);
+  return exact_backward(k, exact_on_clblast(p, k.tuning()), f, fgr, at, lm, g);
 }
 
 }  // namespace penumbra::detail

@@ -37,25 +37,29 @@ struct TransformBwdArgs {
 
 }  // namespace
 
-void transform_forward(Kernels& k, const DeviceGeometry& g, ViewState& v) {
+ScreenGeometry transform_forward(Kernels& k, const DeviceGeometry& g, const View& v) {
   Context& ctx = k.ctx();
-  v.vscreen = alloc_reals(ctx, k.precision(), size_t(g.nv) * 4);
-  v.fbbox = alloc_ints(ctx, size_t(g.nf) * 4);
-  v.fnormal = alloc_reals(ctx, k.precision(), size_t(g.nf) * 4);
-  auto& tf = bind_args(k, TransformFwdArgs{g.vworld, v.P, g.nv, v.vscreen});
+  ScreenGeometry sg;
+  sg.vscreen = alloc_reals(ctx, k.precision(), size_t(g.nv) * 4);
+  sg.fbbox = alloc_ints(ctx, size_t(g.nf) * 4);
+  sg.fnormal = alloc_reals(ctx, k.precision(), size_t(g.nf) * 4);
+  auto& tf = bind_args(k, TransformFwdArgs{g.vworld, v.P, g.nv, sg.vscreen});
   launch_1d(ctx, tf, g.nv);
   auto& fs = bind_args(
-      k, FaceSetupArgs{g.vworld, v.vscreen, g.faces, v.P, g.nf, v.W, v.H, v.fbbox, v.fnormal});
+      k, FaceSetupArgs{g.vworld, sg.vscreen, g.faces, v.P, g.nf, v.W, v.H, sg.fbbox, sg.fnormal});
   launch_1d(ctx, fs, g.nf);
+  return sg;
 }
 
-void transform_backward(Kernels& k, const DeviceGeometry& g, const ViewState& v,
-                        const FaceGrads& fg, cl::Buffer& gvertices, cl::Buffer& gframe) {
-  gvertices = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 4);
-  gframe = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 16);
-  auto& tb = bind_args(k, TransformBwdArgs{g.vworld, v.vscreen, v.P, g.nv, g.adj_offsets, g.adj,
-                                           fg.screen, fg.world, gvertices, gframe});
+VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
+                               const ScreenGeometry& sg, const FaceGrads& fg) {
+  VertexGrads out;
+  out.vertices = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 4);
+  out.frame = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 16);
+  auto& tb = bind_args(k, TransformBwdArgs{g.vworld, sg.vscreen, v.P, g.nv, g.adj_offsets, g.adj,
+                                           fg.screen, fg.world, out.vertices, out.frame});
   launch_1d(k.ctx(), tb, g.nv);
+  return out;
 }
 
 }  // namespace penumbra::detail
