@@ -16,7 +16,8 @@ namespace detail {
 const std::map<std::string, std::string>& embedded_kernels();
 
 Tuning for_device(Tuning t, const DeviceInfo& device) {
-  if (t.raster.pixels_per_item == 0) t.raster.pixels_per_item = device.is_gpu ? 1 : 8;
+  if (t.raster.pixels_per_item == 0)
+    t.raster.pixels_per_item = device_defaults(device).pixels_per_item;
   return t;
 }
 
@@ -31,8 +32,8 @@ std::string program_options(const std::string& file, Precision precision, const 
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
   if (file == "shadow.cl" || file == "pcf.cl")
-    o += " -DROW=" + std::to_string(shadow_row_width(device)) +
-         " -DGATHER_ROWS=" + std::to_string(gather_rows(device));
+    o += " -DROW=" + std::to_string(device_defaults(device).shadow_row) +
+         " -DGATHER_ROWS=" + std::to_string(device_defaults(device).gather_rows);
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +

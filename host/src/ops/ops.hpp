@@ -82,11 +82,11 @@ struct Bins {
   cl::Buffer offsets, counts, items;
 };
 
-// Texels per work-item of penumbra_fwd: vectors of 8 on CPUs (one on GPUs), at most the
-// penumbra tile so that a run stays within one tile's list. Not tied to the raster's tuning,
-// so that raster candidates leave the shadows' bits alone.
+// Texels per work-item of penumbra_fwd: the device's pixels_per_item, at most the penumbra
+// tile so that a run stays within one tile's list. Not tied to the raster's tuning, so that
+// raster candidates leave the shadows' bits alone.
 inline int penumbra_lanes(const DeviceInfo& d, const Tuning& t) {
-  return std::min(d.is_gpu ? 1 : 8, t.penumbra.tile);
+  return std::min(device_defaults(d).pixels_per_item, t.penumbra.tile);
 }
 
 // bin.cl's tile edge in pixels (1: the texel buckets of the shadow gathers).
@@ -105,14 +105,6 @@ inline std::string sampling_define(Sampling s) {
 inline bool exact_on_clblast(const RenderParams& p, const Tuning& t) {
   return exact_backend_in_force(p, t) == ExactBackend::CLBlast;
 }
-
-// Texels per vector in shadow.cl's window rows (ROW): 16 floats fill an AVX-512 register on
-// CPUs; GPUs keep 8.
-inline int shadow_row_width(const DeviceInfo& d) { return d.is_gpu ? 8 : 16; }
-// Rows of texels per work-item of the gathers (GATHER_ROWS): on CPUs a fragment's weights and
-// tests are shared by 4 rows (soft backward 86.8 -> 73.6 ms on the bundled scene); GPUs keep
-// the parallelism of one row per item.
-inline int gather_rows(const DeviceInfo& d) { return d.is_gpu ? 1 : 4; }
 
 // Launches a gather (shadow_gather, soft_gather, pcf_gather) over a W_s × H_s map.
 void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm);

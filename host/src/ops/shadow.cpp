@@ -195,7 +195,8 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
 }  // namespace
 
 void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
-  const int row = shadow_row_width(k.ctx().info()), rows = gather_rows(k.ctx().info());
+  const DeviceDefaults d = device_defaults(k.ctx().info());
+  const int row = d.shadow_row, rows = d.gather_rows;
   launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, (Hm + rows - 1) / rows),
          cl::NDRange(8, 8));
 }

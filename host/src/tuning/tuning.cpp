@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cl/device.hpp"
 #include "io/text.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
@@ -222,7 +223,8 @@ WorkloadStats workload_stats(const Scene& scene) {
 Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   Tuning t;
   t.source = "heuristic";
-  t.raster.pixels_per_item = device.is_gpu ? 1 : 8;
+  const detail::DeviceDefaults defaults = detail::device_defaults(device);
+  t.raster.pixels_per_item = defaults.pixels_per_item;
   // Cost of a tile size T: (pixel, face) pairs visited, each face touching the pixels of every
   // tile its box overlaps, plus a fixed cost per (tile, face) entry of the bins.
   const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
@@ -233,7 +235,7 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
     const double cost = w.faces * (tiles_per_face * tile * tile + 64 * tiles_per_face);
     if (cost < best) best = cost, t.raster.tile = tile;
   }
-  t.exact.clblast = device.is_gpu;
+  t.exact.clblast = defaults.exact_on_clblast;
   return t;
 }
 
