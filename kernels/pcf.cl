@@ -160,7 +160,7 @@ inline real blocker_depth(real4 sums, real d, real* V) {
   return *V > 0 ? (Z + k * d) / *V : d;
 }
 
-__kernel void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                          __global const real* S, __global const real* A,
                          __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
@@ -223,7 +223,7 @@ inline Moments window_moments(Receiver x, real sigma, int search, real ref,
 }
 
 // Backward per fragment: dL/dμ, dL/dd, dL/d∇_μ d, dL/dD_L, and the scales the gather needs.
-__kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                              __global const real* S, __global const real* A,
                              __global const real4* rec_light,
                              __global const real4* rec_light2, __global real4* rec_lgrad,
@@ -274,7 +274,7 @@ __kernel void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl
 // fragment when exact), with o = 1 − c and `step` the compare's smooth step:
 //   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
-__kernel void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                          int reach, __global const real* S, __global const real* A,
                          __global const real4* rec_light,
                          __global const real4* rec_light2, __global const real4* rec_lgrad,

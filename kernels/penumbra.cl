@@ -82,7 +82,7 @@ inline real penumbra_dv(const Occluder* o, real Pq, real2 sums, __global const r
   return (a + (o->v - Pq) * da) / sums.y;
 }
 
-__kernel void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
+FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
                              __global const real4* fnormal, __global const real* P, int nf,
                              int W, int H, __global int4* boxes) {
   int f = get_global_id(0);
@@ -163,7 +163,7 @@ inline realP lanes_load(__global const real* a, int i0, int j, int W) {
   return VLOADP(0, t);
 }
 
-__kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* faces,
+FORWARD_KERNEL void penumbra_fwd(__global const real4* vscreen, __global const int4* faces,
                            __global const real4* fnormal, __global const int4* boxes,
                            __global const real* P, int W, int H, __global const real* S,
                            TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
@@ -199,7 +199,7 @@ __kernel void penumbra_fwd(__global const real4* vscreen, __global const int4* f
 }
 
 // Backward, per texel: dL/dS_q and dL/dD_L (summed over texels on the host) from dL/dP_q.
-__kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const int4* faces,
+BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global const int4* faces,
                                  __global const real4* fnormal, __global const int4* boxes,
                                  __global const real* P, int W, int H, __global const real* S,
                                  TEXEL_FACES, __global const real* Pmap,
@@ -247,7 +247,7 @@ __kernel void penumbra_bwd_texel(__global const real4* vscreen, __global const i
 
 // Backward, per face: dL/d(light-screen position, depth) of its corners, added to
 // gface_screen (3F × real4) in a fixed texel order.
-__kernel void penumbra_bwd_face(__global const real4* vscreen, __global const int4* faces,
+BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global const int4* faces,
                                 __global const real4* fnormal, __global const int4* boxes,
                                 __global const real* P, int nf, int W, int H,
                                 __global const real* S, __global const real* Pmap,

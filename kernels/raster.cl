@@ -107,6 +107,13 @@ inline int depth_in_range(real z, __global const real* P) {
   maskP in_range = covered && zq >= P[P_NEAR] && zq <= P[P_FAR];                          \
   realP zt = (P[P_FAR] - zq) / (P[P_FAR] - P[P_NEAR]);
 
+// count and fragments run one work-group per tile; the attribute only where they are kernels.
+#ifdef BACKWARD_KERNELS
+#define TILE_GROUP
+#else
+#define TILE_GROUP __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
+#endif
+
 // raster_count also notes, per run of PPW pixels, which of the first 64 entries of its face
 // list counted a fragment at any of its pixels (run_hits, bit i for entry i). Only those can
 // hold kept fragments, so raster_fragments skips the others without testing them; past entry
@@ -114,7 +121,7 @@ inline int depth_in_range(real z, __global const real* P) {
 inline int run_index(int px0, int py, int W) { return py * ((W + PPW - 1) / PPW) + px0 / PPW; }
 inline int may_keep(ulong hits, int i) { return i >= 64 || ((hits >> i) & 1); }
 
-__kernel __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
+FORWARD_KERNEL TILE_GROUP
 void raster_count(__global const real4* vscreen, __global const int4* faces,
                   __global const int4* fbbox, __global const real4* fnormal,
                   __global const real* P, int W, int H, int nf, TILE_ARGS,
@@ -158,7 +165,7 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
   }
 }
 
-__kernel __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
+FORWARD_KERNEL TILE_GROUP
 void raster_fragments(__global const real4* vscreen, __global const real4* vworld,
                       __global const int4* faces, __global const int4* fbbox,
                       __global const real4* fnormal, __global const real4* albedo,
@@ -246,7 +253,7 @@ inline real3 fragment_colour(int r, int nl, __global const real4* rec_shade,
   return c;
 }
 
-__kernel void raster_resolve(__global const real* P, int W, int H,
+FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
                              __global const int* pix_offset, __global const int* pix_n,
                              __global const real4* rec_frag, __global const real4* rec_shade,
                              __global const real4* rec_light, __global real4* image,
@@ -275,7 +282,7 @@ __kernel void raster_resolve(__global const real* P, int W, int H,
 // (dL/dI_z). Writes rec_wg K × real4 (w, G, 0, 0): the fragment's normalised weight w and
 // G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; and rec_lgrad K·nl × real4
 // (dL/ds, 0, 0, 0), which the shadow backward completes.
-__kernel void raster_resolve_bwd(__global const real* P, int W, int H,
+BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
                                  __global const int* pix_offset, __global const int* pix_n,
                                  __global const real4* rec_frag,
                                  __global const real4* rec_shade,
@@ -317,7 +324,7 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
 // screen x, y, depth z), gface_world (dL/d world position), gface_albedo; per face
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
-__kernel void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
+BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
                          __global const int4* faces, __global const int4* fbbox,
                          __global const real4* fnormal, __global const real4* albedo,
                          __global const real* P, int W, int H, int nf,

@@ -38,7 +38,7 @@ inline real compare(real v, real d, __global const real* P) {
   return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
 }
 
-__kernel void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real* S, __global real4* rec_light) {
   int r = get_global_id(0);
   if (r >= nrec) return;
@@ -48,7 +48,7 @@ __kernel void shadow_sample(__global const real* P, int nrec, int light, int nl,
   rec_light[r * nl + light].w = norm > 0 ? compare(v, x.z, P) : 1;
 }
 
-__kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
+BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
                                 int Hm, __global const real* S,
                                 __global const real4* rec_light, __global real4* rec_lgrad) {
   int r = get_global_id(0);
@@ -84,7 +84,7 @@ __kernel void shadow_sample_bwd(__global const real* P, int nrec, int light, int
 // The texel nearest each fragment's μ as a one-texel box (empty outside the map), for
 // bucketing fragments by texel with bin.cl (tile = 1): the gathers below then find the
 // fragments whose window can cover a texel in the buckets within the window radius.
-__kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                            __global const real4* rec_light, __global int4* boxes) {
   int r = get_global_id(0);
   if (r >= nrec) return;
@@ -102,7 +102,7 @@ __kernel void shadow_boxes(__global const real* P, int nrec, int light, int nl, 
 // order (no atomics). A work-item takes ROW consecutive texels of GATHER_ROWS rows, each row
 // as one vector: g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no
 // bounds test is needed.
-__kernel void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                             __global const real4* rec_light, __global const real4* rec_lgrad,
                             __global const int* bucket_offsets, __global const int* bucket_counts,
                             __global const int* bucket_recs, __global real* gS) {
@@ -156,7 +156,7 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
   return hsum8(sum);
 }
 
-__kernel void exact_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
+FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
                            int Hm, __global const real4* rec_light, __global real* Gx,
                            __global real* Gxd, int with_derivative, __global real* Gy,
                            __global real4* norm) {
@@ -171,7 +171,7 @@ __kernel void exact_weights(__global const real* P, int r0, int n, int light, in
   norm[k] = (real4)(sx, sy, inside, 0);
 }
 
-__kernel void exact_finish(__global const real* P, int r0, int n, int light, int nl, int Hm,
+FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int light, int nl, int Hm,
                           __global const real* T, __global const real* Gy,
                           __global const real4* norm, __global real4* rec_light) {
   int k = get_global_id(0);
@@ -189,7 +189,7 @@ __kernel void exact_finish(__global const real* P, int r0, int n, int light, int
 
 // Backward: T and Td = Gxd·Sᵀ are given; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in
 // place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
-__kernel void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl, int Wm,
+BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl, int Wm,
                               int Hm, __global const real* T, __global const real* Td,
                               __global const real* Gx, __global real* Gy,
                               __global const real4* norm, __global const real4* rec_light,
@@ -248,7 +248,7 @@ inline realR soft_term(realR S, realR Pv, realR dij, __global const real* P, rea
   return front * lit;
 }
 
-__kernel void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                           __global const real* S, __global const real* Pmap,
                           __global real4* rec_light, __global const real4* rec_light2) {
   int r = get_global_id(0);
@@ -276,7 +276,7 @@ __kernel void soft_sample(__global const real* P, int nrec, int light, int nl, i
   rec_light[r * nl + light].w = norm > 0 ? hsumR(acc) / norm : 1;
 }
 
-__kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
+BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
                               int Hm, __global const real* S, __global const real* Pmap,
                               __global const real4* rec_light,
                               __global const real4* rec_light2, __global real4* rec_lgrad,
@@ -330,7 +330,7 @@ __kernel void soft_sample_bwd(__global const real* P, int nrec, int light, int n
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
 // nearby texel buckets when truncated; every fragment when exact), in a fixed order; ROW
 // texels of GATHER_ROWS rows per work-item.
-__kernel void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                           __global const real* S, __global const real* Pmap,
                           __global const real4* rec_light, __global const real4* rec_light2,
                           __global const real4* rec_lgrad, __global const int* bucket_offsets,

@@ -103,6 +103,35 @@ TEST(Tuning, KernelVariantsListEveryProgramTheRendererBuilds) {
         << program.first << " built with '" << program.second << "' is not in kernel_variants";
 }
 
+// A render builds only the forward part of each stage's file; the backward kernels are
+// programs of their own, built by the first backward (KernelPart, ops.hpp).
+TEST(Tuning, RenderBuildsNoBackwardKernel) {
+  Context ctx;  // its own, so that its programs are this test's alone
+  Renderer renderer(ctx, Precision::Float);
+  auto backward_programs = [&] {
+    int n = 0;
+    for (const auto& program : ctx.programs())
+      n += program.second.find("-DBACKWARD_KERNELS") != std::string::npos;
+    return n;
+  };
+  for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
+    for (Shadows shadows : {Shadows::Hard, Shadows::Soft}) {
+      Scene s = small_scene(shadows, Sampling::Truncated);
+      s.params.shadow_model = model;
+      refit_light_frusta(s);
+      renderer.render(s);
+    }
+  EXPECT_EQ(backward_programs(), 0);
+  const Scene s = small_scene(Shadows::Soft, Sampling::Truncated);  // paper: every stage
+  const auto out = renderer.render(s);
+  std::vector<OutputGrads> g(out.size());
+  for (size_t c = 0; c < out.size(); ++c)
+    g[c].color = Image(out[c].color.width, out[c].color.height, 3, 1.0);
+  renderer.backward(s, g);
+  // transform, raster, penumbra, shadow.cl for soft_sample_bwd and for shadow_boxes
+  EXPECT_EQ(backward_programs(), 5);
+}
+
 TEST(Tuning, EveryRasterCandidateIsBitIdenticalWithShadows) {
   for (Shadows shadows : {Shadows::Hard, Shadows::Soft}) {
     const Scene s = small_scene(shadows, Sampling::Truncated);

@@ -119,14 +119,25 @@ void apply(cl::Kernel& kernel, const A& a, Precision p, bool check) {
   }
 }
 
+// The part of its file a kernel is in: A::part where the struct says (a backward kernel's
+// `static constexpr KernelPart part = KernelPart::Backward;`), else forward.
+template <class A, class = void>
+struct PartOf {
+  static constexpr KernelPart value = KernelPart::Forward;
+};
+template <class A>
+struct PartOf<A, std::void_t<decltype(A::part)>> {
+  static constexpr KernelPart value = A::part;
+};
+
 }  // namespace args
 
-// Sets the kernel A names (A::file, a.kernel; built with `variant`, see Kernels) to the
-// arguments of `a`, after checking them against the kernel on its first use, and returns it
-// for launching.
+// Sets the kernel A names (A::file, a.kernel; built with `variant` as part A::part, see
+// Kernels) to the arguments of `a`, after checking them against the kernel on its first use,
+// and returns it for launching.
 template <class A>
 cl::Kernel& bind_args(Kernels& k, const A& a, const std::string& variant = "") {
-  Kernels::Entry& e = k.get(A::file, a.kernel, variant);
+  Kernels::Entry& e = k.get(A::file, a.kernel, variant, args::PartOf<A>::value);
   args::apply(e.kernel, a, k.precision(), !e.checked);
   e.checked = true;
   return e.kernel;

@@ -25,7 +25,7 @@ Kernels::Kernels(Context& ctx, Precision precision, const Tuning& tuning)
     : ctx_(ctx), precision_(precision), tuning_(tuning) {}
 
 std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
-                            const DeviceInfo& device, const std::string& variant) {
+                            const DeviceInfo& device, const std::string& variant, KernelPart part) {
   std::string o = precision_define(precision);
   const RasterTuning& r = tuning.raster;
   if (file == "raster.cl")
@@ -38,7 +38,8 @@ std::string program_options(const std::string& file, Precision precision, const 
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
-  return o + " " + variant;
+  o += " " + variant;
+  return part == KernelPart::Backward ? o + " -DBACKWARD_KERNELS" : o;
 }
 
 std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning) {
@@ -57,8 +58,8 @@ std::vector<std::string> program_variants(const std::string& file, const Tuning&
 }
 
 Kernels::Entry& Kernels::get(const std::string& file, const std::string& name,
-                             const std::string& variant) {
-  const std::string opts = program_options(file, precision_, tuning_, ctx_.info(), variant);
+                             const std::string& variant, KernelPart part) {
+  const std::string opts = program_options(file, precision_, tuning_, ctx_.info(), variant, part);
   auto key = file + ":" + name + ":" + opts;
   auto it = kernels_.find(key);
   if (it != kernels_.end()) return it->second;
@@ -84,16 +85,19 @@ std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
     t.raster.brute_force = !t.raster.brute_force;
     tunings.push_back(t);
   }
-  std::vector<std::string> files;
+  std::vector<std::pair<std::string, std::vector<detail::KernelPart>>> files;  // and their parts
   for (const auto& [name, text] : detail::embedded_kernels())
     if (name.find('/') == std::string::npos && name.size() > 3 &&
-        name.compare(name.size() - 3, 3, ".cl") == 0)
-      files.push_back(name);
+        name.compare(name.size() - 3, 3, ".cl") == 0) {
+      files.push_back({name, {detail::KernelPart::Forward}});
+      if (text.find("BACKWARD_KERNEL") != std::string::npos)
+        files.back().second.push_back(detail::KernelPart::Backward);
+    }
   std::vector<Precision> precisions = {Precision::Float};
   if (device.fp64) precisions.push_back(Precision::Double);
   std::set<std::pair<std::string, std::string>> seen;
   std::vector<KernelVariant> out;
-  for (const std::string& file : files)
+  for (const auto& [file, parts] : files)
     for (Precision precision : precisions)
       for (const Tuning& tuning : tunings) {
         try {
@@ -101,11 +105,12 @@ std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
         } catch (const Error&) {  // not legal on this device: never built there
           continue;
         }
-        for (const std::string& variant : detail::program_variants(file, tuning)) {
-          const std::string options = Context::build_options(
-              detail::program_options(file, precision, tuning, device, variant));
-          if (seen.insert({file, options}).second) out.push_back({file, options});
-        }
+        for (const std::string& variant : detail::program_variants(file, tuning))
+          for (detail::KernelPart part : parts) {
+            const std::string options = Context::build_options(
+                detail::program_options(file, precision, tuning, device, variant, part));
+            if (seen.insert({file, options}).second) out.push_back({file, options});
+          }
       }
   return out;
 }

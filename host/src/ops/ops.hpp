@@ -15,11 +15,17 @@
 
 namespace penumbra::detail {
 
+// Which kernels of a stage's file a program holds (FORWARD_KERNEL, BACKWARD_KERNEL in
+// kernels/common/real.clh): a render builds no backward kernel. A kernel both passes launch
+// is a forward one (backward always follows a render of the same Kernels).
+enum class KernelPart { Forward, Backward };
+
 // The options kernels/<file> is built with for this precision, tuning and device, then
-// `variant` (a stage's own: -DEXACT=1, bin.cl's -DTILE): the one place that decides the -D
-// options of every program.
+// `variant` (a stage's own: -DSAMPLING_<WORD>, bin.cl's -DTILE) and the part's
+// (-DBACKWARD_KERNELS): the one place that decides the -D options of every program.
 std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
-                            const DeviceInfo& device, const std::string& variant = "");
+                            const DeviceInfo& device, const std::string& variant = "",
+                            KernelPart part = KernelPart::Forward);
 // Every `variant` the stages build kernels/<file> with under `tuning`.
 std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning);
 
@@ -46,7 +52,8 @@ class Kernels {
     bool checked = false;
   };
   Kernels(Context& ctx, Precision precision, const Tuning& tuning);
-  Entry& get(const std::string& file, const std::string& name, const std::string& variant = "");
+  Entry& get(const std::string& file, const std::string& name, const std::string& variant = "",
+             KernelPart part = KernelPart::Forward);
   Context& ctx() { return ctx_; }
   Precision precision() const { return precision_; }
   const Tuning& tuning() const { return tuning_; }

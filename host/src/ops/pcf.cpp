@@ -22,6 +22,7 @@ struct PcfSampleArgs {
 struct PcfSampleBwdArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_sample_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   auto fields() const { return std::tie(at, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2); }
@@ -30,6 +31,7 @@ struct PcfSampleBwdArgs {
 struct PcfGatherArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_gather";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   cl_int reach;
   const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;

@@ -50,6 +50,7 @@ struct PenumbraFwdArgs {
 struct PenumbraBwdTexelArgs {
   static constexpr const char* file = "penumbra.cl";
   static constexpr const char* kernel = "penumbra_bwd_texel";
+  static constexpr KernelPart part = KernelPart::Backward;
   TexelFaces in;
   const cl::Buffer &Pmap, &pen_sums, &gP, &gS, &gDL;
   auto fields() const { return std::tie(in, Pmap, pen_sums, gP, gS, gDL); }
@@ -58,6 +59,7 @@ struct PenumbraBwdTexelArgs {
 struct PenumbraBwdFaceArgs {
   static constexpr const char* file = "penumbra.cl";
   static constexpr const char* kernel = "penumbra_bwd_face";
+  static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vscreen, &faces, &fnormal, &boxes, &P;
   cl_int nf, W, H;
   const cl::Buffer &S, &Pmap, &pen_sums, &gP, &gface_screen;

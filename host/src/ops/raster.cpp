@@ -50,6 +50,7 @@ struct RasterResolveArgs {
 struct RasterResolveBwdArgs {
   static constexpr const char* file = "raster.cl";
   static constexpr const char* kernel = "raster_resolve_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer& P;
   cl_int W, H;
   const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux;
@@ -63,6 +64,7 @@ struct RasterResolveBwdArgs {
 struct RasterBwdArgs {
   static constexpr const char* file = "raster.cl";
   static constexpr const char* kernel = "raster_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vscreen, &vworld, &faces, &fbbox, &fnormal, &albedo, &P;
   cl_int W, H, nf;
   const cl::Buffer &aux, &gimage, &gdepth, &pix_offset, &pix_n;

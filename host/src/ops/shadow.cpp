@@ -13,6 +13,7 @@ namespace {
 struct ShadowBoxesArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "shadow_boxes";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   const cl::Buffer &rec_light, &boxes;
   auto fields() const { return std::tie(at, rec_light, boxes); }
@@ -29,6 +30,7 @@ struct ShadowSampleArgs {
 struct ShadowSampleBwdArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "shadow_sample_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   const cl::Buffer &S, &rec_light, &rec_lgrad;
   auto fields() const { return std::tie(at, S, rec_light, rec_lgrad); }
@@ -37,6 +39,7 @@ struct ShadowSampleBwdArgs {
 struct ShadowGatherArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "shadow_gather";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   const cl::Buffer &rec_light, &rec_lgrad;
   BinLists buckets;
@@ -55,6 +58,7 @@ struct SoftSampleArgs {
 struct SoftSampleBwdArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "soft_sample_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   const cl::Buffer &S, &Pmap, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   auto fields() const {
@@ -65,6 +69,7 @@ struct SoftSampleBwdArgs {
 struct SoftGatherArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "soft_gather";
+  static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
   const cl::Buffer &S, &Pmap, &rec_light, &rec_light2, &rec_lgrad;
   BinLists buckets;
@@ -100,6 +105,7 @@ struct ExactFinishArgs {
 struct ExactFinishBwdArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "exact_finish_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer& P;
   cl_int r0, m, light, nl, Wm, Hm;
   const cl::Buffer &T, &Td, &Gx, &Gy, &norm, &rec_light, &rec_lgrad;

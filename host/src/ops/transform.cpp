@@ -26,6 +26,7 @@ struct FaceSetupArgs {
 struct TransformBwdArgs {
   static constexpr const char* file = "transform.cl";
   static constexpr const char* kernel = "transform_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vworld, &vscreen, &P;
   cl_int nv;
   const cl::Buffer &adj_offsets, &adj, &gface_screen, &gface_world, &gvworld, &gframe;
