@@ -237,9 +237,16 @@ BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int
 #else
 #define SIGMOID_CLAMP 80
 #endif
-inline realR soft_term(realR S, realR Pv, realR dij, __global const real* P, realR* dd,
-                        realR* dP) {
-  real gs = P[P_GAMMA_S], c = exp(-P[P_BETA] / gs);
+// γ_s and c = e^{−β/γ_s}, the same for every texel: computed once per work-item.
+typedef struct {
+  real gs, c;
+} SoftCompare;
+inline SoftCompare soft_compare(__global const real* P) {
+  SoftCompare k = {P[P_GAMMA_S], exp(-P[P_BETA] / P[P_GAMMA_S])};
+  return k;
+}
+inline realR soft_term(realR S, realR Pv, realR dij, SoftCompare k, realR* dd, realR* dP) {
+  real gs = k.gs, c = k.c;
   realR e = exp(-clamp((S - dij) / gs, (real)-SIGMOID_CLAMP, (real)SIGMOID_CLAMP));
   realR front = 1 / (1 + c * e), at = 1 / (1 + c / e);
   realR lit = 1 - at * (1 - Pv);
@@ -258,6 +265,7 @@ FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int
   Window w = sample_window(x.xy, P, Wm, Hm);
   real ss = P[P_SIGMA_S];
   realR sum = 0, acc = 0, dd, dP;
+  const SoftCompare cmp = soft_compare(P);
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
@@ -266,7 +274,7 @@ FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int
       realR g = window_row(&c, i0, w.x1, gy, x.xy, ss, w.eps);
       realR dij = x.z + grad.x * ((real)i0 + LANER - x.x) + grad.y * (j - x.y);
       int n = min(ROW, Wm - i0);
-      realR term = soft_term(loadR(S, j * Wm + i0, n), loadR(Pmap, j * Wm + i0, n), dij, P,
+      realR term = soft_term(loadR(S, j * Wm + i0, n), loadR(Pmap, j * Wm + i0, n), dij, cmp,
                               &dd, &dP);
       sum += g;
       acc += g * term;
@@ -298,6 +306,7 @@ BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light
   // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ). The sums are scaled
   // by dL/ds / Σg' at the end.
   realR sumR = 0, gmux = 0, gmuy = 0, ggx = 0, ggy = 0, gd = 0, dd, dP;
+  const SoftCompare cmp = soft_compare(P);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss), offy = j - x.y;
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -307,7 +316,7 @@ BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light
       realR offx = (real)i0 + LANER - x.x;
       int n = min(ROW, Wm - i0);
       realR term = soft_term(loadR(S, j * Wm + i0, n), loadR(Pmap, j * Wm + i0, n),
-                              x.z + grad.x * offx + grad.y * offy, P, &dd, &dP);
+                              x.z + grad.x * offx + grad.y * offy, cmp, &dd, &dP);
       realR wmu = g * (term - s) / ss;
       gmux += wmu * offx - lam * dd * grad.x;
       gmuy += wmu * offy - lam * dd * grad.y;
@@ -347,6 +356,7 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
     accS[t] = accP[t] = 0;
   }
   const real eps = sampling_eps(P[P_LAMBDA_EPS]), r2 = sampling_r2(P[P_WINDOW_R2]);
+  const SoftCompare cmp = soft_compare(P);
   FOR_EACH_GATHER_FRAGMENT(r, bucket_reach(P)) {
     if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
     real k = rec_lgrad[r * nl + light].x;  // dL/ds / Σg'
@@ -358,7 +368,7 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
       real dy = j0 + t - x.y, gy = axis_weight(dy, ss);
       if (!(dy * dy < r2) || gy <= eps) continue;
       realR g = fmax(gx * gy - eps, (realR)0);
-      soft_term(Sv[t], Pv[t], x.z + grad.x * offx + grad.y * dy, P, &dd, &dP);
+      soft_term(Sv[t], Pv[t], x.z + grad.x * offx + grad.y * dy, cmp, &dd, &dP);
       realR a = k * g;
       accS[t] -= a * dd;
       accP[t] += a * dP;
