@@ -5,6 +5,9 @@
 // Both run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs (PoCL);
 // each work-item computes an MM_RB × MM_RB block (nt) or MM_RB rows × MM_VW columns (tn).
 // Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/MM_VW), ceil(M/MM_RB)).
+// The loops over a work-item's accumulators are unrolled (#pragma unroll) so that the
+// accumulators live in registers: left as loops, PoCL kept them in memory, a load and a store
+// around every FMA (both products 2x slower on the 2-core AVX-512 CPU of docs/benchmarks.md).
 #include "common/real.clh"
 
 #ifndef MM_VW
@@ -52,14 +55,19 @@ __kernel void matmul_nt(int M, int N, int K, __global const real* A, int lda,
     b[r] = B + (size_t)min(n0 + r, N - 1) * ldb;
   }
   realV acc[MM_RB][MM_RB];
+#pragma unroll
   for (int i = 0; i < MM_RB; ++i)
+#pragma unroll
     for (int j = 0; j < MM_RB; ++j) acc[i][j] = 0;
   int kv = K / MM_VW;
   for (int k = 0; k < kv; ++k) {
     realV bv[MM_RB];
+#pragma unroll
     for (int j = 0; j < MM_RB; ++j) bv[j] = VLOAD(k, b[j]);
+#pragma unroll
     for (int i = 0; i < MM_RB; ++i) {
       realV av = VLOAD(k, a[i]);
+#pragma unroll
       for (int j = 0; j < MM_RB; ++j) acc[i][j] += av * bv[j];
     }
   }
@@ -77,10 +85,12 @@ __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
   if (m0 >= M || n0 >= N) return;
   if (n0 + MM_VW <= N) {
     realV acc[MM_RB];
+#pragma unroll
     for (int i = 0; i < MM_RB; ++i) acc[i] = 0;
     for (int k = 0; k < K; ++k) {
       realV bv = VLOAD(0, B + (size_t)k * ldb + n0);
       __global const real* a = A + (size_t)k * lda;
+#pragma unroll
       for (int i = 0; i < MM_RB; ++i) acc[i] += a[min(m0 + i, M - 1)] * bv;
     }
     for (int i = 0; i < MM_RB && m0 + i < M; ++i) {
