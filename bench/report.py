@@ -364,8 +364,8 @@ def profile_section(res, profiles):
          "returns).",
          "The raster kernels serve both the light pass and the camera pass. The CLI runs with",
          "the device's tuning, so on a device whose tuning picks CLBlast for the exact sum",
-         "(this one: docs/tuning.md) the exact row profiles CLBlast's GEMM, while the suite's",
-         "exact cases force penumbra's direct product kernels.", ""]
+         "(docs/tuning.md) the exact row profiles CLBlast's GEMM, while the suite's exact",
+         "cases force penumbra's direct product kernels.", ""]
     rows = []
     for (sh, sa), p in profiles.items():
         if not p["kernels"]:
