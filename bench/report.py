@@ -60,10 +60,12 @@ MISS_REASONS = [
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
      "texels per fragment."),
-    ("hard shadows, exact", "every fragment weighs every texel: 2·N·W_s·H_s flops per product "
-     "at a few percent of the FMA peak. The products have a short "
-     "inner dimension (256) and run in batches of fragments; the Gaussian weight matrices cost "
-     "N·(W_s + H_s) exponentials besides, and CLBlast (sampling `gemm`) adds transposes."),
+    ("hard shadows, exact", "every fragment weighs every texel: 2·N·W_s·H_s flops per product, "
+     "computed by `matmul_nt` (its device time per frame is in the profile below). Besides the "
+     "product the frame computes the Gaussian weight matrices (`exact_weights`: N·(W_s + H_s) "
+     "exponentials and divisions, written to memory and read back by the product), "
+     "`exact_finish` and the two raster passes; the FMA share above counts the whole frame. "
+     "CLBlast (sampling `gemm`) is slower here and adds transposes."),
     ("backward ≤ 3× forward (hard", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box, are scalar loops per work-item."),
