@@ -161,8 +161,8 @@ inline real blocker_depth(real4 sums, real d, real* V) {
 }
 
 FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                         __global const real* S, __global const real* A,
-                         __global real4* rec_light, __global real4* rec_light2) {
+                               __global const real* S, __global const real* A,
+                               __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   int at = r * nl + light;
@@ -223,11 +223,11 @@ inline Moments window_moments(Receiver x, real sigma, int search, real ref,
 }
 
 // Backward per fragment: dL/dμ, dL/dd, dL/d∇_μ d, dL/dD_L, and the scales the gather needs.
-BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                             __global const real* S, __global const real* A,
-                             __global const real4* rec_light,
-                             __global const real4* rec_light2, __global real4* rec_lgrad,
-                             __global real4* rec_lgrad2) {
+BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
+                                    int Hm, __global const real* S, __global const real* A,
+                                    __global const real4* rec_light,
+                                    __global const real4* rec_light2, __global real4* rec_lgrad,
+                                    __global real4* rec_lgrad2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   int at = r * nl + light;
@@ -275,12 +275,12 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
 //   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
 BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                         int reach, __global const real* S, __global const real* A,
-                         __global const real4* rec_light,
-                         __global const real4* rec_light2, __global const real4* rec_lgrad,
-                         __global const real4* rec_lgrad2, __global const int* bucket_offsets,
-                         __global const int* bucket_counts, __global const int* bucket_recs,
-                         __global real* gS, __global real* gA) {
+                                int reach, __global const real* S, __global const real* A,
+                                __global const real4* rec_light, __global const real4* rec_light2,
+                                __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
+                                __global const int* bucket_offsets,
+                                __global const int* bucket_counts, __global const int* bucket_recs,
+                                __global real* gS, __global real* gA) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0), soft = soft_mode(P);

@@ -83,8 +83,8 @@ inline real penumbra_dv(const Occluder* o, real Pq, real2 sums, __global const r
 }
 
 FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
-                             __global const real4* fnormal, __global const real* P, int nf,
-                             int W, int H, __global int4* boxes) {
+                                   __global const real4* fnormal, __global const real* P, int nf,
+                                   int W, int H, __global int4* boxes) {
   int f = get_global_id(0);
   if (f >= nf) return;
   boxes[f] = (int4)(1, 1, 0, 0);
@@ -164,9 +164,9 @@ inline realP lanes_load(__global const real* a, int i0, int j, int W) {
 }
 
 FORWARD_KERNEL void penumbra_fwd(__global const real4* vscreen, __global const int4* faces,
-                           __global const real4* fnormal, __global const int4* boxes,
-                           __global const real* P, int W, int H, __global const real* S,
-                           TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
+                                 __global const real4* fnormal, __global const int4* boxes,
+                                 __global const real* P, int W, int H, __global const real* S,
+                                 TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
   int i0 = get_global_id(0) * PPW, j = get_global_id(1);
   if (i0 >= W || j >= H) return;
   const realP qx = lanes_x(i0, W, H);
@@ -200,11 +200,12 @@ FORWARD_KERNEL void penumbra_fwd(__global const real4* vscreen, __global const i
 
 // Backward, per texel: dL/dS_q and dL/dD_L (summed over texels on the host) from dL/dP_q.
 BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global const int4* faces,
-                                 __global const real4* fnormal, __global const int4* boxes,
-                                 __global const real* P, int W, int H, __global const real* S,
-                                 TEXEL_FACES, __global const real* Pmap,
-                                 __global const real2* pen_sums, __global const real* gP,
-                                 __global real* gS, __global real* gDL) {
+                                        __global const real4* fnormal, __global const int4* boxes,
+                                        __global const real* P, int W, int H,
+                                        __global const real* S, TEXEL_FACES,
+                                        __global const real* Pmap, __global const real2* pen_sums,
+                                        __global const real* gP, __global real* gS,
+                                        __global real* gDL) {
   int i0 = get_global_id(0) * PPW, j = get_global_id(1);
   if (i0 >= W || j >= H) return;
   const realP gPq = lanes_load(gP, i0, j, W);
@@ -248,11 +249,11 @@ BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global 
 // Backward, per face: dL/d(light-screen position, depth) of its corners, added to
 // gface_screen (3F × real4) in a fixed texel order.
 BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global const int4* faces,
-                                __global const real4* fnormal, __global const int4* boxes,
-                                __global const real* P, int nf, int W, int H,
-                                __global const real* S, __global const real* Pmap,
-                                __global const real2* pen_sums, __global const real* gP,
-                                __global real4* gface_screen) {
+                                       __global const real4* fnormal, __global const int4* boxes,
+                                       __global const real* P, int nf, int W, int H,
+                                       __global const real* S, __global const real* Pmap,
+                                       __global const real2* pen_sums, __global const real* gP,
+                                       __global real4* gface_screen) {
   int f = get_global_id(0);
   if (f >= nf) return;
   int4 bb = boxes[f];

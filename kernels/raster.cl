@@ -254,10 +254,11 @@ inline real3 fragment_colour(int r, int nl, __global const real4* rec_shade,
 }
 
 FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
-                             __global const int* pix_offset, __global const int* pix_n,
-                             __global const real4* rec_frag, __global const real4* rec_shade,
-                             __global const real4* rec_light, __global real4* image,
-                             __global real4* aux, __global real* depth, __global real* cover) {
+                                   __global const int* pix_offset, __global const int* pix_n,
+                                   __global const real4* rec_frag, __global const real4* rec_shade,
+                                   __global const real4* rec_light, __global real4* image,
+                                   __global real4* aux, __global real* depth,
+                                   __global real* cover) {
   int pix = get_global_id(0);
   if (pix >= W * H) return;
   const int nl = (int)P[P_NLIGHTS];
@@ -283,13 +284,13 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
 // G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; and rec_lgrad K·nl × real4
 // (dL/ds, 0, 0, 0), which the shadow backward completes.
 BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
-                                 __global const int* pix_offset, __global const int* pix_n,
-                                 __global const real4* rec_frag,
-                                 __global const real4* rec_shade,
-                                 __global const real4* rec_light, __global const real4* image,
-                                 __global const real4* aux, __global const real4* gimage,
-                                 __global const real* gdepth, __global real4* rec_wg,
-                                 __global real4* rec_lgrad) {
+                                        __global const int* pix_offset, __global const int* pix_n,
+                                        __global const real4* rec_frag,
+                                        __global const real4* rec_shade,
+                                        __global const real4* rec_light,
+                                        __global const real4* image, __global const real4* aux,
+                                        __global const real4* gimage, __global const real* gdepth,
+                                        __global real4* rec_wg, __global real4* rec_lgrad) {
   int pix = get_global_id(0);
   if (pix >= W * H) return;
   const int nl = (int)P[P_NLIGHTS];
@@ -325,15 +326,16 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
 BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
-                         __global const int4* faces, __global const int4* fbbox,
-                         __global const real4* fnormal, __global const real4* albedo,
-                         __global const real* P, int W, int H, int nf,
-                         __global const real4* aux, __global const real4* gimage,
-                         __global const real* gdepth, __global const int* pix_offset, __global const int* pix_n,
-                         __global const int* rec_face, __global const real4* rec_light,
-                         __global const real4* rec_wg, __global const real4* rec_lgrad,
-                         __global const real4* rec_lgrad2, __global real4* gface_screen, __global real4* gface_world,
-                         __global real4* gface_albedo, __global real4* gface_light) {
+                                __global const int4* faces, __global const int4* fbbox,
+                                __global const real4* fnormal, __global const real4* albedo,
+                                __global const real* P, int W, int H, int nf,
+                                __global const real4* aux, __global const real4* gimage,
+                                __global const real* gdepth, __global const int* pix_offset,
+                                __global const int* pix_n, __global const int* rec_face,
+                                __global const real4* rec_light, __global const real4* rec_wg,
+                                __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
+                                __global real4* gface_screen, __global real4* gface_world,
+                                __global real4* gface_albedo, __global real4* gface_light) {
   int f = get_global_id(0);
   if (f >= nf) return;
   const real gamma = P[P_GAMMA], nearz = P[P_NEAR], farz = P[P_FAR];

@@ -38,8 +38,8 @@ inline real compare(real v, real d, __global const real* P) {
   return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
 }
 
-FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                            __global const real* S, __global real4* rec_light) {
+FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm,
+                                  int Hm, __global const real* S, __global real4* rec_light) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
@@ -49,8 +49,8 @@ FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, i
 }
 
 BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
-                                int Hm, __global const real* S,
-                                __global const real4* rec_light, __global real4* rec_lgrad) {
+                                       int Hm, __global const real* S,
+                                       __global const real4* rec_light, __global real4* rec_lgrad) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
@@ -84,8 +84,8 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
 // The texel nearest each fragment's μ as a one-texel box (empty outside the map), for
 // bucketing fragments by texel with bin.cl (tile = 1): the gathers below then find the
 // fragments whose window can cover a texel in the buckets within the window radius.
-BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                           __global const real4* rec_light, __global int4* boxes) {
+BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm,
+                                  int Hm, __global const real4* rec_light, __global int4* boxes) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real2 mu = rec_light[r * nl + light].xy;
@@ -102,10 +102,12 @@ BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, i
 // order (no atomics). A work-item takes ROW consecutive texels of GATHER_ROWS rows, each row
 // as one vector: g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no
 // bounds test is needed.
-BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                            __global const real4* rec_light, __global const real4* rec_lgrad,
-                            __global const int* bucket_offsets, __global const int* bucket_counts,
-                            __global const int* bucket_recs, __global real* gS) {
+BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm,
+                                   int Hm, __global const real4* rec_light,
+                                   __global const real4* rec_lgrad,
+                                   __global const int* bucket_offsets,
+                                   __global const int* bucket_counts,
+                                   __global const int* bucket_recs, __global real* gS) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
@@ -189,11 +191,11 @@ FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int ligh
 
 // Backward: T and Td = Gxd·Sᵀ are given; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in
 // place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
-BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl, int Wm,
-                              int Hm, __global const real* T, __global const real* Td,
-                              __global const real* Gx, __global real* Gy,
-                              __global const real4* norm, __global const real4* rec_light,
-                              __global real4* rec_lgrad) {
+BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl,
+                                      int Wm, int Hm, __global const real* T,
+                                      __global const real* Td, __global const real* Gx,
+                                      __global real* Gy, __global const real4* norm,
+                                      __global const real4* rec_light, __global real4* rec_lgrad) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 nm = norm[k], x = rec_light[(r0 + k) * nl + light];
@@ -256,8 +258,8 @@ inline realR soft_term(realR S, realR Pv, realR dij, SoftCompare k, realR* dd, r
 }
 
 FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                          __global const real* S, __global const real* Pmap,
-                          __global real4* rec_light, __global const real4* rec_light2) {
+                                __global const real* S, __global const real* Pmap,
+                                __global real4* rec_light, __global const real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
@@ -285,10 +287,10 @@ FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int
 }
 
 BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
-                              int Hm, __global const real* S, __global const real* Pmap,
-                              __global const real4* rec_light,
-                              __global const real4* rec_light2, __global real4* rec_lgrad,
-                              __global real4* rec_lgrad2) {
+                                     int Hm, __global const real* S, __global const real* Pmap,
+                                     __global const real4* rec_light,
+                                     __global const real4* rec_light2, __global real4* rec_lgrad,
+                                     __global real4* rec_lgrad2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
@@ -339,12 +341,13 @@ BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
 // nearby texel buckets when truncated; every fragment when exact), in a fixed order; ROW
 // texels of GATHER_ROWS rows per work-item.
-BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                          __global const real* S, __global const real* Pmap,
-                          __global const real4* rec_light, __global const real4* rec_light2,
-                          __global const real4* rec_lgrad, __global const int* bucket_offsets,
-                          __global const int* bucket_counts, __global const int* bucket_recs,
-                          __global real* gS, __global real* gPmap) {
+BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm,
+                                 int Hm, __global const real* S, __global const real* Pmap,
+                                 __global const real4* rec_light, __global const real4* rec_light2,
+                                 __global const real4* rec_lgrad,
+                                 __global const int* bucket_offsets,
+                                 __global const int* bucket_counts, __global const int* bucket_recs,
+                                 __global real* gS, __global real* gPmap) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S];

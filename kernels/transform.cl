@@ -30,15 +30,15 @@ inline int casts_no_shadow(real3 V0, real3 n, real3 to_light, __global const rea
 }
 
 FORWARD_KERNEL void transform_fwd(__global const real4* vworld, __global const real* P, int nv,
-                            __global real4* vscreen) {
+                                  __global real4* vscreen) {
   int v = get_global_id(0);
   if (v >= nv) return;
   vscreen[v] = (real4)(project_fwd(vworld[v].xyz, P + P_FRAME), 0);
 }
 
 FORWARD_KERNEL void face_setup(__global const real4* vworld, __global const real4* vscreen,
-                         __global const int4* faces, __global const real* P, int nf, int W,
-                         int H, __global int4* fbbox, __global real4* fnormal) {
+                               __global const int4* faces, __global const real* P, int nf, int W,
+                               int H, __global int4* fbbox, __global real4* fnormal) {
   int f = get_global_id(0);
   if (f >= nf) return;
   int4 idx = faces[f];
@@ -90,10 +90,10 @@ FORWARD_KERNEL void face_setup(__global const real4* vworld, __global const real
 //   gframe   4V × real4 (output): this vertex's share of dL/d(eye, fwd, right, up) of the
 //            view's frame (summed on the host where the frame depends on a light's position)
 BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const real4* vscreen,
-                            __global const real* P, int nv, __global const int* adj_offsets,
-                            __global const int* adj, __global const real4* gface_screen,
-                            __global const real4* gface_world, __global real4* gvworld,
-                            __global real4* gframe) {
+                                   __global const real* P, int nv, __global const int* adj_offsets,
+                                   __global const int* adj, __global const real4* gface_screen,
+                                   __global const real4* gface_world, __global real4* gvworld,
+                                   __global real4* gframe) {
   int v = get_global_id(0);
   if (v >= nv) return;
   real3 gs = 0, gw = 0;
