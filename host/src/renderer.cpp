@@ -101,9 +101,7 @@ void Renderer::Impl::shadow_map_pass(int light) {
   LightPass& lp = light_passes[light];
   const int size = scene.params.shadow_map_size;
   stage("shadow map");
-  lp.view = view(size, size, 0, detail::light_view_params(scene, light));
-  lp.screen = detail::transform_forward(kernels, geometry, lp.view);
-  lp.fragments = detail::raster_fragments(kernels, geometry, lp.view, lp.screen);
+  rasterise(lp, size, size, 0, detail::light_view_params(scene, light));
   lp.resolved = detail::raster_resolve(kernels, lp.view, lp.fragments);
   if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
     stage("penumbra map");
@@ -118,9 +116,7 @@ RenderOutput Renderer::Impl::camera_pass(int camera) {
   ViewPass& cp = camera_passes[camera];
   stage("raster");
   view_P.push_back(detail::view_params(scene, cam));
-  cp.view = view(cam.width, cam.height, int(scene.lights.size()), view_P.back());
-  cp.screen = detail::transform_forward(kernels, geometry, cp.view);
-  cp.fragments = detail::raster_fragments(kernels, geometry, cp.view, cp.screen);
+  rasterise(cp, cam.width, cam.height, int(scene.lights.size()), view_P.back());
   for (size_t l = 0; l < light_passes.size(); ++l) {
     stage("shadow lookups");
     const detail::LightMaps maps = light_passes[l].maps();
@@ -134,8 +130,12 @@ RenderOutput Renderer::Impl::camera_pass(int camera) {
   return download(cp);
 }
 
-detail::View Renderer::Impl::view(int W, int H, int nlights, const std::vector<double>& P) {
-  return {W, H, nlights, detail::upload_reals(ctx, precision, P)};
+// The view with parameters P, then transform → raster passes 1–2: its kept fragments.
+void Renderer::Impl::rasterise(ViewPass& vp, int W, int H, int nlights,
+                               const std::vector<double>& P) {
+  vp.view = {W, H, nlights, detail::upload_reals(ctx, precision, P)};
+  vp.screen = detail::transform_forward(kernels, geometry, vp.view);
+  vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen);
 }
 
 RenderOutput Renderer::Impl::download(const ViewPass& cp) {

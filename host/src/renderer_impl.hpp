@@ -76,7 +76,7 @@ struct Renderer::Impl {
   void upload_geometry();
   void shadow_map_pass(int light);       // the light's shadow map (and penumbra map)
   RenderOutput camera_pass(int camera);  // the camera's image, shadows looked up
-  detail::View view(int W, int H, int nlights, const std::vector<double>& P);
+  void rasterise(ViewPass& vp, int W, int H, int nlights, const std::vector<double>& P);
   RenderOutput download(const ViewPass& cp);
 
   // Backward (backward.cpp), in order.
