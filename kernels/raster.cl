@@ -17,6 +17,7 @@
 //   P                per-view parameters (common/layout.h)
 //   tile_offsets, tile_counts, tile_faces   from bin.cl (ignored when BRUTE_FORCE)
 //   pix_count, pix_offset, pix_n   N × int: fragment bound, first fragment, fragments kept
+//   run_hits         ulong bits, per run of PPW pixels and tile-list entry (see TILE_RUNS)
 //   rec_face K × int; rec_frag K × real4 (D·e^{(z̃−m)/γ}, z, 0, 0)
 //   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
@@ -114,12 +115,31 @@ inline int depth_in_range(real z, __global const real* P) {
 #define TILE_GROUP __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
 #endif
 
-// raster_count also notes, per run of PPW pixels, which of the first 64 entries of its face
-// list counted a fragment at any of its pixels (run_hits, bit i for entry i). Only those can
-// hold kept fragments, so raster_fragments skips the others without testing them; past entry
-// 63 it tests every face, as raster_count did.
-inline int run_index(int px0, int py, int W) { return py * ((W + PPW - 1) / PPW) + px0 / PPW; }
-inline int may_keep(ulong hits, int i) { return i >= 64 || ((hits >> i) & 1); }
+// raster_count also notes, per run of PPW pixels, which entries of its tile's face list counted
+// a fragment at any of its pixels: a bit per entry, 64 entries per word. Only those can hold
+// kept fragments, so raster_fragments visits them alone, in list order, testing no other face.
+// Tile t's words start at word tile_offsets[t]/64 + t (room for its ceil(count/64) words
+// however its list is aligned); each word holds one range of 64 entries for every run of the
+// tile, TILE_RUNS apart. The brute-force path keeps no bits and visits every face.
+#define TILE_RUNS (TILE * TILE / PPW)
+#if BRUTE_FORCE
+#define RUN_HITS_BEGIN(run_hits) (run_hits)
+#else
+#define RUN_HITS_BEGIN(run_hits)                                    \
+  ((run_hits) + (size_t)(list_begin / 64 + list_tile) * TILE_RUNS + \
+   get_local_id(1) * (TILE / PPW) + get_local_id(0))
+#endif
+#define HIT_WORD(hits, i0) (hits)[(size_t)((i0) / 64) * TILE_RUNS]
+
+// The first entry after i whose bit is set, list_count when none.
+inline int next_hit(__global const ulong* hits, int i, int list_count) {
+  if (BRUTE_FORCE) return i + 1;
+  for (int i0 = (i + 1) & ~63; i0 < list_count; i0 += 64) {
+    ulong w = HIT_WORD(hits, i0) & (~(ulong)0 << max(i + 1 - i0, 0));
+    if (w != 0) return i0 + 63 - (int)clz(w & (~w + 1));  // its lowest bit (1.2 has no ctz)
+  }
+  return list_count;
+}
 
 FORWARD_KERNEL TILE_GROUP
 void raster_count(__global const real4* vscreen, __global const int4* faces,
@@ -135,25 +155,28 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
   // m: running max of z̃ (stabilises the exponentials); M: running max of the log-weights
   // log D + (z̃ − m)/γ, the background's (ε − m)/γ included, relative to the running m.
   realP m = P[P_EPS], M = 0, slog = 0, count = 0;
-  ulong hits = 0;
   FACE_LIST_BEGIN(px0, py)
-  for (int i = 0; i < list_count; ++i) {
-    int f = FACE_AT(i);
-    LANES_OF_FACE(f)
-    slog += covered ? -(fmax(u, R(0)) + log1p_e) : (realP)0;
-    if (!ANY(in_range)) continue;
-    maskP higher = in_range && zt > m;
-    M = higher ? M - (zt - m) / gamma : M;
-    m = higher ? zt : m;
-    realP lw = log_D + (zt - m) / gamma;
-    M = in_range ? fmax(M, lw) : M;
-    // The running maxima never exceed the final ones, so this counts a superset of the
-    // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
-    maskP counted = in_range && lw >= M - weight_log - 1;
-    count += counted ? (realP)1 : (realP)0;
-    if (i < 64 && ANY(counted)) hits |= (ulong)1 << i;
+  __global ulong* hits_out = RUN_HITS_BEGIN(run_hits);
+  for (int i0 = 0; i0 < list_count; i0 += 64) {
+    ulong hits = 0;
+    for (int i = i0; i < min(i0 + 64, list_count); ++i) {
+      int f = FACE_AT(i);
+      LANES_OF_FACE(f)
+      slog += covered ? -(fmax(u, R(0)) + log1p_e) : (realP)0;
+      if (!ANY(in_range)) continue;
+      maskP higher = in_range && zt > m;
+      M = higher ? M - (zt - m) / gamma : M;
+      m = higher ? zt : m;
+      realP lw = log_D + (zt - m) / gamma;
+      M = in_range ? fmax(M, lw) : M;
+      // The running maxima never exceed the final ones, so this counts a superset of the
+      // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
+      maskP counted = in_range && lw >= M - weight_log - 1;
+      count += counted ? (realP)1 : (realP)0;
+      if (ANY(counted)) hits |= (ulong)1 << (i - i0);
+    }
+    if (!BRUTE_FORCE) HIT_WORD(hits_out, i0) = hits;
   }
-  run_hits[run_index(px0, py, W)] = hits;
   real ms[PPW], Ms[PPW], slogs[PPW], counts[PPW];
   VSTOREP(m, 0, ms);
   VSTOREP(M, 0, Ms);
@@ -195,10 +218,10 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     bound[j] = pix_count[pix];
   }
   const realP m = VLOADP(0, ms), keep = VLOADP(0, keeps);
-  const ulong hits = run_hits[run_index(px0, py, W)];
   FACE_LIST_BEGIN(px0, py)
-  for (int i = 0; i < list_count; ++i) {
-    if (!may_keep(hits, i)) continue;
+  __global const ulong* hits = RUN_HITS_BEGIN(run_hits);
+  for (int i = next_hit(hits, -1, list_count); i < list_count;
+       i = next_hit(hits, i, list_count)) {
     int f = FACE_AT(i);
     LANES_OF_FACE(f)
     realP lw = log_D + (zt - m) / gamma;

@@ -96,6 +96,20 @@ Bins raster_bins(Kernels& k, const DeviceGeometry& g, const View& v, const Scree
   return b;
 }
 
+// Words of raster_count's bits (raster.cl, TILE_RUNS): a word per run and per 64 list entries
+// of its tile, one word more per tile for lists that do not start on a word; checked against the
+// device's memory.
+size_t run_hit_words(Kernels& k, const View& v, const Bins& bins) {
+  const auto& t = k.tuning().raster;
+  if (t.brute_force) return 1;
+  const size_t tiles = size_t(bins.tiles_x) * bins.tiles_y;
+  const size_t words = (bins.total / 64 + tiles) * size_t(t.tile * t.tile / t.pixels_per_item);
+  check_memory(k.ctx(), words * sizeof(cl_ulong) + bins.total * sizeof(cl_int),
+               "the face lists of a " + std::to_string(v.W) + "x" + std::to_string(v.H) +
+                   " view (" + std::to_string(bins.total) + " entries)");
+  return words;
+}
+
 // Each pixel's first fragment from its count (pix_count): offsets into the fragment arrays,
 // and their total, checked against the device's memory.
 std::vector<int> fragment_offsets(Kernels& k, const View& v, const cl::Buffer& pix_count,
@@ -130,8 +144,7 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   Fragments f;
   f.aux = alloc_reals(ctx, p, npix * 4);
   const cl::Buffer pix_count = alloc_ints(ctx, npix);
-  const int ppw = k.tuning().raster.pixels_per_item;
-  const cl::Buffer run_hits = alloc_ints(ctx, size_t(v.H) * ((v.W + ppw - 1) / ppw) * 2);  // ulong
+  const cl::Buffer run_hits = alloc_ints(ctx, run_hit_words(k, v, bins) * 2);  // ulong
   auto& count =
       bind_args(k, RasterCountArgs{sg.vscreen, g.faces, sg.fbbox, sg.fnormal, v.P, v.W, v.H, g.nf,
                                    bins.tiles_x, bins, f.aux, pix_count, run_hits});
