@@ -55,6 +55,8 @@ Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int til
     total += size_t(counts[t]);
   }
   b.total = total;
+  check_memory(ctx, total * sizeof(cl_int),
+               std::to_string(ntiles) + " tile lists of " + std::to_string(total) + " boxes");
   b.offsets = upload_ints(ctx, offsets);
   b.items = alloc_ints(ctx, total);
   cl::Buffer cursor = upload_ints(ctx, std::vector<int>(ntiles, 0));

@@ -104,9 +104,9 @@ size_t run_hit_words(Kernels& k, const View& v, const Bins& bins) {
   if (t.brute_force) return 1;
   const size_t tiles = size_t(bins.tiles_x) * bins.tiles_y;
   const size_t words = (bins.total / 64 + tiles) * size_t(t.tile * t.tile / t.pixels_per_item);
-  check_memory(k.ctx(), words * sizeof(cl_ulong) + bins.total * sizeof(cl_int),
-               "the face lists of a " + std::to_string(v.W) + "x" + std::to_string(v.H) +
-                   " view (" + std::to_string(bins.total) + " entries)");
+  check_memory(k.ctx(), words * sizeof(cl_ulong),
+               "the list bits of a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view (" +
+                   std::to_string(bins.total) + " list entries)");
   return words;
 }
 
