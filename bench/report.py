@@ -69,7 +69,8 @@ MISS_REASONS = [
      "CLBlast (sampling `gemm`) is slower here and adds transposes."),
     ("backward ≤ 3× forward (hard", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
-     "backward, which walks each face's pixel box, are scalar loops per work-item."),
+     "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
+     "rest per pixel), are loops per work-item that PoCL runs one work-item at a time."),
     ("backward ≤ 3× forward (soft", "as for hard shadows, plus the penumbra map's backward per "
      "texel and per face, both scalar, and two sigmoids and their derivatives per texel in the "
      "gathers."),

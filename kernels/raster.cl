@@ -342,6 +342,17 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
   return lo < pix_offset[pix] + pix_n[pix] && rec_face[lo] == f ? lo : -1;
 }
 
+// Which of pixels px0 .. px0 + PPW − 1 of row py face F's cut-off leaves in (1, else 0): the
+// test of fragment_fwd on PPW lanes at once, which round as fragment_shape does, so that the
+// scalar work of raster_bwd runs only where fragment_fwd passes.
+inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global const real* P,
+                          real* reach) {
+  realP w[3], d2;
+  maskP inside;
+  lanes_shape(lanes_x(px0, W, H), (real)(H - 2 * py - 1) / H, F->p, F->area, P, w, &d2, &inside);
+  VSTOREP(inside || !(d2 >= P[P_CUTOFF_D2]) ? (realP)1 : (realP)0, 0, reach);
+}
+
 // Backward of count/fragments/resolve and of the shading, per face. Inputs: aux, gimage (its
 // .w is dL/dA), rec_wg and rec_lgrad (the latter as completed by the shadow backward:
 // (dL/ds, dL/dμx, dL/dμy, dL/dd)), rec_lgrad2 (dL/d∇_μ d, soft shadows). Outputs per face corner (3F × real4): gface_screen (dL/d
@@ -378,7 +389,11 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   Face F;
   if (bb.x <= bb.z) F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
   for (int py = bb.y; py <= bb.w; ++py) {
+    real reach[PPW];
     for (int px = bb.x; px <= bb.z; ++px) {
+      int lane = (px - bb.x) % PPW;
+      if (lane == 0) lanes_reached(px, py, W, H, &F, P, reach);
+      if (reach[lane] == 0) continue;
       int pix = py * W + px;
       real4 gimg = gimage[pix];
       // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
