@@ -246,6 +246,18 @@ BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global 
   }
 }
 
+// Which of texels i0 .. i0 + PPW − 1 of row j face F counts at (1, else 0): occluder_fwd's
+// test on PPW lanes at once, which round as it does, so that penumbra_bwd_face runs its
+// per-texel work only where occluder_fwd passes.
+inline void lanes_counted(int i0, int j, int W, int H, const ScreenFace* F,
+                          __global const real* S, __global const real* P, real* counts) {
+  LanesOccluder o;
+  if (!lanes_occluder(lanes_x(i0, W, H), (real)(H - 2 * j - 1) / H, lanes_load(S, i0, j, W),
+                      lanes_valid(i0, W), F, P, &o))
+    o.in_cone = 0;
+  VSTOREP(o.in_cone ? (realP)1 : (realP)0, 0, counts);
+}
+
 // Backward, per face: dL/d(light-screen position, depth) of its corners, added to
 // gface_screen (3F × real4) in a fixed texel order.
 BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global const int4* faces,
@@ -262,8 +274,12 @@ BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global c
   real2 gp[3] = {0, 0, 0};
   real gzk[3] = {0, 0, 0};
   real zero[3] = {0, 0, 0};
-  for (int j = bb.y; j <= bb.w; ++j)
+  for (int j = bb.y; j <= bb.w; ++j) {
+    real counts[PPW];
     for (int i = bb.x; i <= bb.z; ++i) {
+      int lane = (i - bb.x) % PPW;
+      if (lane == 0) lanes_counted(i, j, W, H, &F, S, P, counts);
+      if (counts[lane] == 0) continue;
       int tex = j * W + i;
       if (gP[tex] == 0) continue;
       real2 q = pixel_centre(i, j, W, H);
@@ -274,5 +290,6 @@ BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global c
       occluder_bwd(S[tex], &o, P, gv, &unused, &unused2, &gz, &gd2);
       fragment_geometry_bwd(q, F.p, F.z, F.area, P, &o.fr, gd2, gz, zero, gp, gzk);
     }
+  }
   for (int k = 0; k < 3; ++k) gface_screen[3 * f + k] += (real4)(gp[k], gzk[k], 0);
 }
