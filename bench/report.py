@@ -343,7 +343,9 @@ def stage_of(kernel):
 
 
 def load_profiles(folder):
-    """{(shadows, sampling): {"kernels": [(name, launches, ns)], "status": int}}"""
+    """{(shadows, sampling): {"kernels": [(name, launches, ns)] per frame, "frames": int,
+    "status": int}}. A profile sums a case's frames; raster_resolve runs once per view, and a
+    frame has one view, or two with a light's shadow map."""
     out = {}
     if not folder:
         return out
@@ -355,25 +357,33 @@ def load_profiles(folder):
         for line in open(path, errors="replace"):
             m = KERNEL_LINE.match(line)
             if m:
-                kernels.append((m.group(1), int(m.group(3)), round(float(m.group(2)) * 1e6)))
+                kernels.append((m.group(1), int(m.group(3)), float(m.group(2)) * 1e6))
             elif line.startswith("exit status"):
                 status = int(line.split()[-1])
-        out[(sh, sa)] = {"kernels": kernels, "status": status}
+        resolves = sum(n for name, n, _ in kernels if name == "raster_resolve")
+        frames = resolves // (1 if sh == "none" else 2)
+        if not frames:
+            kernels = []
+        out[(sh, sa)] = {"kernels": [(name, n / frames, round(ns / frames))
+                                     for name, n, ns in kernels],
+                         "frames": frames, "status": status}
     return out
 
 
 def profile_section(res, profiles):
     if not profiles:
         return None
-    L = ["Device time per kernel for one forward frame of the bundled scene (256², 256² map,",
-         "`build/penumbra render --shadow-model paper --shadows S --sampling M` with",
-         "`PENUMBRA_PROFILE=1`: each launch waited for and its device time summed per kernel;",
-         "CLBlast's GEMM is one row, the time of the last kernel of each call, the event CLBlast",
-         "returns).",
-         "The raster kernels serve both the light pass and the camera pass. The CLI runs with",
-         "the device's tuning, so on a device whose tuning picks CLBlast for the exact sum",
-         "(docs/tuning.md) the exact row profiles CLBlast's GEMM, while the suite's exact",
-         "cases force penumbra's direct product kernels.", ""]
+    frames = sorted({p["frames"] for p in profiles.values() if p["kernels"]})
+    L = ["Device time per kernel and forward frame of the suite's cases at the reference point",
+         "(bundled scene, 256², 256² map, the paper's shadow model), from",
+         "`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^fwd/S/M/img:256/map:256/"
+         "faces:1312/sigma_s:2/lights:1/`:",
+         "each launch waited for, its device time summed per kernel over the case's frames",
+         f"({'–'.join(str(f) for f in (frames[0], frames[-1])) if frames else 'none'} per mode,"
+         " the warm-up included) and divided by them; CLBlast's GEMM is",
+         "one row, the time of the last kernel of each call, the event CLBlast returns.",
+         "The raster kernels serve both the light pass and the camera pass; the exact case runs",
+         "penumbra's direct product kernels, the gemm case CLBlast's GEMM.", ""]
     rows = []
     for (sh, sa), p in profiles.items():
         if not p["kernels"]:
@@ -386,10 +396,10 @@ def profile_section(res, profiles):
             stages[stage_of(name)] = stages.get(stage_of(name), 0) + ns
         stage_txt = ", ".join(f"{k} {fmt(v / 1e6)} ms ({v * 100 / total:.0f} %)"
                               for k, v in sorted(stages.items(), key=lambda kv: -kv[1]))
-        top = ", ".join(f"`{n}` {fmt(ns / 1e6)} ms ×{l}" for n, l, ns in
+        top = ", ".join(f"`{n}` {fmt(ns / 1e6)} ms ×{l:g}" for n, l, ns in
                         sorted(p["kernels"], key=lambda k: -k[2])[:4])
         rows.append((f"{sh} / {sa}", f"{fmt(total / 1e6)} ms", stage_txt, top))
-    L.append(table(("mode", "kernel time", "by stage", "largest kernels (time × launches)"), rows))
+    L.append(table(("mode", "kernel time", "by stage", "largest kernels (time × launches per frame)"), rows))
     dominant = []
     for (sh, sa), p in profiles.items():
         if p["kernels"]:
@@ -803,7 +813,7 @@ def stage_notes(res, peak, exp_rate, profiles):
         mm = matmul_rate(res, profiles)
         if mm and mm[0]:
             rate, mm_ms, w_ms, total_ms = mm
-            s += (f" In the profiled frame the product kernels took {fmt(mm_ms)} ms "
+            s += (f" Per profiled frame the product kernels took {fmt(mm_ms)} ms "
                   f"({fmt(rate)} GFLOP/s, {fmt(rate / peak * 100, 2) if peak else '–'} % of the FMA "
                   f"ceiling) and the Gaussian weight matrices Gx, Gy (`exact_weights`) "
                   f"{fmt(w_ms)} ms, of {fmt(total_ms)} ms of kernel time.")

@@ -4,8 +4,8 @@
 #      ground truth, plus python3-matplotlib for the plots),
 #   2. builds penumbra_bench (Release) into build/ (or $PENUMBRA_BUILD_DIR),
 #   3. runs the default suite (a few minutes on two cores) with JSON output in out/bench/,
-#   4. profiles one forward frame per shadow mode with PoCL's command-queue profiler
-#      (PENUMBRA_PROFILE=1: device time per kernel) into out/bench/profile_*.txt,
+#   4. profiles the forward case of each shadow mode (PENUMBRA_PROFILE=1: device time per
+#      kernel, per frame) into out/bench/profile_*.txt,
 #   5. times the first render of new processes with the kernel caches cold and warm
 #      (bench/first_call.py) into out/bench/first_call.json,
 #   6. runs bench/report.py, which writes docs/benchmarks.md and docs/images/bench_*.png.
@@ -116,17 +116,19 @@ if [[ $accuracy -eq 1 ]]; then
 fi
 
 # --- per-kernel profile --------------------------------------------------------------------
-# One forward frame of the bundled scene (256², 256² map) per mode with the paper's shadow model
-# (the model of the suite's render cases), rendered by the CLI with
-# PENUMBRA_PROFILE=1: the device time per kernel is printed at exit (PoCL's own POCL_TRACING=cq
+# The suite's forward case of each mode at the reference point (bundled scene, 256², 256² map,
+# the paper's shadow model), run by penumbra_bench with PENUMBRA_PROFILE=1: every launch waits
+# for its kernel and the device time per kernel, summed over the case's frames (its warm-up
+# included), is printed at exit; the report divides by the frames (PoCL's own POCL_TRACING=cq
 # profiler corrupts memory in PoCL 3.1: docs/faults.md). A failed run's exit status is recorded
 # and the report says the profile is unavailable.
 rm -f out/bench/profile_*.txt
 while read -r shadows sampling; do
   f="out/bench/profile_fwd_${shadows}_${sampling}.txt"
   status=0
-  PENUMBRA_PROFILE=1 timeout 600 "$BUILD/penumbra" render -o out/bench/profile.png \
-    --shadow-model paper --shadows "$shadows" --sampling "$sampling" > "$f" 2>&1 || status=$?
+  PENUMBRA_PROFILE=1 timeout 600 "$BENCH" --benchmark_min_time=0.5 \
+    --benchmark_filter="^fwd/$shadows/$sampling/img:256/map:256/faces:1312/sigma_s:2/lights:1/" \
+    > "$f" 2>&1 || status=$?
   echo "exit status $status" >> "$f"
   echo "bench: profile $shadows/$sampling: exit status $status"
 done <<'MODES'
@@ -136,7 +138,6 @@ hard exact
 hard gemm
 soft truncated
 MODES
-rm -f out/bench/profile.png
 
 # --- first call in a new process ------------------------------------------------------------
 if [[ $run -eq 1 ]]; then

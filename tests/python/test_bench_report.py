@@ -1,0 +1,29 @@
+"""bench/report.py turns the profiles scripts/bench.sh writes into per-frame device times."""
+import importlib.util
+
+from conftest import ROOT
+
+spec = importlib.util.spec_from_file_location("report", ROOT / "bench" / "report.py")
+report = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(report)
+
+# What PENUMBRA_PROFILE=1 prints at exit, among penumbra_bench's own lines: 3 frames of a mode
+# with shadows (a camera view and a light view each, so 6 raster_resolve launches).
+HARD = """fwd/hard/truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/manual_time 12.5 ms
+penumbra profile (device ms, launches):
+  shadow_sample                 15.00      3
+  raster_resolve                 6.60      6
+exit status 0
+"""
+
+
+def test_profiles_are_per_frame(tmp_path):
+    (tmp_path / "profile_fwd_hard_truncated.txt").write_text(HARD)
+    (tmp_path / "profile_fwd_none_truncated.txt").write_text("penumbra: error\nexit status 1\n")
+    p = report.load_profiles(str(tmp_path))
+    hard = p[("hard", "truncated")]
+    assert hard["frames"] == 3 and hard["status"] == 0
+    assert hard["kernels"] == [("shadow_sample", 1.0, 5000000), ("raster_resolve", 2.0, 2200000)]
+    none = p[("none", "truncated")]
+    assert none["kernels"] == [] and none["status"] == 1
+    assert "unavailable" in report.profile_section(None, p)
