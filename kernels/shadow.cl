@@ -158,10 +158,10 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
   return hsum8(sum);
 }
 
-FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int light, int nl, int Wm,
-                           int Hm, __global const real4* rec_light, __global real* Gx,
-                           __global real* Gxd, int with_derivative, __global real* Gy,
-                           __global real4* norm) {
+FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int light, int nl,
+                                  int Wm, int Hm, __global const real4* rec_light,
+                                  __global real* Gx, __global real* Gxd, int with_derivative,
+                                  __global real* Gy, __global real4* norm) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 x = rec_light[(r0 + k) * nl + light];
@@ -173,9 +173,9 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   norm[k] = (real4)(sx, sy, inside, 0);
 }
 
-FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int light, int nl, int Hm,
-                          __global const real* T, __global const real* Gy,
-                          __global const real4* norm, __global real4* rec_light) {
+FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int light, int nl,
+                                 int Hm, __global const real* T, __global const real* Gy,
+                                 __global const real4* norm, __global real4* rec_light) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 nm = norm[k];

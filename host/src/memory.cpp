@@ -31,7 +31,9 @@ size_t fragments(size_t pixels, double per_pixel) { return size_t(double(pixels)
 // One view of W×H pixels with `lights` lights in its shading (raster.cpp's buffers).
 // `per_pixel`: fragments per pixel (kFragmentsPerPixel or a map's per texel).
 size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, double per_pixel) {
-  // counts, offsets, runs; aux, image, depth, cover
+  // counts, offsets, kept; a fourth int for raster_count's list bits, which follow the tile
+  // lists and are checked against the device when allocated (raster.cpp); aux, image, depth,
+  // cover
   const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1 + 1);
   // face, fragment, shading (1 + lights), two light records (lights)
   size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + 3 * lights);
