@@ -17,7 +17,7 @@
 //   P                per-view parameters (common/layout.h)
 //   tile_offsets, tile_counts, tile_faces   from bin.cl (ignored when BRUTE_FORCE)
 //   pix_count, pix_offset, pix_n   N × int: fragment bound, first fragment, fragments kept
-//   run_hits         ulong bits, per run of PPW pixels and tile-list entry (see TILE_RUNS)
+//   block_hits       ulong bits, per block of PPW pixels and tile-list entry (see TILE_BLOCKS)
 //   rec_face K × int; rec_frag K × real4 (D·e^{(z̃−m)/γ}, z, 0, 0)
 //   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
@@ -25,8 +25,9 @@
 //   image N × real4 (R, G, B, silhouette A); aux N × real4 (I_z, m, Z, Σ log(1 − D));
 //   depth N × real (I_z again, densely, as the shadow map S when rendering from a light)
 //   cover N × real (A again, densely, as the map's caster coverage when rendering from a light)
-// Launch of count/fragments: global (ceil(W/TILE)·TILE/PPW, ceil(H/TILE)·TILE), local
-// (TILE/PPW, TILE): one work-group per tile, PPW consecutive pixels of a row per work-item.
+// Launch of count/fragments: global (ceil(W/TILE)·TILE/BLOCK_W, ceil(H/TILE)·TILE/BLOCK_H),
+// local (TILE/BLOCK_W, TILE/BLOCK_H): one work-group per tile, a block of PPW pixels per
+// work-item (below).
 // resolve and resolve_bwd: one work-item per pixel. raster_bwd: one work-item per face, which
 // visits the pixels of its bounding box and sums its own gradient in a fixed order (a gather:
 // no atomics, bit-reproducible).
@@ -37,7 +38,7 @@
 #define TILE 16        // screen tile edge in pixels (must match bin.cl)
 #endif
 #ifndef PPW
-#define PPW 1          // pixels per work-item along x; divides TILE
+#define PPW 1          // pixels per work-item, a power of two up to 16 that divides TILE
 #endif
 #ifndef BRUTE_FORCE
 #define BRUTE_FORCE 0  // 1: every pixel visits every face (reference path for tests)
@@ -76,6 +77,29 @@ inline int depth_in_range(real z, __global const real* P) {
 
 #include "common/lanes.clh"
 
+// count and fragments give each work-item a block of BLOCK_W × BLOCK_H = PPW pixels, lane l at
+// column l % BLOCK_W and row l / BLOCK_W of it (1×1, 2×1, 2×2, 4×2, 4×4): the small faces of a
+// dense mesh leave fewer lanes of a square block idle than of a row. The host's launch_tiled
+// (ops/raster.cpp) matches.
+#define BLOCK_W (PPW >= 8 ? 4 : PPW >= 2 ? 2 : 1)
+#define BLOCK_H (PPW / BLOCK_W)
+
+// The lanes' pixel centres (pixel_centre: the numerators are exact integers, so each lane
+// rounds as the scalar does) and which lanes lie inside the image.
+inline realP block_lanes(int px0, int py0, int W, int H, realP* qy, maskP* valid) {
+  realP lane = VLOADP(0, lane_offsets), row = floor(lane / BLOCK_W), col = lane - BLOCK_W * row;
+  *qy = ((real)(H - 2 * py0 - 1) - 2 * row) / H;
+  *valid = (real)px0 + col < (real)W && (real)py0 + row < (real)H;
+  return ((real)(2 * px0 + 1 - W) + 2 * col) / H;
+}
+// The image index of lane j's pixel, clamped into the image.
+inline int block_pixel(int px0, int py0, int j, int W, int H) {
+  return min(py0 + j / BLOCK_W, H - 1) * W + min(px0 + j % BLOCK_W, W - 1);
+}
+inline int block_lane_inside(int px0, int py0, int j, int W, int H) {
+  return px0 + j % BLOCK_W < W && py0 + j / BLOCK_W < H;
+}
+
 // The faces a work-item visits: its tile's list, or every face.
 #if BRUTE_FORCE
 #define FACE_LIST_BEGIN(px0, py) int list_count = nf;
@@ -95,7 +119,8 @@ inline int depth_in_range(real z, __global const real* P) {
 // the perspective-correct barycentrics b.
 #define LANES_OF_FACE(f)                                                                  \
   int4 bb = fbbox[f];                                                                     \
-  if (py < bb.y || py > bb.w || px0 + PPW - 1 < bb.x || px0 > bb.z) continue;             \
+  if (py0 + BLOCK_H - 1 < bb.y || py0 > bb.w || px0 + BLOCK_W - 1 < bb.x || px0 > bb.z)   \
+    continue;                                                                             \
   ScreenFace sf = load_screen_face(f, vscreen, faces, fnormal);                           \
   realP w[3], d2, b[3];                                                                   \
   maskP inside;                                                                           \
@@ -112,24 +137,24 @@ inline int depth_in_range(real z, __global const real* P) {
 #ifdef BACKWARD_KERNELS
 #define TILE_GROUP
 #else
-#define TILE_GROUP __attribute__((reqd_work_group_size(TILE / PPW, TILE, 1)))
+#define TILE_GROUP __attribute__((reqd_work_group_size(TILE / BLOCK_W, TILE / BLOCK_H, 1)))
 #endif
 
-// raster_count also notes, per run of PPW pixels, which entries of its tile's face list counted
+// raster_count also notes, per block of PPW pixels, which entries of its tile's face list counted
 // a fragment at any of its pixels: a bit per entry, 64 entries per word. Only those can hold
 // kept fragments, so raster_fragments visits them alone, in list order, testing no other face.
 // Tile t's words start at word tile_offsets[t]/64 + t (room for its ceil(count/64) words
-// however its list is aligned); each word holds one range of 64 entries for every run of the
-// tile, TILE_RUNS apart. The brute-force path keeps no bits and visits every face.
-#define TILE_RUNS (TILE * TILE / PPW)
+// however its list is aligned); each word holds one range of 64 entries for every block of the
+// tile, TILE_BLOCKS apart. The brute-force path keeps no bits and visits every face.
+#define TILE_BLOCKS (TILE * TILE / PPW)
 #if BRUTE_FORCE
-#define RUN_HITS_BEGIN(run_hits) (run_hits)
+#define BLOCK_HITS_BEGIN(block_hits) (block_hits)
 #else
-#define RUN_HITS_BEGIN(run_hits)                                    \
-  ((run_hits) + (size_t)(list_begin / 64 + list_tile) * TILE_RUNS + \
-   get_local_id(1) * (TILE / PPW) + get_local_id(0))
+#define BLOCK_HITS_BEGIN(block_hits)                                    \
+  ((block_hits) + (size_t)(list_begin / 64 + list_tile) * TILE_BLOCKS + \
+   get_local_id(1) * (TILE / BLOCK_W) + get_local_id(0))
 #endif
-#define HIT_WORD(hits, i0) (hits)[(size_t)((i0) / 64) * TILE_RUNS]
+#define HIT_WORD(hits, i0) (hits)[(size_t)((i0) / 64) * TILE_BLOCKS]
 
 // The first entry after i whose bit is set, list_count when none.
 inline int next_hit(__global const ulong* hits, int i, int list_count) {
@@ -145,18 +170,18 @@ FORWARD_KERNEL TILE_GROUP
 void raster_count(__global const real4* vscreen, __global const int4* faces,
                   __global const int4* fbbox, __global const real4* fnormal,
                   __global const real* P, int W, int H, int nf, TILE_ARGS,
-                  __global real4* aux, __global int* pix_count, __global ulong* run_hits) {
-  int px0 = get_global_id(0) * PPW, py = get_global_id(1);
-  if (py >= H || px0 >= W) return;
+                  __global real4* aux, __global int* pix_count, __global ulong* block_hits) {
+  int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
+  if (py0 >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA], weight_log = P[P_WEIGHT_LOG];
-  const realP qx = lanes_x(px0, W, H);
-  const real qy = (real)(H - 2 * py - 1) / H;
-  const maskP valid = lanes_valid(px0, W);
+  realP qy;
+  maskP valid;
+  const realP qx = block_lanes(px0, py0, W, H, &qy, &valid);
   // m: running max of z̃ (stabilises the exponentials); M: running max of the log-weights
   // log D + (z̃ − m)/γ, the background's (ε − m)/γ included, relative to the running m.
   realP m = P[P_EPS], M = 0, slog = 0, count = 0;
-  FACE_LIST_BEGIN(px0, py)
-  __global ulong* hits_out = RUN_HITS_BEGIN(run_hits);
+  FACE_LIST_BEGIN(px0, py0)
+  __global ulong* hits_out = BLOCK_HITS_BEGIN(block_hits);
   for (int i0 = 0; i0 < list_count; i0 += 64) {
     ulong hits = 0;
     for (int i = i0; i < min(i0 + 64, list_count); ++i) {
@@ -182,9 +207,10 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
   VSTOREP(M, 0, Ms);
   VSTOREP(slog, 0, slogs);
   VSTOREP(count, 0, counts);
-  for (int j = 0; j < PPW && px0 + j < W; ++j) {
-    aux[py * W + px0 + j] = (real4)(Ms[j], ms[j], 0, slogs[j]);
-    pix_count[py * W + px0 + j] = (int)counts[j];
+  for (int j = 0; j < PPW; ++j) {
+    if (!block_lane_inside(px0, py0, j, W, H)) continue;
+    aux[block_pixel(px0, py0, j, W, H)] = (real4)(Ms[j], ms[j], 0, slogs[j]);
+    pix_count[block_pixel(px0, py0, j, W, H)] = (int)counts[j];
   }
 }
 
@@ -194,22 +220,22 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global const real4* fnormal, __global const real4* albedo,
                       __global const real* P, int W, int H, int nf, TILE_ARGS,
                       __global const real4* aux, __global const int* pix_count,
-                      __global const ulong* run_hits, __global const int* pix_offset,
+                      __global const ulong* block_hits, __global const int* pix_offset,
                       __global int* pix_n,
                       __global int* rec_face, __global real4* rec_frag,
                       __global real4* rec_shade, __global real4* rec_light,
                       __global real4* rec_light2) {
-  int px0 = get_global_id(0) * PPW, py = get_global_id(1);
-  if (py >= H || px0 >= W) return;
+  int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
+  if (py0 >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA];
   const int nl = (int)P[P_NLIGHTS];
-  const realP qx = lanes_x(px0, W, H);
-  const real qy = (real)(H - 2 * py - 1) / H;
-  const maskP valid = lanes_valid(px0, W);
+  realP qy;
+  maskP valid;
+  const realP qx = block_lanes(px0, py0, W, H, &qy, &valid);
   real ms[PPW], keeps[PPW];
   int n[PPW], first[PPW], bound[PPW];
   for (int j = 0; j < PPW; ++j) {
-    int pix = py * W + min(px0 + j, W - 1);
+    int pix = block_pixel(px0, py0, j, W, H);
     real4 ax = aux[pix];
     ms[j] = ax.y;
     keeps[j] = ax.x - P[P_WEIGHT_LOG];
@@ -218,8 +244,8 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     bound[j] = pix_count[pix];
   }
   const realP m = VLOADP(0, ms), keep = VLOADP(0, keeps);
-  FACE_LIST_BEGIN(px0, py)
-  __global const ulong* hits = RUN_HITS_BEGIN(run_hits);
+  FACE_LIST_BEGIN(px0, py0)
+  __global const ulong* hits = BLOCK_HITS_BEGIN(block_hits);
   for (int i = next_hit(hits, -1, list_count); i < list_count;
        i = next_hit(hits, i, list_count)) {
     int f = FACE_AT(i);
@@ -253,8 +279,9 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
       }
     }
   }
-  for (int j = 0; j < PPW && px0 + j < W; ++j) {
-    int pix = py * W + px0 + j;
+  for (int j = 0; j < PPW; ++j) {
+    if (!block_lane_inside(px0, py0, j, W, H)) continue;
+    int pix = block_pixel(px0, py0, j, W, H);
     pix_n[pix] = n[j];
     // Slots the bound reserved but no fragment took: weight 0, outside every light's map, so
     // that kernels running over all slots (shadow sampling) read nothing undefined.
@@ -349,14 +376,16 @@ inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global
                           real* reach) {
   realP w[3], d2;
   maskP inside;
-  lanes_shape(lanes_x(px0, W, H), (real)(H - 2 * py - 1) / H, F->p, F->area, P, w, &d2, &inside);
+  lanes_shape(lanes_x(px0, W, H), (realP)((real)(H - 2 * py - 1) / H), F->p, F->area, P, w, &d2,
+              &inside);
   VSTOREP(inside || !(d2 >= P[P_CUTOFF_D2]) ? (realP)1 : (realP)0, 0, reach);
 }
 
 // Backward of count/fragments/resolve and of the shading, per face. Inputs: aux, gimage (its
 // .w is dL/dA), rec_wg and rec_lgrad (the latter as completed by the shadow backward:
-// (dL/ds, dL/dμx, dL/dμy, dL/dd)), rec_lgrad2 (dL/d∇_μ d, soft shadows). Outputs per face corner (3F × real4): gface_screen (dL/d
-// screen x, y, depth z), gface_world (dL/d world position), gface_albedo; per face
+// (dL/ds, dL/dμx, dL/dμy, dL/dd)), rec_lgrad2 (dL/d∇_μ d, soft shadows). Outputs per face
+// corner (3F × real4): gface_screen (dL/d screen x, y, depth z), gface_world (dL/d world
+// position), gface_albedo; per face
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
 BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,

@@ -12,10 +12,10 @@ struct RasterCountArgs {
   const cl::Buffer &vscreen, &faces, &fbbox, &fnormal, &P;
   cl_int W, H, nf, tiles_x;
   BinLists tiles;  // with tiles_x: TILE_ARGS
-  const cl::Buffer &aux, &pix_count, &run_hits;
+  const cl::Buffer &aux, &pix_count, &block_hits;
   auto fields() const {
     return std::tie(vscreen, faces, fbbox, fnormal, P, W, H, nf, tiles_x, tiles, aux, pix_count,
-                    run_hits);
+                    block_hits);
   }
 };
 
@@ -25,11 +25,11 @@ struct RasterFragmentsArgs {
   const cl::Buffer &vscreen, &vworld, &faces, &fbbox, &fnormal, &albedo, &P;
   cl_int W, H, nf, tiles_x;
   BinLists tiles;
-  const cl::Buffer &aux, &pix_count, &run_hits, &pix_offset, &pix_n;
+  const cl::Buffer &aux, &pix_count, &block_hits, &pix_offset, &pix_n;
   const cl::Buffer &rec_face, &rec_frag, &rec_shade, &rec_light, &rec_light2;
   auto fields() const {
     return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, tiles_x, tiles,
-                    aux, pix_count, run_hits, pix_offset, pix_n, rec_face, rec_frag, rec_shade,
+                    aux, pix_count, block_hits, pix_offset, pix_n, rec_face, rec_frag, rec_shade,
                     rec_light, rec_light2);
   }
 };
@@ -77,12 +77,16 @@ struct RasterBwdArgs {
   }
 };
 
-// Global and local sizes of the tiled passes (count, fragments).
+// Global and local sizes of the tiled passes (count, fragments): a work-item per block of
+// pixels_per_item pixels, as wide as raster.cl's BLOCK_W (4 from 8 pixels, 2 from 2) and
+// pixels_per_item / BLOCK_W high.
 void launch_tiled(Kernels& k, cl::Kernel& kernel, const View& v) {
   const auto& t = k.tuning().raster;
   const size_t tiles_x = (v.W + t.tile - 1) / t.tile, tiles_y = (v.H + t.tile - 1) / t.tile;
-  launch(k.ctx(), kernel, cl::NDRange(tiles_x * t.tile / t.pixels_per_item, tiles_y * t.tile),
-         cl::NDRange(t.tile / t.pixels_per_item, t.tile));
+  const int bw = t.pixels_per_item >= 8 ? 4 : std::min(t.pixels_per_item, 2);
+  const int bh = t.pixels_per_item / bw;
+  launch(k.ctx(), kernel, cl::NDRange(tiles_x * t.tile / bw, tiles_y * t.tile / bh),
+         cl::NDRange(t.tile / bw, t.tile / bh));
 }
 
 // The faces binned into the raster's tiles; with brute_force the kernels ignore the bins and
@@ -96,10 +100,10 @@ Bins raster_bins(Kernels& k, const DeviceGeometry& g, const View& v, const Scree
   return b;
 }
 
-// Words of raster_count's bits (raster.cl, TILE_RUNS): a word per run and per 64 list entries
+// Words of raster_count's bits (raster.cl, TILE_BLOCKS): a word per block and per 64 list entries
 // of its tile, one word more per tile for lists that do not start on a word; checked against the
 // device's memory.
-size_t run_hit_words(Kernels& k, const View& v, const Bins& bins) {
+size_t block_hit_words(Kernels& k, const View& v, const Bins& bins) {
   const auto& t = k.tuning().raster;
   if (t.brute_force) return 1;
   const size_t tiles = size_t(bins.tiles_x) * bins.tiles_y;
@@ -144,10 +148,10 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   Fragments f;
   f.aux = alloc_reals(ctx, p, npix * 4);
   const cl::Buffer pix_count = alloc_ints(ctx, npix);
-  const cl::Buffer run_hits = alloc_ints(ctx, run_hit_words(k, v, bins) * 2);  // ulong
+  const cl::Buffer block_hits = alloc_ints(ctx, block_hit_words(k, v, bins) * 2);  // ulong
   auto& count =
       bind_args(k, RasterCountArgs{sg.vscreen, g.faces, sg.fbbox, sg.fnormal, v.P, v.W, v.H, g.nf,
-                                   bins.tiles_x, bins, f.aux, pix_count, run_hits});
+                                   bins.tiles_x, bins, f.aux, pix_count, block_hits});
   launch_tiled(k, count, v);
 
   // Fragment storage of exactly the counted size.
@@ -162,7 +166,7 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
       bind_args(k, RasterFragmentsArgs{
                        sg.vscreen, g.vworld,    g.faces,     sg.fbbox,     sg.fnormal,   g.albedo,
                        v.P,        v.W,         v.H,         g.nf,         bins.tiles_x, bins,
-                       f.aux,      pix_count,   run_hits,    f.pix_offset, f.pix_n,      f.rec_face,
+                       f.aux,      pix_count,   block_hits,  f.pix_offset, f.pix_n,      f.rec_face,
                        f.rec_frag, f.rec_shade, f.rec_light, f.rec_light2});
   launch_tiled(k, frag, v);
   return f;
