@@ -11,13 +11,17 @@
 // reach 1: m_t = max(0, σ(x) − σ₀)/(1 − σ₀), σ₀ = σ(−β/γ_s). As printed it would stay at σ₀
 // where a face covering the texel (τ_t = 0) meets the receiver depth and is dropped, and P
 // would jump there; this way m_t, hence 1 − v_t and the face's weight, reach 0 first.
-// Culling: τ_t < 1 needs d_t < D_L/(z_t·scale), so each face is binned into the map tiles its
-// box widened by D_L/(min z·scale) (or D_L/h) touches, and a texel visits only its tile's list.
+// Culling: τ_t < 1 needs d_t < D_L·(1/z_t − 1/S_q)/scale (or D_L·(1 − z_t/S_q)/h), so each
+// face is binned into the map tiles its box widened by that bound touches, with z_t its
+// smallest corner depth and S_q the largest receiver depth in map cells near it, and a texel
+// visits only its tile's list.
 // Buffers (light view; V vertices, F faces, map W × H): vscreen V × real4, faces F × int4,
 // fnormal F × real4 (.w = screen area, 0 for a dropped face), S W·H × real;
 // P W·H × real (output), pen_sums W·H × real2 (the shift v₀ and the shifted denominator
 // e^{−γ_P(1−v₀)} + Σ (1 − v)·e^{−γ_P(v−v₀)}), gP W·H × real (backward input).
-// Launch: penumbra_boxes and penumbra_bwd_face one work-item per face; penumbra_fwd and
+// cell_max (cells_x × cells_y × real) the largest S of each cell × cell texels.
+// Launch: penumbra_cells one work-item per cell; penumbra_boxes and penumbra_bwd_face one
+// work-item per face; penumbra_fwd and
 // penumbra_bwd_texel PPW consecutive texels of a row per work-item (2-D; a run never
 // straddles two tiles).
 #ifndef PPW
@@ -82,9 +86,42 @@ inline real penumbra_dv(const Occluder* o, real Pq, real2 sums, __global const r
   return (a + (o->v - Pq) * da) / sums.y;
 }
 
+// The largest receiver depth S of each cell of cell × cell texels (the last ones cut by the
+// map's edge), which bounds the cone of every face above it.
+FORWARD_KERNEL void penumbra_cells(int W, int H, __global const real* S, int cell, int cells_x,
+                                   int cells_y, __global real* cell_max) {
+  int c = get_global_id(0);
+  if (c >= cells_x * cells_y) return;
+  int i0 = (c % cells_x) * cell, j0 = (c / cells_x) * cell;
+  real m = -INFINITY;
+  for (int j = j0; j < min(j0 + cell, H); ++j)
+    for (int i = i0; i < min(i0 + cell, W); ++i) m = fmax(m, S[j * W + i]);
+  cell_max[c] = m;
+}
+
+// Texels of the face's screen box widened by `radius` (screen units), with a texel of margin;
+// x0 > x1 when it misses the map. Texel centres x = (2i + 1 − W)/H, y = (H − 2j − 1)/H.
+inline int4 widened_box(const ScreenFace* F, real radius, int W, int H) {
+  real xlo = fmin(F->p[0].x, fmin(F->p[1].x, F->p[2].x)) - radius;
+  real xhi = fmax(F->p[0].x, fmax(F->p[1].x, F->p[2].x)) + radius;
+  real ylo = fmin(F->p[0].y, fmin(F->p[1].y, F->p[2].y)) - radius;
+  real yhi = fmax(F->p[0].y, fmax(F->p[1].y, F->p[2].y)) + radius;
+  real fx0 = clamp((xlo * H + W - 1) / 2 - 1, R(-1), (real)W);
+  real fx1 = clamp((xhi * H + W - 1) / 2 + 1, R(-1), (real)W);
+  real fy0 = clamp((H - 1 - yhi * H) / 2 - 1, R(-1), (real)H);
+  real fy1 = clamp((H - 1 - ylo * H) / 2 + 1, R(-1), (real)H);
+  return (int4)(max((int)ceil(fx0), 0), max((int)ceil(fy0), 0), min((int)floor(fx1), W - 1),
+                min((int)floor(fy1), H - 1));
+}
+
+// Each face's box: where its cone can reach. With S ≤ S_max on a texel, τ < 1 needs
+// d < D_L·(1/z − 1/S_max)/scale ≤ D_L/(z_min·scale)·(1 − z_min/S_max) (orthographic: the same
+// factor on D_L/h), z_min the smallest corner depth: first the box of D_L/(z_min·scale), then
+// that box shrunk by the factor of the largest S in the cells it touches.
 FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
                                    __global const real4* fnormal, __global const real* P, int nf,
-                                   int W, int H, __global int4* boxes) {
+                                   int W, int H, __global const real* cell_max, int cell,
+                                   int cells_x, __global int4* boxes) {
   int f = get_global_id(0);
   if (f >= nf) return;
   boxes[f] = (int4)(1, 1, 0, 0);
@@ -92,17 +129,13 @@ FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const
   ScreenFace F = load_screen_face(f, vscreen, faces, fnormal);
   real zmin = fmin(F.z[0], fmin(F.z[1], F.z[2]));
   real radius = P[P_LIGHT_SIZE] / world_per_screen(zmin, P);
-  real xlo = fmin(F.p[0].x, fmin(F.p[1].x, F.p[2].x)) - radius;
-  real xhi = fmax(F.p[0].x, fmax(F.p[1].x, F.p[2].x)) + radius;
-  real ylo = fmin(F.p[0].y, fmin(F.p[1].y, F.p[2].y)) - radius;
-  real yhi = fmax(F.p[0].y, fmax(F.p[1].y, F.p[2].y)) + radius;
-  // Texel centres x = (2i + 1 − W)/H, y = (H − 2j − 1)/H, with a texel of margin.
-  real fx0 = clamp((xlo * H + W - 1) / 2 - 1, R(-1), (real)W);
-  real fx1 = clamp((xhi * H + W - 1) / 2 + 1, R(-1), (real)W);
-  real fy0 = clamp((H - 1 - yhi * H) / 2 - 1, R(-1), (real)H);
-  real fy1 = clamp((H - 1 - ylo * H) / 2 + 1, R(-1), (real)H);
-  int4 box = (int4)(max((int)ceil(fx0), 0), max((int)ceil(fy0), 0), min((int)floor(fx1), W - 1),
-                    min((int)floor(fy1), H - 1));
+  int4 box = widened_box(&F, radius, W, H);
+  if (box.x > box.z || box.y > box.w) return;
+  real smax = -INFINITY;
+  for (int cy = box.y / cell; cy <= box.w / cell; ++cy)
+    for (int cx = box.x / cell; cx <= box.z / cell; ++cx)
+      smax = fmax(smax, cell_max[cy * cells_x + cx]);
+  box = widened_box(&F, radius * fmax(1 - zmin / smax, R(0)), W, H);
   if (box.x <= box.z && box.y <= box.w) boxes[f] = box;
 }
 

@@ -5,13 +5,30 @@ namespace penumbra::detail {
 
 namespace {
 
+// The edge in texels of the cells whose largest receiver depth bounds the boxes.
+constexpr int cell = 16;
+
+struct PenumbraCellsArgs {
+  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* kernel = "penumbra_cells";
+  cl_int W, H;
+  const cl::Buffer& S;
+  cl_int cell, cells_x, cells_y;
+  const cl::Buffer& cell_max;
+  auto fields() const { return std::tie(W, H, S, cell, cells_x, cells_y, cell_max); }
+};
+
 struct PenumbraBoxesArgs {
   static constexpr const char* file = "penumbra.cl";
   static constexpr const char* kernel = "penumbra_boxes";
   const cl::Buffer &vscreen, &faces, &fnormal, &P;
   cl_int nf, W, H;
+  const cl::Buffer& cell_max;
+  cl_int cell, cells_x;
   const cl::Buffer& boxes;
-  auto fields() const { return std::tie(vscreen, faces, fnormal, P, nf, W, H, boxes); }
+  auto fields() const {
+    return std::tie(vscreen, faces, fnormal, P, nf, W, H, cell_max, cell, cells_x, boxes);
+  }
 };
 
 // The texels' inputs: a light view, its shadow map and the faces binned by their boxes.
@@ -76,9 +93,13 @@ PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv
   Context& ctx = k.ctx();
   const size_t ntex = size_t(lv.W) * lv.H;
   PenumbraMap pm;
+  const int cells_x = (lv.W + cell - 1) / cell, cells_y = (lv.H + cell - 1) / cell;
+  const cl::Buffer cell_max = alloc_reals(ctx, k.precision(), size_t(cells_x) * cells_y);
+  auto& cells = bind_args(k, PenumbraCellsArgs{lv.W, lv.H, S, cell, cells_x, cells_y, cell_max});
+  launch_1d(ctx, cells, size_t(cells_x) * cells_y);
   pm.boxes = alloc_ints(ctx, size_t(g.nf) * 4);
-  auto& bx = bind_args(
-      k, PenumbraBoxesArgs{sg.vscreen, g.faces, sg.fnormal, lv.P, g.nf, lv.W, lv.H, pm.boxes});
+  auto& bx = bind_args(k, PenumbraBoxesArgs{sg.vscreen, g.faces, sg.fnormal, lv.P, g.nf, lv.W, lv.H,
+                                            cell_max, cell, cells_x, pm.boxes});
   launch_1d(ctx, bx, g.nf);
   pm.bins = bin_boxes(k, pm.boxes, g.nf, lv.W, lv.H, k.tuning().penumbra.tile);
   pm.map = alloc_reals(ctx, k.precision(), ntex);
