@@ -114,10 +114,19 @@ inline int4 widened_box(const ScreenFace* F, real radius, int W, int H) {
                 min((int)floor(fy1), H - 1));
 }
 
+// The largest of cell_max over the cells that `box` touches.
+inline real cells_max(int4 box, __global const real* cell_max, int cell, int cells_x) {
+  real m = -INFINITY;
+  for (int cy = box.y / cell; cy <= box.w / cell; ++cy)
+    for (int cx = box.x / cell; cx <= box.z / cell; ++cx) m = fmax(m, cell_max[cy * cells_x + cx]);
+  return m;
+}
+
 // Each face's box: where its cone can reach. With S ≤ S_max on a texel, τ < 1 needs
 // d < D_L·(1/z − 1/S_max)/scale ≤ D_L/(z_min·scale)·(1 − z_min/S_max) (orthographic: the same
-// factor on D_L/h), z_min the smallest corner depth: first the box of D_L/(z_min·scale), then
-// that box shrunk by the factor of the largest S in the cells it touches.
+// factor on D_L/h), z_min the smallest corner depth. So from the box of D_L/(z_min·scale),
+// each round's box, which holds every texel the face reaches, bounds S by the cells it
+// touches and shrinks the radius by that factor; two rounds take most of the gain.
 FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
                                    __global const real4* fnormal, __global const real* P, int nf,
                                    int W, int H, __global const real* cell_max, int cell,
@@ -130,12 +139,12 @@ FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const
   real zmin = fmin(F.z[0], fmin(F.z[1], F.z[2]));
   real radius = P[P_LIGHT_SIZE] / world_per_screen(zmin, P);
   int4 box = widened_box(&F, radius, W, H);
-  if (box.x > box.z || box.y > box.w) return;
-  real smax = -INFINITY;
-  for (int cy = box.y / cell; cy <= box.w / cell; ++cy)
-    for (int cx = box.x / cell; cx <= box.z / cell; ++cx)
-      smax = fmax(smax, cell_max[cy * cells_x + cx]);
-  box = widened_box(&F, radius * fmax(1 - zmin / smax, R(0)), W, H);
+  for (int round = 0; round < 2 && box.x <= box.z && box.y <= box.w; ++round) {
+    real factor = fmax(1 - zmin / cells_max(box, cell_max, cell, cells_x), R(0));
+    int4 smaller = widened_box(&F, radius * factor, W, H);
+    if (all(smaller == box)) break;
+    box = smaller;
+  }
   if (box.x <= box.z && box.y <= box.w) boxes[f] = box;
 }
 
