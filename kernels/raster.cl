@@ -313,7 +313,7 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
   if (pix >= W * H) return;
   const int nl = (int)P[P_NLIGHTS];
   real4 ax = aux[pix];
-  real Z = exp((P[P_EPS] - ax.y) / P[P_GAMMA]);  // the background's weight
+  real Z = exp_or_ends((P[P_EPS] - ax.y) / P[P_GAMMA]);  // the background's weight
   real3 acc = Z * p_vec3(P, P_BACKGROUND);
   real accz = Z * P[P_FAR];
   for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
@@ -322,7 +322,7 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
     acc += fr.x * fragment_colour(r, nl, rec_shade, rec_light);
     accz += fr.x * fr.y;
   }
-  real A = 1 - exp(ax.w);
+  real A = 1 - exp_or_ends(ax.w);
   image[pix] = (real4)(acc / Z, A);
   aux[pix] = (real4)(accz / Z, ax.y, Z, ax.w);
   depth[pix] = accz / Z;
