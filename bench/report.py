@@ -53,9 +53,9 @@ PAPER = {"none": (1.0, 1.0), "hard": (33.0, 33.0), "soft": (104.0, 104.0)}
 MISS_REASONS = [
     ("no shadows", "the three raster passes are most of the frame. For every pixel and every "
      "face whose cut-off box reaches it, `raster_count` computes the barycentrics, the distance "
-     "to the three edges and a softplus (on float16 vectors of 16 pixels), and "
+     "to the three edges and a softplus (on float16 vectors: blocks of 4×4 pixels), and "
      "`raster_fragments` computes them again for the faces `raster_count` marked (a bit per "
-     "run and list entry) to write the kept fragments, because which fragments are kept "
+     "block and list entry) to write the kept fragments, because which fragments are kept "
      "depends on the largest weight, which is known only after all faces. Writing each kept "
      "fragment's shading and light coordinates is scalar."),
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
@@ -74,10 +74,10 @@ MISS_REASONS = [
     ("backward ≤ 3× forward (soft", "as for hard shadows, plus the penumbra map's backward per "
      "texel and per face, both scalar, and two sigmoids and their derivatives per texel in the "
      "gathers."),
-    ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 280 per "
-     "16×16 tile, up to 1800 near the silhouette); `raster_count` tests every one on every "
-     "16-pixel run of the tile's rows (about 100 reach a run's box, 65 cover one of its pixels), "
-     "`raster_fragments` the ~35 per run that may keep a fragment."),
+    ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
+     "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
+     "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels), "
+     "`raster_fragments` the ~22 per block that may keep a fragment."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers."),
 ]
