@@ -7,6 +7,8 @@
 //              (exact_* kernels here, the products by matmul.cl or by CLBlast's GEMM)
 // Buffers (K fragments, nl lights, this light l, map W_s × H_s row-major, row 0 at the top):
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
+//   rec_light2 K·nl × real4: truncated hard shadows write (·, ·, v, Σg') to .zw, the filtered
+//              depth and the filter's sum, which the backward reads instead of summing again
 //   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
@@ -39,24 +41,26 @@ inline real compare(real v, real d, __global const real* P) {
 }
 
 FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm,
-                                  int Hm, __global const real* S, __global real4* rec_light) {
+                                  int Hm, __global const real* S, __global real4* rec_light,
+                                  __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
   Window w = sample_window(x.xy, P, Wm, Hm);
   real norm = 0, v = w.x0 <= w.x1 ? filter_depth(x.xy, w, P, S, Wm, &norm) : 0;
   rec_light[r * nl + light].w = norm > 0 ? compare(v, x.z, P) : 1;
+  rec_light2[r * nl + light].zw = (real2)(v, norm);
 }
 
 BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
                                        int Hm, __global const real* S,
-                                       __global const real4* rec_light, __global real4* rec_lgrad) {
+                                       __global const real4* rec_light,
+                                       __global const real4* rec_light2, __global real4* rec_lgrad) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
   real gs = rec_lgrad[r * nl + light].x;
-  Window w = sample_window(x.xy, P, Wm, Hm);
-  real norm = 0, v = w.x0 <= w.x1 ? filter_depth(x.xy, w, P, S, Wm, &norm) : 0;
+  real v = rec_light2[r * nl + light].z, norm = rec_light2[r * nl + light].w;
   if (norm <= 0) {
     rec_lgrad[r * nl + light] = 0;
     return;
@@ -65,6 +69,7 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
   // dv/dμ = Σ ∂g'/∂μ·(S − v)/Σg', with ∂g'/∂μx = g·(i − μx)/σ_s where g' > 0.
   realR dvx = 0, dvy = 0;
   real ss = P[P_SIGMA_S];
+  Window w = sample_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {

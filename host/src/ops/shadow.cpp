@@ -23,8 +23,8 @@ struct ShadowSampleArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "shadow_sample";
   MapLookup at;
-  const cl::Buffer &S, &rec_light;
-  auto fields() const { return std::tie(at, S, rec_light); }
+  const cl::Buffer &S, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, rec_light, rec_light2); }
 };
 
 struct ShadowSampleBwdArgs {
@@ -32,8 +32,8 @@ struct ShadowSampleBwdArgs {
   static constexpr const char* kernel = "shadow_sample_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer &S, &rec_light, &rec_lgrad;
-  auto fields() const { return std::tie(at, S, rec_light, rec_lgrad); }
+  const cl::Buffer &S, &rec_light, &rec_light2, &rec_lgrad;
+  auto fields() const { return std::tie(at, S, rec_light, rec_light2, rec_lgrad); }
 };
 
 struct ShadowGatherArgs {
@@ -164,7 +164,7 @@ MapGrads soft_backward(Kernels& k, Sampling sampling, const View& v, const Fragm
 
 MapGrads truncated_backward(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
                             const MapLookup& at, const LightMaps& lm, MapGrads g) {
-  auto& sb = bind_args(k, ShadowSampleBwdArgs{at, lm.S, f.rec_light, fgr.rec_lgrad});
+  auto& sb = bind_args(k, ShadowSampleBwdArgs{at, lm.S, f.rec_light, f.rec_light2, fgr.rec_lgrad});
   launch_1d(k.ctx(), sb, at.nrec);
   // texels gather from nearby fragments
   Bins bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
@@ -226,7 +226,7 @@ void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments&
                         sampling_define(p.sampling));
     launch_1d(k.ctx(), s, n);
   } else if (sampling_method(p.sampling).windowed) {
-    auto& s = bind_args(k, ShadowSampleArgs{at, lm.S, f.rec_light});
+    auto& s = bind_args(k, ShadowSampleArgs{at, lm.S, f.rec_light, f.rec_light2});
     launch_1d(k.ctx(), s, n);
   } else {
     exact_forward(k, exact_on_clblast(p, k.tuning()), f, at, lm);
