@@ -71,9 +71,14 @@ MISS_REASONS = [
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
      "rest per pixel), are loops per work-item that PoCL runs one work-item at a time."),
-    ("backward ≤ 3× forward (soft", "as for hard shadows, plus the penumbra map's backward per "
-     "texel and per face, both scalar, and two sigmoids and their derivatives per texel in the "
-     "gathers."),
+    ("backward ≤ 3× forward (soft", "the compare's two sigmoids and their derivatives are "
+     "evaluated again for every fragment at every texel of its window twice: per texel in the "
+     "gather (`soft_gather`, about 25 ms per backward, on 16×4-texel blocks) and per fragment "
+     "(`soft_sample_bwd`, about 11 ms), against one lookup (`soft_sample`, about 11 ms) in the "
+     "forward; the per-face raster backward of both views takes about 12 ms and the penumbra "
+     "map's backward under 2 ms (`PENUMBRA_PROFILE=1`, 2026-11-25). Shrinking the penumbra map's "
+     "face boxes (`penumbra_boxes`) sped the forward up more than the backward, which had met "
+     "this target at 2.76×."),
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
      "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
      "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels), "
