@@ -21,9 +21,8 @@
 // e^{−γ_P(1−v₀)} + Σ (1 − v)·e^{−γ_P(v−v₀)}), gP W·H × real (backward input).
 // cell_max (cells_x × cells_y × real) the largest S of each cell × cell texels.
 // Launch: penumbra_cells one work-item per cell; penumbra_boxes and penumbra_bwd_face one
-// work-item per face; penumbra_fwd and
-// penumbra_bwd_texel PPW consecutive texels of a row per work-item (2-D; a run never
-// straddles two tiles).
+// work-item per face; penumbra_fwd and penumbra_bwd_texel PPW consecutive texels of a row per
+// work-item (2-D; a run never straddles two tiles).
 #ifndef PPW
 #define PPW 1  // texels per work-item in penumbra_fwd and penumbra_bwd_texel; divides the tile
 #endif
