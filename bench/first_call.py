@@ -30,6 +30,8 @@ import sys
 import tempfile
 import time
 
+import docfile  # bench/docfile.py, next to this script
+
 STATES = ("cold", "kernel cache", "both warm", "PoCL cache only")
 
 
@@ -115,19 +117,6 @@ def section(doc):
     ]
 
 
-def write_section(doc_path, lines):
-    """Replaces the section in the page, or adds it before "## Large cases"."""
-    text = open(doc_path).read().split("\n")
-    if TITLE in text:
-        start = text.index(TITLE)
-        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")),
-                   len(text))
-    else:
-        start = end = text.index("## Large cases") if "## Large cases" in text else len(text)
-    with open(doc_path, "w") as f:
-        f.write("\n".join(text[:start] + lines + text[end:]))
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -148,12 +137,11 @@ def main():
            "loadavg_before": " ".join(load_before), "loadavg_after": " ".join(load_after),
            "date": time.strftime("%Y-%m-%dT%H:%M:%S+00:00", time.gmtime()),
            "states": results}
-    with open(a.out, "w") as f:
-        json.dump(doc, f, indent=1)
+    docfile.write_text(a.out, json.dumps(doc, indent=1))
     print(table(results))
     print(f"load average before {doc['loadavg_before']}, after {doc['loadavg_after']}")
     if a.doc:
-        write_section(a.doc, section(doc))
+        docfile.replace_section(a.doc, section(doc), before="## Large cases")
 
 
 if __name__ == "__main__":

@@ -24,6 +24,9 @@ import subprocess
 import sys
 import tempfile
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # bench/: its sibling modules
+import docfile  # noqa: E402
+
 REF = {"img": 256, "map": 256, "faces": 1312, "sigma_s": 2.0, "lights": 1}
 TEXT_KEYS = ("model", "scene")  # name segments key:value whose value is a word
 
@@ -76,7 +79,8 @@ MISS_REASONS = [
      "gather (`soft_gather`, about 25 ms per backward, on 16×4-texel blocks) and per fragment "
      "(`soft_sample_bwd`, about 11 ms), against one lookup (`soft_sample`, about 11 ms) in the "
      "forward; the per-face raster backward of both views takes about 12 ms and the penumbra "
-     "map's backward under 2 ms (`PENUMBRA_PROFILE=1`, 2026-11-25). Shrinking the penumbra map's "
+     "map's backward under 2 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^bwd/soft/"
+     "truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/`, 2026-11-25). Shrinking the penumbra map's "
      "face boxes (`penumbra_boxes`) sped the forward up more than the backward, which had met "
      "this target at 2.76×."),
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
@@ -266,7 +270,7 @@ def plot_sweep(plt, res, key, xlabel, path, logx=True, **fixed):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    docfile.save_figure(fig, path, dpi=110)
     plt.close(fig)
     return True
 
@@ -306,7 +310,7 @@ def plot_tradeoff(plt, res, path):
                                 ("s", "k", "exact"), ("^", "k", "gemm"))]
     axes[0][-1].legend(handles=handles, fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    docfile.save_figure(fig, path, dpi=100)
     plt.close(fig)
     return True
 
@@ -319,7 +323,7 @@ def copy_comparisons(folder, image_dir):
         for sh in ("hard", "soft"):
             src = os.path.join(folder or "", f"compare_{sc}_accurate_{sh}.png")
             if folder and os.path.exists(src):
-                shutil.copyfile(src, os.path.join(image_dir, f"accuracy_{sc}_{sh}.png"))
+                docfile.copy_file(src, os.path.join(image_dir, f"accuracy_{sc}_{sh}.png"))
                 copied.append((sc, sh))
     return copied
 
@@ -733,8 +737,7 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
         w("")
 
     L.extend(files_section())
-    with open(doc_path, "w") as f:
-        f.write("\n".join(L))
+    docfile.write_text(doc_path, "\n".join(L))
     print(f"report: wrote {doc_path}" + (f" and plots in {image_dir}" if plt else ""))
 
 
@@ -1016,8 +1019,8 @@ def write_accuracy_only(context, records, machine, doc_path, image_dir, accuracy
         run[-1] += f", 1-min load at the end of each case {fmt(loads[0])}–{fmt(loads[-1])}"
     run[-1] += (" (the machine is shared: above 2, other processes competed for its two cores and"
                 " times are longer than penumbra alone would take).")
-    replace_section(doc_path, lines[:2] + run + [""] + lines[2:])
-    replace_section(doc_path, files_section())
+    docfile.replace_section(doc_path, lines[:2] + run + [""] + lines[2:])
+    docfile.replace_section(doc_path, files_section())
 
 
 def files_section():
@@ -1042,15 +1045,6 @@ def files_section():
         "  against the ray-traced truth; built where Embree is found).",
         "",
     ]
-
-
-def replace_section(doc_path, lines):
-    """Replaces the section of an existing page titled by lines[0] with `lines`."""
-    text = open(doc_path).read().split("\n")
-    start = text.index(lines[0])
-    end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
-    with open(doc_path, "w") as f:
-        f.write("\n".join(text[:start] + lines + text[end:]))
 
 
 # ---- smoke ---------------------------------------------------------------------------------

@@ -40,6 +40,9 @@
 #ifndef PPW
 #define PPW 1          // pixels per work-item, a power of two up to 16 that divides TILE
 #endif
+#ifndef BLOCK_W
+#define BLOCK_W 1      // width of a work-item's block of PPW pixels (below); divides PPW
+#endif
 #ifndef BRUTE_FORCE
 #define BRUTE_FORCE 0  // 1: every pixel visits every face (reference path for tests)
 #endif
@@ -78,10 +81,9 @@ inline int depth_in_range(real z, __global const real* P) {
 #include "common/lanes.clh"
 
 // count and fragments give each work-item a block of BLOCK_W × BLOCK_H = PPW pixels, lane l at
-// column l % BLOCK_W and row l / BLOCK_W of it (1×1, 2×1, 2×2, 4×2, 4×4): the small faces of a
-// dense mesh leave fewer lanes of a square block idle than of a row. The host's launch_tiled
-// (ops/raster.cpp) matches.
-#define BLOCK_W (PPW >= 8 ? 4 : PPW >= 2 ? 2 : 1)
+// column l % BLOCK_W and row l / BLOCK_W of it (the host's raster_block_width: 1×1, 2×1, 2×2,
+// 4×2, 4×4): the small faces of a dense mesh leave fewer lanes of a square block idle than of
+// a row.
 #define BLOCK_H (PPW / BLOCK_W)
 
 // The lanes' pixel centres (pixel_centre: the numerators are exact integers, so each lane
@@ -302,6 +304,10 @@ inline real3 fragment_colour(int r, int nl, __global const real4* rec_shade,
   for (int l = 0; l < nl; ++l) c += rec_light[r * nl + l].w * rec_shade[r * (1 + nl) + 1 + l].xyz;
   return c;
 }
+
+// e^x, answering without the call what most of raster_resolve's pixels ask: e^0 = 1, and 0
+// below −800, where e^x underflows to 0 in double and float alike (exp gives both exactly so).
+inline real exp_or_ends(real x) { return x == 0 ? 1 : x < -800 ? 0 : exp(x); }
 
 FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
                                    __global const int* pix_offset, __global const int* pix_n,

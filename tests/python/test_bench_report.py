@@ -27,3 +27,31 @@ def test_profiles_are_per_frame(tmp_path):
     none = p[("none", "truncated")]
     assert none["kernels"] == [] and none["status"] == 1
     assert "unavailable" in report.profile_section(None, p)
+
+
+PAGE = "# Page\n\n## First\n\nold one\n\n## Second\n\nkept\n"
+
+
+def test_replace_section_keeps_the_rest_and_the_mode(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE)
+    page.chmod(0o640)
+    report.docfile.replace_section(str(page), ["## First", "", "new one", ""])
+    assert page.read_text() == "# Page\n\n## First\n\nnew one\n\n## Second\n\nkept\n"
+    assert page.stat().st_mode & 0o777 == 0o640
+    report.docfile.replace_section(str(page), ["## Third", "", "added", ""], before="## Second")
+    assert page.read_text().index("## Third") < page.read_text().index("## Second")
+    assert [p.name for p in tmp_path.iterdir()] == ["page.md"]  # no temporary file left
+
+
+def test_a_failed_write_leaves_the_old_file_whole(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text(PAGE)
+    try:
+        report.docfile.write_text(str(page), None)  # fails inside the write
+    except TypeError:
+        pass
+    else:
+        raise AssertionError("writing None did not fail")
+    assert page.read_text() == PAGE
+    assert [p.name for p in tmp_path.iterdir()] == ["page.md"]

@@ -30,6 +30,7 @@ std::string program_options(const std::string& file, Precision precision, const 
   const RasterTuning& r = tuning.raster;
   if (file == "raster.cl")
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
+         " -DBLOCK_W=" + std::to_string(raster_block_width(r.pixels_per_item)) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
   if (file == "shadow.cl" || file == "pcf.cl")
     o += " -DROW=" + std::to_string(device_defaults(device).shadow_row) +

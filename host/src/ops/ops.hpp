@@ -89,6 +89,12 @@ struct Bins {
   cl::Buffer offsets, counts, items;
 };
 
+// Width of the pixel block a raster work-item takes (raster.cl's BLOCK_W): 4×4 pixels from
+// 16 per item, 4×2 from 8, 2×2 from 4, 2×1 from 2; its height is pixels_per_item / width.
+inline int raster_block_width(int pixels_per_item) {
+  return pixels_per_item >= 8 ? 4 : std::min(pixels_per_item, 2);
+}
+
 // Texels per work-item of penumbra_fwd: the device's pixels_per_item, at most the penumbra
 // tile so that a run stays within one tile's list. Not tied to the raster's tuning, so that
 // raster candidates leave the shadows' bits alone.

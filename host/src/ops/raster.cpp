@@ -78,12 +78,11 @@ struct RasterBwdArgs {
 };
 
 // Global and local sizes of the tiled passes (count, fragments): a work-item per block of
-// pixels_per_item pixels, as wide as raster.cl's BLOCK_W (4 from 8 pixels, 2 from 2) and
-// pixels_per_item / BLOCK_W high.
+// pixels_per_item pixels (raster_block_width wide).
 void launch_tiled(Kernels& k, cl::Kernel& kernel, const View& v) {
   const auto& t = k.tuning().raster;
   const size_t tiles_x = (v.W + t.tile - 1) / t.tile, tiles_y = (v.H + t.tile - 1) / t.tile;
-  const int bw = t.pixels_per_item >= 8 ? 4 : std::min(t.pixels_per_item, 2);
+  const int bw = raster_block_width(t.pixels_per_item);
   const int bh = t.pixels_per_item / bw;
   launch(k.ctx(), kernel, cl::NDRange(tiles_x * t.tile / bw, tiles_y * t.tile / bh),
          cl::NDRange(t.tile / bw, t.tile / bh));
