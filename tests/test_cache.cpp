@@ -21,21 +21,6 @@ using namespace penumbra_tests;
 
 namespace {
 
-// Sets (or, with nullptr, removes) an environment variable until the end of the scope; the
-// tool run as a child process inherits it.
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const char* value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = std::make_unique<std::string>(old);
-    value ? setenv(name, value, 1) : unsetenv(name);
-  }
-  ~ScopedEnv() { old_ ? setenv(name_, old_->c_str(), 1) : unsetenv(name_); }
-
- private:
-  const char* name_;
-  std::unique_ptr<std::string> old_;
-};
-
 fs::path fresh_dir(const std::string& name) {
   fs::path dir = fs::path(::testing::TempDir()) / ("penumbra_cache_" + name);
   fs::remove_all(dir);

@@ -18,10 +18,14 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "cli_run.hpp"
+#include "penumbra/context.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
+#include "penumbra/renderer.hpp"
 
 namespace fs = std::filesystem;
 
@@ -415,10 +419,23 @@ TEST(Cli, FiguresWritesEveryPicture) {
   EXPECT_EQ(out.back().rfind("figures: files=17 seconds=", 0), 0u) << show(r);
 }
 
+// The bundled scene at the largest image and map sizes, with as many cameras as it takes for the
+// estimate to exceed the memory of the device the CLI opens (one on PoCL's few GiB, several on
+// a GPU with 100+ GiB).
 TEST(Cli, SceneTooLargeForTheDeviceFailsUpFront) {
-  const RunResult r = run_cli(
-      "render -o " + quote(temp_path("huge.png")) + " --width 16384 --height 16384 --map-size 8192",
-      "huge");
+  nlohmann::json scene = nlohmann::json::parse(std::ifstream(kBundled));
+  for (auto& mesh : scene["meshes"])
+    mesh["file"] = std::string(PENUMBRA_DATA_DIR) + "/scenes/" + mesh["file"].get<std::string>();
+  scene["cameras"][0]["width"] = scene["cameras"][0]["height"] = 16384;
+  scene["render"]["shadow_map_size"] = 8192;
+  const size_t one = penumbra::estimate_device_memory(penumbra::parse_scene(scene.dump(), ""),
+                                                      penumbra::Precision::Float);
+  const size_t device = penumbra::Context().memory_limit();
+  for (size_t i = 0; i < device / one; ++i) scene["cameras"].push_back(scene["cameras"][0]);
+  const std::string path = temp_path("huge.json");
+  std::ofstream(path) << scene.dump();
+  const RunResult r =
+      run_cli("render " + quote(path) + " -o " + quote(temp_path("huge.png")), "huge");
   expect_clean_error(r, "GiB of device memory, more than the ");
 }
 

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "ops/args.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
@@ -42,6 +43,7 @@ using penumbra::Renderer;
 using penumbra::RenderOutput;
 using penumbra::Scene;
 using penumbra::Shadows;
+using penumbra_tests::ScopedEnv;
 
 namespace fs = std::filesystem;
 
@@ -101,25 +103,6 @@ Scene small_scene(Shadows shadows = Shadows::None) {
   penumbra::fit_light_frusta(s);
   return s;
 }
-
-// Restores (or removes) an environment variable when it goes out of scope.
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const std::string& value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = std::make_unique<std::string>(old);
-    setenv(name, value.c_str(), 1);
-  }
-  ~ScopedEnv() {
-    if (old_)
-      setenv(name_, old_->c_str(), 1);
-    else
-      unsetenv(name_);
-  }
-
- private:
-  const char* name_;
-  std::unique_ptr<std::string> old_;
-};
 
 // ---- kernels --------------------------------------------------------------------------------
 

@@ -552,12 +552,8 @@ TEST(FaultsCli, TuneChecksItsOutputBeforeTuning) {
       {dir + "/file/tuning.json", dir + "/file"},
       {dir + "/corrupt.json", "cannot update the tuning database " + dir + "/corrupt.json"}};
   for (const auto& [path, message] : cases) {
-    const auto start = std::chrono::steady_clock::now();
     const RunResult r = run_cli("tune --quick --runs 1 -o " + quote(path), "tune_output");
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     expect_clean_error(r, message);  // one line: tuning never started
-    EXPECT_LT(seconds, 3.0) << show(r);
   }
   EXPECT_EQ(read_text(dir + "/corrupt.json"), "not a database");
   EXPECT_EQ(names_in(dir), (std::vector<std::string>{"corrupt.json", "file"}));
@@ -723,20 +719,18 @@ TEST(FaultsCli, PoclCqTracingIsTurnedOffAndRendersLikeWithout) {
 // ---------------------------------------------------------------------------------------------
 // Device memory, bounded before anything is allocated.
 
+// "At once": before any kernel program is built (PENUMBRA_PROFILE=1 would print a line for it).
 TEST(FaultsCli, MemoryLimitRefusesTooLargeARenderAtOnce) {
-  const auto start = std::chrono::steady_clock::now();
+  ScopedEnv profile("PENUMBRA_PROFILE", "1");
   const RunResult r = run_cli(
       "render --width 4096 --height 4096 --map-size 8192 --shadows soft --max-memory 1GiB -o " +
           quote(fresh_dir("memory") + "/big.png"),
       "memory");
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   expect_clean_error(r, "rendering the scene (1312 faces) needs ");
   EXPECT_NE(r.err.find(" GiB of device memory, more than the 1.00 GiB allowed by --max-memory "
                        "(device '"),
             std::string::npos)
       << show(r);
-  EXPECT_LT(seconds, 1.0) << show(r);
   EXPECT_TRUE(names_in(::testing::TempDir() + "penumbra_faults_memory").empty());
 }
 
