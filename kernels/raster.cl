@@ -28,15 +28,19 @@
 // Launch of count/fragments: global (ceil(W/TILE)·TILE/BLOCK_W, ceil(H/TILE)·TILE/BLOCK_H),
 // local (TILE/BLOCK_W, TILE/BLOCK_H): one work-group per tile, a block of PPW pixels per
 // work-item (below).
-// resolve and resolve_bwd: one work-item per pixel. raster_bwd: one work-item per face, which
-// visits the pixels of its bounding box and sums its own gradient in a fixed order (a gather:
-// no atomics, bit-reproducible).
+// resolve and resolve_bwd: one work-item per pixel. raster_bwd: FACE_LANES work-items per face
+// (a work-group; 1 on CPUs), which visit the pixels of its bounding box and sum its gradient in
+// a fixed order (a gather: no atomics, bit-reproducible; see raster_bwd for the lanes).
 #include "common/geometry.clh"
 #include "common/shade.clh"
 
 #ifndef TILE
 #define TILE 16        // screen tile edge in pixels (must match bin.cl)
 #endif
+#ifndef FACE_LANES
+#define FACE_LANES 1   // work-items per face in raster_bwd (a power of two)
+#endif
+#define MIN_BAND_ROWS 8  // a lane of raster_bwd walks at least this many rows of a face's box
 #ifndef PPW
 #define PPW 1          // pixels per work-item, a power of two up to 16 that divides TILE
 #endif
@@ -394,6 +398,22 @@ inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global
 // position), gface_albedo; per face
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
+#if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
+// Σ of v over the lanes of a face, added in a fixed tree order, in lane 0 (every lane calls it).
+inline real4 lanes_sum(real4 v, __local real4* sum, int lane) {
+  sum[lane] = v;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (int stride = FACE_LANES / 2; stride > 0; stride /= 2) {
+    if (lane < stride) sum[lane] += sum[lane + stride];
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  v = sum[0];
+  barrier(CLK_LOCAL_MEM_FENCE);  // before the next call writes sum again
+  return v;
+}
+#define SUM3(v) v = lanes_sum((real4)(v, 0), sum, lane).xyz
+#endif
+
 BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
                                 __global const int4* faces, __global const int4* fbbox,
                                 __global const real4* fnormal, __global const real4* albedo,
@@ -405,7 +425,11 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
                                 __global real4* gface_screen, __global real4* gface_world,
                                 __global real4* gface_albedo, __global real4* gface_light) {
-  int f = get_global_id(0);
+  // A GPU waits for a launch's longest work-item, and a face as large as the image (a ground
+  // plane) is 65536 pixels for one: with FACE_LANES > 1 the face's lanes take bands of at least
+  // MIN_BAND_ROWS rows of its box each and add their sums in a fixed order. A box of one band
+  // is walked by lane 0 alone, as with FACE_LANES = 1.
+  const int f = get_global_id(0) / FACE_LANES, lane = get_global_id(0) % FACE_LANES;
   if (f >= nf) return;
   const real gamma = P[P_GAMMA], nearz = P[P_NEAR], farz = P[P_FAR];
   const int nl = (int)P[P_NLIGHTS];
@@ -421,9 +445,11 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   gl.ambient = 0;
 
   int4 bb = fbbox[f];
+  const int rows = bb.w - bb.y + 1;
+  const int band = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
   Face F;
   if (bb.x <= bb.z) F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
-  for (int py = bb.y; py <= bb.w; ++py) {
+  for (int py = bb.y + lane * band; py <= min(bb.w, bb.y + lane * band + band - 1); ++py) {
     real reach[PPW];
     for (int px = bb.x; px <= bb.z; ++px) {
       int lane = (px - bb.x) % PPW;
@@ -472,6 +498,29 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       fragment_bwd(q, F.p, F.z, F.area, P, &fr, gu, gzf, gb, gp, gz);
     }
   }
+#if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
+  __local real4 sum[FACE_LANES];
+  if (rows > band) {  // the same for every lane of the face
+    for (int k = 0; k < 3; ++k) {
+      real4 pz = lanes_sum((real4)(gp[k], gz[k], 0), sum, lane);
+      gp[k] = pz.xy;
+      gz[k] = pz.z;
+      SUM3(gV[k]);
+      SUM3(ga[k]);
+    }
+    SUM3(gn);
+    SUM3(gl.ambient);
+    for (int l = 0; l < nl; ++l) {
+      SUM3(gl.pos[l]);
+      SUM3(gl.color[l]);
+      SUM3(gframe[l].eye);
+      SUM3(gframe[l].fwd);
+      SUM3(gframe[l].right);
+      SUM3(gframe[l].up);
+    }
+  }
+#endif
+  if (lane > 0) return;
   if (bb.x <= bb.z) {  // n = normalize(cross(V1 − V0, V2 − V0))
     real3 e1 = F.V[1] - F.V[0], e2 = F.V[2] - F.V[0];
     real len = length(cross(e1, e2));

@@ -278,6 +278,19 @@ TEST(Tuning, IllegalValuesAreRejectedWithAClearMessage) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("vector_width 3"), std::string::npos) << e.what();
   }
+  for (int lanes : {-1, 3, 512}) {
+    t = Tuning{};
+    t.raster.pixels_per_item = 1;
+    t.raster.face_lanes = lanes;
+    try {
+      validate(t, context().info());
+      FAIL() << "face_lanes " << lanes << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("face_lanes (" + std::to_string(lanes) + ")"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
@@ -302,6 +315,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   Tuning t = db.lookup(dev, w);
   EXPECT_EQ(t.source, "tuned:Exact Device 1");
   EXPECT_EQ(t.raster.tile, 32);
+  EXPECT_EQ(t.raster.face_lanes, 32);  // not in the entry: a GPU's
   EXPECT_EQ(t.exact.vector_width, 16);
   EXPECT_EQ(t.penumbra.tile, 8);
 
@@ -311,11 +325,13 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_TRUE(t.exact.clblast);
   EXPECT_EQ(t.penumbra.tile, 32);
   EXPECT_EQ(t.raster.pixels_per_item, 1);  // the heuristic's choice for a GPU
+  EXPECT_EQ(t.raster.face_lanes, 32);
 
   dev.vendor = "Nobody", dev.is_gpu = false;  // only the type matches
   t = db.lookup(dev, w);
   EXPECT_EQ(t.source, "heuristic+cpu");
   EXPECT_EQ(t.raster.pixels_per_item, 8);
+  EXPECT_EQ(t.raster.face_lanes, 1);
 
   const TuningDatabase empty = TuningDatabase::load({});
   t = empty.lookup(dev, w);

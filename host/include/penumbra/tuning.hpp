@@ -20,6 +20,8 @@ struct RasterTuning {
   int tile = 16;             // screen tile edge in pixels (binning; one work-group per tile)
   int pixels_per_item = 0;   // pixels per work-item along x; 0: 8 on CPUs, 1 on GPUs
   bool brute_force = false;  // ignore the bins: every pixel visits every face
+  int face_lanes = 0;        // work-items per face in the backward (bands of its box's rows,
+                             // summed in a fixed order); a power of two, 0: 1 on CPUs, 32 on GPUs
 };
 
 // The parameters of CLBlast's Xgemm kernel, in CLBlast's names (its tuner's documentation

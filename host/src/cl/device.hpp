@@ -19,10 +19,12 @@ struct DeviceDefaults {
   int gather_rows;        // GATHER_ROWS: a fragment's weights and tests shared by 4 rows on
                           // CPUs (soft backward 86.8 -> 73.6 ms on the bundled scene)
   bool exact_on_clblast;  // the heuristic tuning's exact backend: CLBlast on GPUs
+  int face_lanes;         // the raster backward's work-items per face: a GPU waits for its
+                          // longest work-item (bundled scene, H200: raster_bwd 23 ms with 1)
 };
 inline DeviceDefaults device_defaults(const DeviceInfo& d) {
-  if (d.is_gpu) return {1, 8, 1, true};
-  return {8, 16, 4, false};
+  if (d.is_gpu) return {1, 8, 1, true, 32};
+  return {8, 16, 4, false, 1};
 }
 
 inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }

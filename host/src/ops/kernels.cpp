@@ -18,6 +18,7 @@ const std::map<std::string, std::string>& embedded_kernels();
 Tuning for_device(Tuning t, const DeviceInfo& device) {
   if (t.raster.pixels_per_item == 0)
     t.raster.pixels_per_item = device_defaults(device).pixels_per_item;
+  if (t.raster.face_lanes == 0) t.raster.face_lanes = device_defaults(device).face_lanes;
   return t;
 }
 
@@ -31,7 +32,8 @@ std::string program_options(const std::string& file, Precision precision, const 
   if (file == "raster.cl")
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
          " -DBLOCK_W=" + std::to_string(raster_block_width(r.pixels_per_item)) +
-         " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0);
+         " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0) +
+         " -DFACE_LANES=" + std::to_string(r.face_lanes);
   if (file == "shadow.cl" || file == "pcf.cl")
     o += " -DROW=" + std::to_string(device_defaults(device).shadow_row) +
          " -DGATHER_ROWS=" + std::to_string(device_defaults(device).gather_rows);

@@ -213,7 +213,8 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
                                  f.aux,      gimage,      gdepth,     f.pix_offset,  f.pix_n,
                                  f.rec_face, f.rec_light, fgr.rec_wg, fgr.rec_lgrad, fgr.rec_lgrad2,
                                  fg.screen,  fg.world,    fg.albedo,  fg.light});
-  launch_1d(ctx, rb, g.nf, 16);
+  const int lanes = k.tuning().raster.face_lanes;  // a work-group per face when more than 1
+  launch_1d(ctx, rb, size_t(g.nf) * lanes, lanes > 1 ? lanes : 16);
   return fg;
 }
 

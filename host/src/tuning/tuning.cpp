@@ -58,6 +58,7 @@ void read_into(const json& j, Tuning& t) {
     const json& r = j.at("raster");
     get(r, "tile", t.raster.tile);
     get(r, "pixels_per_item", t.raster.pixels_per_item);
+    get(r, "face_lanes", t.raster.face_lanes);
   }
   if (j.contains("exact")) {
     const json& e = j.at("exact");
@@ -71,7 +72,10 @@ void read_into(const json& j, Tuning& t) {
 }
 
 json to_json(const Tuning& t) {
-  return {{"raster", {{"tile", t.raster.tile}, {"pixels_per_item", t.raster.pixels_per_item}}},
+  return {{"raster",
+           {{"tile", t.raster.tile},
+            {"pixels_per_item", t.raster.pixels_per_item},
+            {"face_lanes", t.raster.face_lanes}}},
           {"exact",
            {{"clblast", t.exact.clblast},
             {"vector_width", t.exact.vector_width},
@@ -169,6 +173,11 @@ void validate(const Tuning& t, const DeviceInfo& device) {
                 std::to_string(r.pixels_per_item) + " pixel(s) per work-item needs " +
                 std::to_string(group) + " work-items per group; device '" + device.name +
                 "' allows " + std::to_string(device.max_work_group));
+  if (r.face_lanes < 0 || (r.face_lanes & (r.face_lanes - 1)) || size_t(r.face_lanes) > 256 ||
+      size_t(r.face_lanes) > device.max_work_group)
+    throw Error("raster tuning: face_lanes (" + std::to_string(r.face_lanes) +
+                ") must be 0 (the device's default) or a power of two up to 256 and to the " +
+                "device's work-group size (" + std::to_string(device.max_work_group) + ")");
   const int vw = t.exact.vector_width;
   if (!(vw == 1 || vw == 2 || vw == 4 || vw == 8 || vw == 16) || t.exact.row_block < 1 ||
       t.exact.row_block > 8)
@@ -225,6 +234,7 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   t.source = "heuristic";
   const detail::DeviceDefaults defaults = detail::device_defaults(device);
   t.raster.pixels_per_item = defaults.pixels_per_item;
+  t.raster.face_lanes = defaults.face_lanes;
   // Cost of a tile size T: (pixel, face) pairs visited, each face touching the pixels of every
   // tile its box overlaps, plus a fixed cost per (tile, face) entry of the bins.
   const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
@@ -333,6 +343,8 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& wor
   if (const Tuning* t = find(device_key(device))) {
     Tuning out = *t;
     out.source = "tuned:" + device_key(device);
+    if (out.raster.face_lanes < 1)
+      out.raster.face_lanes = detail::device_defaults(device).face_lanes;
     try {
       validate(out, device);
       return out;
@@ -348,6 +360,7 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& wor
       out = *t;
       out.raster.tile = raster.tile;
       if (out.raster.pixels_per_item < 1) out.raster.pixels_per_item = raster.pixels_per_item;
+      if (out.raster.face_lanes < 1) out.raster.face_lanes = raster.face_lanes;
       out.source = "heuristic+" + key;
       break;
     }
