@@ -30,7 +30,7 @@
 // work-item (below).
 // resolve and resolve_bwd: one work-item per pixel. raster_bwd: FACE_LANES work-items per face
 // (a work-group; 1 on CPUs), which visit the pixels of its bounding box and sum its gradient in
-// a fixed order (a gather: no atomics, bit-reproducible; see raster_bwd for the lanes).
+// a fixed order (a gather: no atomics, bit-reproducible; see raster_bwd for its bands).
 #include "common/geometry.clh"
 #include "common/shade.clh"
 
@@ -40,7 +40,7 @@
 #ifndef FACE_LANES
 #define FACE_LANES 1   // work-items per face in raster_bwd (a power of two)
 #endif
-#define MIN_BAND_ROWS 8  // a lane of raster_bwd walks at least this many rows of a face's box
+#define MIN_BAND_ROWS 8  // a work-item of raster_bwd walks at least this many rows of a box
 #ifndef PPW
 #define PPW 1          // pixels per work-item, a power of two up to 16 that divides TILE
 #endif
@@ -83,94 +83,7 @@ inline int depth_in_range(real z, __global const real* P) {
 }
 
 #include "common/lanes.clh"
-
-// count and fragments give each work-item a block of BLOCK_W × BLOCK_H = PPW pixels, lane l at
-// column l % BLOCK_W and row l / BLOCK_W of it (the host's raster_block_width: 1×1, 2×1, 2×2,
-// 4×2, 4×4): the small faces of a dense mesh leave fewer lanes of a square block idle than of
-// a row.
-#define BLOCK_H (PPW / BLOCK_W)
-
-// The lanes' pixel centres (pixel_centre: the numerators are exact integers, so each lane
-// rounds as the scalar does) and which lanes lie inside the image.
-inline realP block_lanes(int px0, int py0, int W, int H, realP* qy, maskP* valid) {
-  realP lane = VLOADP(0, lane_offsets), row = floor(lane / BLOCK_W), col = lane - BLOCK_W * row;
-  *qy = ((real)(H - 2 * py0 - 1) - 2 * row) / H;
-  *valid = (real)px0 + col < (real)W && (real)py0 + row < (real)H;
-  return ((real)(2 * px0 + 1 - W) + 2 * col) / H;
-}
-// The image index of lane j's pixel, clamped into the image.
-inline int block_pixel(int px0, int py0, int j, int W, int H) {
-  return min(py0 + j / BLOCK_W, H - 1) * W + min(px0 + j % BLOCK_W, W - 1);
-}
-inline int block_lane_inside(int px0, int py0, int j, int W, int H) {
-  return px0 + j % BLOCK_W < W && py0 + j / BLOCK_W < H;
-}
-
-// The faces a work-item visits: its tile's list, or every face.
-#if BRUTE_FORCE
-#define FACE_LIST_BEGIN(px0, py) int list_count = nf;
-#define FACE_AT(i) (i)
-#else
-#define FACE_LIST_BEGIN(px0, py)                              \
-  int list_tile = ((px0) / TILE) + ((py) / TILE) * tiles_x;   \
-  int list_begin = tile_offsets[list_tile], list_count = tile_counts[list_tile];
-#define FACE_AT(i) tile_faces[list_begin + (i)]
-#endif
-#define TILE_ARGS                                                                     \
-  int tiles_x, __global const int *tile_offsets, __global const int *tile_counts,     \
-      __global const int *tile_faces
-
-// The lanes of one face (a `continue` when it covers none): `covered`, `in_range` (covered,
-// view depth within [near, far]), the coverage logit u, log D, depth zq and normalised z̃ (zt),
-// the perspective-correct barycentrics b.
-#define LANES_OF_FACE(f)                                                                  \
-  int4 bb = fbbox[f];                                                                     \
-  if (py0 + BLOCK_H - 1 < bb.y || py0 > bb.w || px0 + BLOCK_W - 1 < bb.x || px0 > bb.z)   \
-    continue;                                                                             \
-  ScreenFace sf = load_screen_face(f, vscreen, faces, fnormal);                           \
-  realP w[3], d2, b[3];                                                                   \
-  maskP inside;                                                                           \
-  maskP covered = lanes_shape(qx, qy, sf.p, sf.area, P, w, &d2, &inside) && valid;        \
-  if (!ANY(covered)) continue;                                                            \
-  realP u = (inside ? d2 : -d2) / P[P_SIGMA];                                             \
-  realP log1p_e = lanes_log1p_exp_neg_abs(u);                                             \
-  realP log_D = -(fmax(-u, R(0)) + log1p_e);                                              \
-  realP zq = lanes_depth(w, sf.z, P, b);                                                  \
-  maskP in_range = covered && zq >= P[P_NEAR] && zq <= P[P_FAR];                          \
-  realP zt = (P[P_FAR] - zq) / (P[P_FAR] - P[P_NEAR]);
-
-// count and fragments run one work-group per tile; the attribute only where they are kernels.
-#ifdef BACKWARD_KERNELS
-#define TILE_GROUP
-#else
-#define TILE_GROUP __attribute__((reqd_work_group_size(TILE / BLOCK_W, TILE / BLOCK_H, 1)))
-#endif
-
-// raster_count also notes, per block of PPW pixels, which entries of its tile's face list counted
-// a fragment at any of its pixels: a bit per entry, 64 entries per word. Only those can hold
-// kept fragments, so raster_fragments visits them alone, in list order, testing no other face.
-// Tile t's words start at word tile_offsets[t]/64 + t (room for its ceil(count/64) words
-// however its list is aligned); each word holds one range of 64 entries for every block of the
-// tile, TILE_BLOCKS apart. The brute-force path keeps no bits and visits every face.
-#define TILE_BLOCKS (TILE * TILE / PPW)
-#if BRUTE_FORCE
-#define BLOCK_HITS_BEGIN(block_hits) (block_hits)
-#else
-#define BLOCK_HITS_BEGIN(block_hits)                                    \
-  ((block_hits) + (size_t)(list_begin / 64 + list_tile) * TILE_BLOCKS + \
-   get_local_id(1) * (TILE / BLOCK_W) + get_local_id(0))
-#endif
-#define HIT_WORD(hits, i0) (hits)[(size_t)((i0) / 64) * TILE_BLOCKS]
-
-// The first entry after i whose bit is set, list_count when none.
-inline int next_hit(__global const ulong* hits, int i, int list_count) {
-  if (BRUTE_FORCE) return i + 1;
-  for (int i0 = (i + 1) & ~63; i0 < list_count; i0 += 64) {
-    ulong w = HIT_WORD(hits, i0) & (~(ulong)0 << max(i + 1 - i0, 0));
-    if (w != 0) return i0 + 63 - (int)clz(w & (~w + 1));  // its lowest bit (1.2 has no ctz)
-  }
-  return list_count;
-}
+#include "common/raster_tiles.clh"
 
 FORWARD_KERNEL TILE_GROUP
 void raster_count(__global const real4* vscreen, __global const int4* faces,
@@ -399,19 +312,21 @@ inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
 #if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
-// Σ of v over the lanes of a face, added in a fixed tree order, in lane 0 (every lane calls it).
-inline real4 lanes_sum(real4 v, __local real4* sum, int lane) {
-  sum[lane] = v;
+// Σ of v over the work-items of a face, added in a fixed tree order (every one calls it).
+inline real4 face_sum(real4 v, __local real4* sum, int band) {
+  sum[band] = v;
   barrier(CLK_LOCAL_MEM_FENCE);
   for (int stride = FACE_LANES / 2; stride > 0; stride /= 2) {
-    if (lane < stride) sum[lane] += sum[lane + stride];
+    if (band < stride) sum[band] += sum[band + stride];
     barrier(CLK_LOCAL_MEM_FENCE);
   }
   v = sum[0];
   barrier(CLK_LOCAL_MEM_FENCE);  // before the next call writes sum again
   return v;
 }
-#define SUM3(v) v = lanes_sum((real4)(v, 0), sum, lane).xyz
+inline real3 face_sum3(real3 v, __local real4* sum, int band) {
+  return face_sum((real4)(v, 0), sum, band).xyz;
+}
 #endif
 
 BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
@@ -428,8 +343,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   // A GPU waits for a launch's longest work-item, and a face as large as the image (a ground
   // plane) is 65536 pixels for one: with FACE_LANES > 1 the face's lanes take bands of at least
   // MIN_BAND_ROWS rows of its box each and add their sums in a fixed order. A box of one band
-  // is walked by lane 0 alone, as with FACE_LANES = 1.
-  const int f = get_global_id(0) / FACE_LANES, lane = get_global_id(0) % FACE_LANES;
+  // is walked by the face's first work-item alone, as with FACE_LANES = 1.
+  const int f = get_global_id(0) / FACE_LANES, band = get_global_id(0) % FACE_LANES;
   if (f >= nf) return;
   const real gamma = P[P_GAMMA], nearz = P[P_NEAR], farz = P[P_FAR];
   const int nl = (int)P[P_NLIGHTS];
@@ -446,10 +361,11 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
 
   int4 bb = fbbox[f];
   const int rows = bb.w - bb.y + 1;
-  const int band = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
+  const int band_rows = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
+  const int y0 = bb.y + band * band_rows, y1 = min(bb.w, y0 + band_rows - 1);
   Face F;
   if (bb.x <= bb.z) F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
-  for (int py = bb.y + lane * band; py <= min(bb.w, bb.y + lane * band + band - 1); ++py) {
+  for (int py = y0; py <= y1; ++py) {
     real reach[PPW];
     for (int px = bb.x; px <= bb.z; ++px) {
       int lane = (px - bb.x) % PPW;
@@ -500,27 +416,27 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   }
 #if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
   __local real4 sum[FACE_LANES];
-  if (rows > band) {  // the same for every lane of the face
+  if (rows > band_rows) {  // the same for every work-item of the face
     for (int k = 0; k < 3; ++k) {
-      real4 pz = lanes_sum((real4)(gp[k], gz[k], 0), sum, lane);
+      real4 pz = face_sum((real4)(gp[k], gz[k], 0), sum, band);
       gp[k] = pz.xy;
       gz[k] = pz.z;
-      SUM3(gV[k]);
-      SUM3(ga[k]);
+      gV[k] = face_sum3(gV[k], sum, band);
+      ga[k] = face_sum3(ga[k], sum, band);
     }
-    SUM3(gn);
-    SUM3(gl.ambient);
+    gn = face_sum3(gn, sum, band);
+    gl.ambient = face_sum3(gl.ambient, sum, band);
     for (int l = 0; l < nl; ++l) {
-      SUM3(gl.pos[l]);
-      SUM3(gl.color[l]);
-      SUM3(gframe[l].eye);
-      SUM3(gframe[l].fwd);
-      SUM3(gframe[l].right);
-      SUM3(gframe[l].up);
+      gl.pos[l] = face_sum3(gl.pos[l], sum, band);
+      gl.color[l] = face_sum3(gl.color[l], sum, band);
+      gframe[l].eye = face_sum3(gframe[l].eye, sum, band);
+      gframe[l].fwd = face_sum3(gframe[l].fwd, sum, band);
+      gframe[l].right = face_sum3(gframe[l].right, sum, band);
+      gframe[l].up = face_sum3(gframe[l].up, sum, band);
     }
   }
 #endif
-  if (lane > 0) return;
+  if (band > 0) return;
   if (bb.x <= bb.z) {  // n = normalize(cross(V1 − V0, V2 − V0))
     real3 e1 = F.V[1] - F.V[0], e2 = F.V[2] - F.V[0];
     real len = length(cross(e1, e2));

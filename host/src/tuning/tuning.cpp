@@ -12,6 +12,7 @@
 
 #include "cl/device.hpp"
 #include "io/text.hpp"
+#include "ops/ops.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/scene.hpp"
@@ -341,10 +342,8 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& wor
   };
   // A tuned entry for this very device decides everything.
   if (const Tuning* t = find(device_key(device))) {
-    Tuning out = *t;
+    Tuning out = detail::for_device(*t, device);  // fields the entry leaves at 0
     out.source = "tuned:" + device_key(device);
-    if (out.raster.face_lanes < 1)
-      out.raster.face_lanes = detail::device_defaults(device).face_lanes;
     try {
       validate(out, device);
       return out;
@@ -357,10 +356,8 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& wor
   const RasterTuning raster = out.raster;
   for (const std::string& key : {class_key(device), std::string(type_key(device))})
     if (const Tuning* t = find(key)) {
-      out = *t;
+      out = detail::for_device(*t, device);
       out.raster.tile = raster.tile;
-      if (out.raster.pixels_per_item < 1) out.raster.pixels_per_item = raster.pixels_per_item;
-      if (out.raster.face_lanes < 1) out.raster.face_lanes = raster.face_lanes;
       out.source = "heuristic+" + key;
       break;
     }
