@@ -15,6 +15,10 @@
 //         lateral distance over depth), w = D_L·k·(d − z_b) (directional: D_L an angle)
 //   σ   = min(σ_s + w²/16, σ_b)             a disc of diameter w has variance w²/16 per axis
 // so the penumbra straddles the hard edge with the width a sphere light of diameter D_L casts.
+// The search sums over every st-th texel of each axis (st the light's L_SEARCH_STRIDE: its
+// Gaussian's standard deviation spans two strides or more), texels (st·I, st·J): a copy of
+// them, the search map (Sb, Ab: Wb × Hb), is made by pcf_search_map, where a receiver has
+// μ/st, slope st·∇_μ d and the search variance σ_b/st² (search_receiver).
 // Truncated sampling cuts each Gaussian at ε_λ (g' = max(0, g − ε_λ)); exact (EXACT) sums
 // g over the whole map.
 // Buffers (K fragments, nl lights, this light l):
@@ -24,8 +28,9 @@
 //   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
+//   Sb, Ab      Wb·Hb × real: the search map
 // Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of
-// GATHER_ROWS rows (pcf_gather).
+// GATHER_ROWS rows (pcf_gather), one per texel of the search map (pcf_search_map).
 #include "common/window.clh"
 
 #define PCF_KAPPA RL(1e-3)
@@ -88,16 +93,19 @@ inline real window_eps(__global const real* P, int search) {
   return sampling_eps(search ? PCF_SEARCH_EPS : P[P_LAMBDA_EPS]);
 }
 
-// The window of the Gaussian of variance `sigma` cut at `eps` around μ (empty outside the map).
-inline Window pcf_window(real2 mu, real sigma, real eps, int Wm, int Hm) {
-  return sampling_window(mu, sqrt(2 * sigma * log(1 / eps)), eps, Wm, Hm);
+// The radius of the window of the Gaussian of variance `sigma` cut at `eps`.
+inline real window_radius(real sigma, real eps) { return sqrt(2 * sigma * log(1 / eps)); }
+
+// The filter's window of variance `sigma` around μ (empty outside the map).
+inline Window filter_window(real2 mu, real sigma, __global const real* P, int Wm, int Hm) {
+  real eps = window_eps(P, 0);
+  return sampling_window(mu, window_radius(sigma, eps), eps, Wm, Hm);
 }
 
-// Σ w, Σ w·c, Σ w·S, Σ w·c·S over the window of variance `sigma` (w = g'), of the filter or
-// of the blocker `search`.
-inline real4 window_sums(Receiver x, real sigma, int search, __global const real* P,
-                         __global const real* S, __global const real* A, int Wm, int Hm) {
-  Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
+// Σ w, Σ w·c, Σ w·S, Σ w·c·S over window w of a map S, A (rows of Wm texels) for the Gaussian
+// of variance `sigma` around x (w = g').
+inline real4 window_sums(Window w, Receiver x, real sigma, __global const real* P,
+                         __global const real* S, __global const real* A, int Wm) {
   realR sw = 0, swc = 0, sws = 0, swcs = 0, dc, step;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
@@ -118,17 +126,52 @@ inline real4 window_sums(Receiver x, real sigma, int search, __global const real
   return (real4)(hsumR(sw), hsumR(swc), hsumR(sws), hsumR(swcs));
 }
 
-// The light's soft-shadow constants: D_L, k (texels per lateral unit over depth), σ_b, ortho.
+// The light's soft-shadow constants: D_L, k (texels per lateral unit over depth), σ_b, ortho,
+// the search's stride st.
 typedef struct {
   real size, k, sigma_b;
-  int ortho;
+  int ortho, stride;
 } LightDisc;
 
 inline LightDisc light_disc(__global const real* P, int light) {
   int at = P_LIGHTS + light * P_LIGHT_STRIDE;
   LightDisc L = {P[at + L_SIZE], P[at + L_MAP_H] / (2 * P[at + L_FRAME + FR_SCALE]),
-                 P[at + L_SEARCH_SIGMA], P[at + L_FRAME + FR_ORTHO] > 0};
+                 P[at + L_SEARCH_SIGMA], P[at + L_FRAME + FR_ORTHO] > 0,
+                 (int)P[at + L_SEARCH_STRIDE]};
   return L;
+}
+
+// The search map's texel (I, J): the map's (st·I, st·J).
+FORWARD_KERNEL void pcf_search_map(int Wm, __global const real* S, __global const real* A, int st,
+                                   __global real* Sb, __global real* Ab, int Wb, int Hb) {
+  int t = get_global_id(0);
+  if (t >= Wb * Hb) return;
+  int at = (t / Wb) * st * Wm + (t % Wb) * st;
+  Sb[t] = S[at];
+  Ab[t] = A[at];
+}
+
+// Receiver x as the search map sees it.
+inline Receiver search_receiver(Receiver x, LightDisc L) {
+  Receiver r = {x.mu / L.stride, x.d, x.grad * L.stride};
+  return r;
+}
+
+// The search's window in the search map (empty where μ lies outside the map).
+inline Window search_window(Receiver x, LightDisc L, __global const real* P, int Wm, int Hm,
+                            int Wb, int Hb) {
+  Window none = {1, 1, 0, 0, 0};
+  real eps = window_eps(P, 1), st = L.stride;
+  if (!inside_map(x.mu, Wm, Hm)) return none;
+  return clipped_window(x.mu / st, window_radius(L.sigma_b, eps) / st, eps, Wb, Hb);
+}
+
+// The search's sums (Σh', Σh'c, Σh'S, Σh'cS) over the search map.
+inline real4 search_sums(Receiver x, LightDisc L, __global const real* P,
+                         __global const real* Sb, __global const real* Ab, int Wm, int Hm,
+                         int Wb, int Hb) {
+  return window_sums(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
+                     L.sigma_b / (L.stride * L.stride), P, Sb, Ab, Wb);
 }
 
 // Penumbra width w (texels) for blocker depth zb and receiver depth d, with ∂w/∂zb, ∂w/∂d and
@@ -162,6 +205,7 @@ inline real blocker_depth(real4 sums, real d, real* V) {
 
 FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                __global const real* S, __global const real* A,
+                               __global const real* Sb, __global const real* Ab, int Wb, int Hb,
                                __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
@@ -170,11 +214,11 @@ FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int 
   real sigma = P[P_SIGMA_S], zb = x.d, V, dzb, dd, dsize, dw;
   if (soft_mode(P)) {
     LightDisc L = light_disc(P, light);
-    zb = blocker_depth(window_sums(x, L.sigma_b, 1, P, S, A, Wm, Hm), x.d, &V);
+    zb = blocker_depth(search_sums(x, L, P, Sb, Ab, Wm, Hm, Wb, Hb), x.d, &V);
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
   }
-  real4 f = window_sums(x, sigma, 0, P, S, A, Wm, Hm);
+  real4 f = window_sums(filter_window(x.mu, sigma, P, Wm, Hm), x, sigma, P, S, A, Wm);
   rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
   rec_light2[at].zw = (real2)(sigma, zb);
 }
@@ -189,10 +233,9 @@ typedef struct {
   real q, r2, w, wo;
 } Moments;
 
-inline Moments window_moments(Receiver x, real sigma, int search, real ref,
+inline Moments window_moments(Window w, Receiver x, real sigma, int search, real ref,
                               __global const real* P, __global const real* S,
-                              __global const real* A, int Wm, int Hm) {
-  Window w = pcf_window(x.mu, sigma, window_eps(P, search), Wm, Hm);
+                              __global const real* A, int Wm) {
   realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc, step;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
@@ -222,10 +265,24 @@ inline Moments window_moments(Receiver x, real sigma, int search, real ref,
   return m;
 }
 
+// The search's moments over the search map, in the map's texels: .mu (Σ over offsets / σ_b)
+// and .qoff (Σ over offsets) scale with the stride.
+inline Moments search_moments(Receiver x, LightDisc L, real zb, __global const real* P,
+                              __global const real* Sb, __global const real* Ab, int Wm, int Hm,
+                              int Wb, int Hb) {
+  real st = L.stride;
+  Moments m = window_moments(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
+                             L.sigma_b / (st * st), 1, zb, P, Sb, Ab, Wb);
+  m.mu /= st;
+  m.qoff *= st;
+  return m;
+}
+
 // Backward per fragment: dL/dμ, dL/dd, dL/d∇_μ d, dL/dD_L, and the scales the gather needs.
 BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
                                     int Hm, __global const real* S, __global const real* A,
-                                    __global const real4* rec_light,
+                                    __global const real* Sb, __global const real* Ab, int Wb,
+                                    int Hb, __global const real4* rec_light,
                                     __global const real4* rec_light2, __global real4* rec_lgrad,
                                     __global real4* rec_lgrad2) {
   int r = get_global_id(0);
@@ -236,7 +293,8 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   // Through the filter, σ held: s = Σ w·c / Σ w. Nothing to do where dL/ds = 0 (a fragment
   // unlit from this light, or outside the loss): every gradient is 0.
   Moments f;
-  if (G != 0) f = window_moments(x, sigma, 0, s, P, S, A, Wm, Hm);
+  if (G != 0)
+    f = window_moments(filter_window(x.mu, sigma, P, Wm, Hm), x, sigma, 0, s, P, S, A, Wm);
   if (G == 0 || !(f.w > 0)) {
     rec_lgrad[at] = 0;
     rec_lgrad2[at] = 0;
@@ -255,7 +313,7 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
     gd += gw * dd;
     real gzb = gw * dzb;
     Moments b;
-    if (gzb != 0) b = window_moments(x, L.sigma_b, 1, zb, P, S, A, Wm, Hm);
+    if (gzb != 0) b = search_moments(x, L, zb, P, Sb, Ab, Wm, Hm, Wb, Hb);
     real V = gzb != 0 ? b.wo + PCF_KAPPA * b.w : 0;  // blocker_depth's denominator
     if (V > 0) {
       gzb_v = gzb / V;
@@ -284,7 +342,10 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0), soft = soft_mode(P);
-  const real sigma_b = light_disc(P, light).sigma_b;
+  const LightDisc L = light_disc(P, light);
+  const real sigma_b = L.sigma_b;
+  // The search sums over texels (st·I, st·J) only (the search map's).
+  const realR on_grid = select((realR)0, (realR)1, fmod((real)i0 + LANER, (real)L.stride) == 0);
   realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS], dc, step;
   for (int t = 0; t < rows; ++t) {
     Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
@@ -305,7 +366,7 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
     const int search = soft && b != 0;
     if (a == 0 && !search) continue;  // adds nothing (unlit from this light, or outside the loss)
     realR offx = (real)i0 + LANER - x.mu.x, gx = axis_weight(offx, sigma), hx = 0;
-    if (search) hx = axis_weight(offx, sigma_b);
+    if (search) hx = on_grid * axis_weight(offx, sigma_b);
     for (int t = 0; t < rows; ++t) {
       real offy = j0 + t - x.mu.y;
       if (!(offy * offy < r2)) continue;
@@ -313,7 +374,7 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
       realR g = fmax(gx * axis_weight(offy, sigma) - eps, (realR)0);
       acc[t] -= a * g * dc;
       accA[t] -= a * g * step;
-      if (search) {
+      if (search && (j0 + t) % L.stride == 0) {
         realR h = fmax(hx * axis_weight(offy, sigma_b) - eps_b, (realR)0);
         acc[t] += b * h * ((1 - lit) + (Sv[t] - zb) * dc);
         accA[t] += b * h * step * (Sv[t] - zb);

@@ -12,11 +12,13 @@
 //                     the ground stays that of the hard shadow) and widens with D_L
 //   PcfFrustum.*      the fitted frustum is tight around the occluder; a ground under everything
 //                     casts no shadow
+//   PcfSearch.*       the blocker search's stride, and the scenes above search with strides > 1
 //   PcfGemm.*         gemm sampling is refused for the accurate model
 //   PcfDeterminism.*  two backward calls give bit-identical gradients
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <string>
@@ -37,10 +39,12 @@ using glm::dvec3;
 using namespace penumbra;
 using namespace penumbra_tests;
 
-enum class Layout { Point, Directional, Two };
+enum class Layout { Point, Directional, Two, Wide };
+constexpr Layout kLayouts[] = {Layout::Point, Layout::Directional, Layout::Two, Layout::Wide};
 
 // An icosphere of radius 0.5 centred 1.0 above a 4×4 ground grid over [−2, 2]², with lights of
-// size comparable to the occluder's diameter; accurate model, 32² maps (shadow_params).
+// size comparable to the occluder's diameter, or (Wide) five times it over a 64² map, whose
+// blocker search takes every second texel; accurate model, 32² maps (shadow_params).
 Scene pcf_scene(Layout layout, Shadows shadows, Sampling sampling) {
   Scene s;
   s.meshes = {icosphere({0.0, 1.0, 0.0}, 0.5), ground(2.0, 4)};
@@ -48,6 +52,9 @@ Scene pcf_scene(Layout layout, Shadows shadows, Sampling sampling) {
   switch (layout) {
     case Layout::Point:
       s.lights = {point_light({0.9, 5.0, 0.7}, {0.9, 0.85, 0.8}, 1.0)};
+      break;
+    case Layout::Wide:
+      s.lights = {point_light({0.9, 5.0, 0.7}, {0.9, 0.85, 0.8}, 2.5)};
       break;
     case Layout::Directional:
       s.lights = {directional_light({-0.35, -1.0, -0.25}, {0.85, 0.9, 0.8}, 0.15)};
@@ -58,13 +65,24 @@ Scene pcf_scene(Layout layout, Shadows shadows, Sampling sampling) {
       break;
   }
   shadow_params(s, shadows, sampling, ShadowModel::Accurate);
+  if (layout == Layout::Wide) s.params.shadow_map_size = 64;
   fit_light_frusta(s);
   return s;
 }
 
 const char* name_of(Shadows s) { return s == Shadows::Hard ? "hard" : "soft"; }
 const char* name_of(Layout l) {
-  return l == Layout::Point ? "point" : l == Layout::Directional ? "directional" : "two lights";
+  switch (l) {
+    case Layout::Point:
+      return "point";
+    case Layout::Directional:
+      return "directional";
+    case Layout::Two:
+      return "two lights";
+    case Layout::Wide:
+      return "wide point";
+  }
+  return "?";
 }
 
 using Case = std::tuple<Shadows, Sampling>;
@@ -86,7 +104,7 @@ TEST_P(PcfCase, KernelsMatchReference) {
   const auto [shadows, sampling] = GetParam();
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
-    for (Layout layout : {Layout::Point, Layout::Directional, Layout::Two}) {
+    for (Layout layout : kLayouts) {
       const Scene scene = pcf_scene(layout, shadows, sampling);
       const Tolerance tol = precision == Precision::Double ? kDoubleTol : kFloatTol;
       const std::string tag =
@@ -101,7 +119,7 @@ TEST_P(PcfCase, GradCheckDouble) {
   REQUIRE_CONTEXT(ctx);
   const auto [shadows, sampling] = GetParam();
   Renderer& r = shared_renderer(*ctx, Precision::Double);
-  for (Layout layout : {Layout::Point, Layout::Directional, Layout::Two}) {
+  for (Layout layout : kLayouts) {
     const Scene scene = pcf_scene(layout, shadows, sampling);
     GradCheckOptions options;
     options.samples = sampling == Sampling::Exact ? 20 : 30;
@@ -239,6 +257,24 @@ TEST(PcfFrustum, TightAroundWhatCastsShadows) {
   flat_paper.meshes.erase(flat_paper.meshes.begin());
   refit_light_frusta(flat_paper);
   EXPECT_NEAR(flat.lights[0].frustum.fov_deg, flat_paper.lights[0].frustum.fov_deg, 1e-9);
+}
+
+// The search's Gaussian spans two strides per standard deviation. The soft cases above compare
+// with the reference and finite differences at strides above 1 (pcf_search_map, the strided
+// gather), and at 1.
+TEST(PcfSearch, StrideSpansTheGaussian) {
+  EXPECT_EQ(blocker_search_stride(0.5), 1);
+  EXPECT_EQ(blocker_search_stride(15.9), 1);
+  EXPECT_EQ(blocker_search_stride(16), 2);
+  EXPECT_EQ(blocker_search_stride(49.75), 3);
+  std::vector<int> strides;
+  for (Layout layout : kLayouts) {
+    const Scene scene = pcf_scene(layout, Shadows::Soft, Sampling::Truncated);
+    for (const Light& l : scene.lights)
+      strides.push_back(blocker_search_stride(blocker_search_sigma(scene.params, l)));
+  }
+  EXPECT_GT(*std::max_element(strides.begin(), strides.end()), 1);
+  EXPECT_EQ(*std::min_element(strides.begin(), strides.end()), 1);
 }
 
 TEST(PcfGemm, Refused) {

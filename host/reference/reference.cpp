@@ -276,9 +276,10 @@ double lit_step(double delta, double A, const RenderParams& p) {
   return 1 - A * t * t * (3 - 2 * t);
 }
 
-// Σw, Σw·c, Σw·S, Σw·c·S over the Gaussian window of variance `sigma` around μ.
+// Σw, Σw·c, Σw·S, Σw·c·S over the Gaussian window of variance `sigma` around μ, at every
+// `stride`-th texel of each axis.
 std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec2 mu, double d,
-                               dvec2 grad, double sigma, double cut) {
+                               dvec2 grad, double sigma, double cut, int stride = 1) {
   const int Ws = map.S.width, Hs = map.S.height;
   int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
   double eps = 0.0;
@@ -293,6 +294,7 @@ std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec
   std::array<double, 4> sums{};
   for (int j = j0; j <= j1; ++j)
     for (int i = i0; i <= i1; ++i) {
+      if (i % stride != 0 || j % stride != 0) continue;
       const double dx = i - mu.x, dy = j - mu.y;
       const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * sigma)) - eps;
       if (!(g > 0.0)) continue;
@@ -322,7 +324,8 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   double sigma = shadow_sigma_s(p);
   if (p.shadows == Shadows::Soft) {
     const double sigma_b = blocker_search_sigma(p, light);
-    const auto b = pcf_sums(map, p, mu, d, grad, sigma_b, 0.05);  // the search's cut
+    const auto b = pcf_sums(map, p, mu, d, grad, sigma_b, 0.05,  // the search's cut and stride
+                            blocker_search_stride(sigma_b));
     const double kappa = 1e-3 * b[0], V = b[0] - b[1] + kappa;
     const double zb = V > 0 ? (b[2] - b[3] + kappa * d) / V : d;
     const double w = light.size * k * std::max(0.0, ortho ? d - zb : 1 / zb - 1 / d);

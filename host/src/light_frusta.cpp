@@ -179,6 +179,10 @@ double blocker_search_sigma(const RenderParams& p, const Light& light) {
   return search_sigma_from(p, light, light.frustum.near);
 }
 
+int blocker_search_stride(double sigma_b) {
+  return std::max(1, int(std::floor(std::sqrt(sigma_b) / 2)));
+}
+
 void refit_light_frusta(Scene& scene) {
   for (Light& l : scene.lights)
     if (l.frustum.automatic) l.frustum.fitted = false;

@@ -78,6 +78,8 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
         p.shadow_model == ShadowModel::Accurate ? kCasterFragmentsPerTexel : kFragmentsPerTexel);
     if (p.shadows == Shadows::Soft && p.shadow_model == ShadowModel::Paper)
       bytes += z.nf * 16 + texels * 3 * z.rs;  // the penumbra map P and its sums
+    else if (p.shadows == Shadows::Soft)
+      bytes += texels / 2 * z.rs;  // the search map: S and A at a stride of 2 or more (pcf.cpp)
     if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
     if (!sampling_method(p.sampling).windowed && p.shadows == Shadows::Hard &&
         p.shadow_model == ShadowModel::Paper) {

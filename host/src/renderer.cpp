@@ -121,7 +121,9 @@ RenderOutput Renderer::Impl::camera_pass(int camera) {
     stage("shadow lookups");
     const detail::LightMaps maps = light_passes[l].maps();
     if (scene.params.shadow_model == ShadowModel::Accurate)
-      detail::pcf_forward(kernels, scene.params.sampling, cp.view, cp.fragments, int(l), maps);
+      detail::pcf_forward(kernels, scene.params,
+                          blocker_search_sigma(scene.params, scene.lights[l]), cp.view,
+                          cp.fragments, int(l), maps);
     else
       detail::shadow_forward(kernels, scene.params, cp.view, cp.fragments, int(l), maps);
   }

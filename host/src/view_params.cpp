@@ -129,6 +129,7 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
     put_frame(P, at + L_FRAME, light_frame(L));
     P[at + L_MAP_W] = P[at + L_MAP_H] = s.params.shadow_map_size;
     P[at + L_SEARCH_SIGMA] = blocker_search_sigma(s.params, L);
+    P[at + L_SEARCH_STRIDE] = blocker_search_stride(P[at + L_SEARCH_SIGMA]);
   }
   return P;
 }

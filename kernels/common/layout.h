@@ -50,6 +50,7 @@
 #define L_MAP_W 22       /*   shadow-map size in texels */
 #define L_MAP_H 23
 #define L_SEARCH_SIGMA 24 /*   accurate soft shadows: variance σ_b (texel²) of the blocker search */
+#define L_SEARCH_STRIDE 25 /*   its stride st: it sums over every st-th texel of each axis */
 #define P_LIGHT_STRIDE 32
 #define P_MAX_LIGHTS 4
 #define P_SIZE (P_LIGHTS + P_LIGHT_STRIDE * P_MAX_LIGHTS)

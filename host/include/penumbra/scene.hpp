@@ -208,6 +208,9 @@ void fit_light_frusta(Scene& scene);
 // otherwise): wide enough for the widest penumbra its fitted frustum can hold, the nearest
 // depth over the farthest, capped at a window of half the map.
 double blocker_search_sigma(const RenderParams& p, const Light& light);
+// The blocker search's stride for variance σ_b: it sums over every stride-th texel of each axis,
+// the largest stride that its Gaussian's standard deviation spans twice (1 for σ_b < 16).
+int blocker_search_stride(double sigma_b);
 
 // Fits again the frusta fit_light_frusta fitted (after render parameters changed).
 void refit_light_frusta(Scene& scene);

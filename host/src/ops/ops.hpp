@@ -236,10 +236,10 @@ Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, int light, int
 // The accurate model (pcf.cl): shadow terms of every fragment of `v` for `light` by
 // percentage-closer filtering of the light's shadow map (a blocker search first for soft
 // shadows).
-void pcf_forward(Kernels& k, Sampling sampling, const View& v, Fragments& f, int light,
-                 const LightMaps& m);
+void pcf_forward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
+                 Fragments& f, int light, const LightMaps& m);
 // Completes fgr.rec_lgrad (and rec_lgrad2) for `light`, returns dL/dS and dL/dA and adds
-// dL/dD_L to *gsize (soft shadows).
+// dL/dD_L to *gsize (soft shadows). search_sigma: blocker_search_sigma of the light.
 MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
                       const Fragments& f, FragmentGrads& fgr, int light, const LightMaps& m,
                       double* gsize);

@@ -11,12 +11,32 @@ namespace {
 
 constexpr double kSearchEps = 0.05;  // PCF_SEARCH_EPS of pcf.cl
 
+// The blocker search's texels of a light's map: every stride-th of each axis (pcf.cl's search
+// map); the map itself at stride 1 or where there is no search (hard shadows).
+struct SearchMap {
+  cl::Buffer S, A;
+  cl_int W, H;
+  auto fields() const { return std::tie(S, A, W, H); }
+};
+
+struct PcfSearchMapArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_search_map";
+  cl_int Wm;
+  const cl::Buffer &S, &A;
+  cl_int stride;
+  const SearchMap& out;
+  auto fields() const { return std::tie(Wm, S, A, stride, out); }
+};
+
 struct PcfSampleArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_sample";
   MapLookup at;
-  const cl::Buffer &S, &A, &rec_light, &rec_light2;
-  auto fields() const { return std::tie(at, S, A, rec_light, rec_light2); }
+  const cl::Buffer &S, &A;
+  const SearchMap& search;
+  const cl::Buffer &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, A, search, rec_light, rec_light2); }
 };
 
 struct PcfSampleBwdArgs {
@@ -24,8 +44,12 @@ struct PcfSampleBwdArgs {
   static constexpr const char* kernel = "pcf_sample_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
-  auto fields() const { return std::tie(at, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2); }
+  const cl::Buffer &S, &A;
+  const SearchMap& search;
+  const cl::Buffer &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  auto fields() const {
+    return std::tie(at, S, A, search, rec_light, rec_light2, rec_lgrad, rec_lgrad2);
+  }
 };
 
 struct PcfGatherArgs {
@@ -58,15 +82,29 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
   return int(std::ceil(std::sqrt(r2))) + 1;
 }
 
+SearchMap search_map(Kernels& k, const RenderParams& p, double search_sigma, const LightMaps& lm) {
+  const int st = blocker_search_stride(search_sigma);
+  if (p.shadows != Shadows::Soft || st == 1) return {lm.S, lm.A, lm.W, lm.H};
+  const int W = (lm.W - 1) / st + 1, H = (lm.H - 1) / st + 1;
+  const size_t texels = size_t(W) * H;
+  const SearchMap m{alloc_reals(k.ctx(), k.precision(), texels),
+                    alloc_reals(k.ctx(), k.precision(), texels), W, H};
+  auto& copy = bind_args(k, PcfSearchMapArgs{lm.W, lm.S, lm.A, st, m},  // pcf_sample's program
+                         sampling_define(p.sampling));
+  launch_1d(k.ctx(), copy, size_t(m.W) * m.H);
+  return m;
+}
+
 }  // namespace
 
-void pcf_forward(Kernels& k, Sampling sampling, const View& v, Fragments& f, int light,
-                 const LightMaps& lm) {
+void pcf_forward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
+                 Fragments& f, int light, const LightMaps& lm) {
   const int n = int(f.nrec);
   if (n == 0) return;
   const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
-  auto& s = bind_args(k, PcfSampleArgs{at, lm.S, lm.A, f.rec_light, f.rec_light2},
-                      sampling_define(sampling));
+  const SearchMap search = search_map(k, p, search_sigma, lm);
+  auto& s = bind_args(k, PcfSampleArgs{at, lm.S, lm.A, search, f.rec_light, f.rec_light2},
+                      sampling_define(p.sampling));
   launch_1d(k.ctx(), s, n);
 }
 
@@ -81,9 +119,11 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
   if (n == 0) return g;
   const std::string variant = sampling_define(p.sampling);
   const MapLookup at{v.P, n, light, nl, Wm, Hm};
-  auto& sb = bind_args(
-      k, PcfSampleBwdArgs{at, lm.S, lm.A, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2},
-      variant);
+  const SearchMap search = search_map(k, p, search_sigma, lm);
+  auto& sb = bind_args(k,
+                       PcfSampleBwdArgs{at, lm.S, lm.A, search, f.rec_light, f.rec_light2,
+                                        fgr.rec_lgrad, fgr.rec_lgrad2},
+                       variant);
   launch_1d(ctx, sb, n);
   Bins bins;  // the exact gather visits every fragment and needs no buckets
   if (sampling_method(p.sampling).windowed)
