@@ -364,7 +364,12 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   const int band_rows = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
   const int y0 = bb.y + band * band_rows, y1 = min(bb.w, y0 + band_rows - 1);
   Face F;
-  if (bb.x <= bb.z) F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
+  ReceiverFace rf[P_MAX_LIGHTS];  // the face's receiver plane in each light's view
+  const int receiver_plane = P[P_SHADOWS] > 0 && P[P_RECEIVER_PLANE] > 0;
+  if (bb.x <= bb.z) {
+    F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
+    for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
+  }
   for (int py = y0; py <= y1; ++py) {
     real reach[PPW];
     for (int px = bb.x; px <= bb.z; ++px) {
@@ -399,8 +404,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
         for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
           // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
           real3 g = rec_lgrad[r * nl + l].yzw;
-          if (P[P_RECEIVER_PLANE] > 0)
-            g.z += receiver_gradient_bwd(l, F.V, rec_light[r * nl + l].z,
+          if (receiver_plane)
+            g.z += receiver_gradient_bwd(l, &rf[l], F.V, rec_light[r * nl + l].z,
                                          rec_lgrad2[r * nl + l].xy, P, gV, &gframe[l]);
           gX += light_project_bwd(l, X, g, P, &gframe[l]);
         }
