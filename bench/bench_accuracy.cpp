@@ -2,7 +2,11 @@
 // (bench/truth.hpp) on the scenes of bench/accuracy.hpp, next to its forward time.
 //
 // Case names: accuracy/fwd/<shadows>/<sampling>/img:256/map:M/faces:F/sigma_s:S/lights:1/
-// model:<accurate|paper>/scene:<name>. Counters (accuracy.hpp defines them): area_ratio,
+// model:<accurate|paper>/scene:<name>, and accuracy/ratio/<shadows>/truncated/img:256/map:256/
+// lights:1/scene:<name>: the accurate model's forward time over the paper model's, a frame of
+// each in turn so that what else runs on this shared machine weighs on both alike (counters
+// ms_accurate and ms_paper, the medians, and time_ratio, their quotient; the separate fwd cases
+// run minutes apart). Counters of the fwd cases (accuracy.hpp defines them): area_ratio,
 // lit_error, rmse_shadow, leak (scenes with a contact), the pixel counts of each region, plus
 // the timing counters of the render cases. With $PENUMBRA_BENCH_IMAGES set, every case at the
 // reference settings (truncated, 256² map, the model's default σ_s) writes
@@ -21,6 +25,7 @@
 #include <cstdlib>
 #include <optional>
 #include <sstream>
+#include <vector>
 
 #include "accuracy.hpp"
 
@@ -79,6 +84,31 @@ void run_accuracy(benchmark::State& state, const AccuracyCase& c) {
   }
 }
 
+void run_ratio(benchmark::State& state, const AccuracyCase& accurate, const AccuracyCase& paper) {
+  try {
+    const Scene a = accuracy_scene(accurate), p = accuracy_scene(paper);
+    Renderer ra(context(), Precision::Float), rp(context(), Precision::Float);
+    ra.render(a);  // warm-up: programs and buffers
+    rp.render(p);
+    std::vector<double> ta, tp;
+    for (auto _ : state) {
+      auto t0 = Clock::now();
+      benchmark::DoNotOptimize(ra.render(a));
+      ta.push_back(seconds_since(t0));
+      t0 = Clock::now();
+      benchmark::DoNotOptimize(rp.render(p));
+      tp.push_back(seconds_since(t0));
+      state.SetIterationTime(ta.back() + tp.back());
+    }
+    state.counters["ms_accurate"] = median(ta) * 1e3;
+    state.counters["ms_paper"] = median(tp) * 1e3;
+    state.counters["time_ratio"] = median(ta) / median(tp);
+    state.counters["loadavg_1min"] = load_average();
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+  }
+}
+
 std::string name_of(const AccuracyCase& c, bool large) {
   std::ostringstream o;
   o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/'
@@ -108,11 +138,22 @@ AccuracyCase make(const std::string& scene, ShadowModel model, Shadows sh, Sampl
   return c;
 }
 
+void add_ratio(const std::string& scene, Shadows sh) {
+  const AccuracyCase a = make(scene, ShadowModel::Accurate, sh, Sampling::Truncated),
+                     p = make(scene, ShadowModel::Paper, sh, Sampling::Truncated);
+  const std::string name = std::string("accuracy/ratio/") + word(sh) +
+                           "/truncated/img:256/map:256/lights:1/scene:" + scene;
+  benchmark::RegisterBenchmark(name.c_str(), [a, p](benchmark::State& st) { run_ratio(st, a, p); })
+      ->UseManualTime()
+      ->Unit(benchmark::kMillisecond);
+}
+
 }  // namespace
 
 void register_accuracy_benchmarks() {
   for (const std::string& scene : accuracy_scene_names()) {
     add(make(scene, ShadowModel::Accurate, Shadows::None, Sampling::Truncated));
+    for (Shadows sh : {Shadows::Hard, Shadows::Soft}) add_ratio(scene, sh);
     for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})
       for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
         add(make(scene, model, sh, Sampling::Truncated));

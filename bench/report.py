@@ -114,6 +114,8 @@ def parse_name(name):
         return None
     if words[0] == "ceiling":
         rec.update(kind="ceiling", what=words[1] if len(words) > 1 else "")
+    elif words[:2] == ["accuracy", "ratio"]:
+        rec.update(kind="accuracy_ratio", shadows=words[2], sampling=words[3])
     elif words[0] in ("turnaround", "accuracy"):
         rec.update(kind=words[0], pass_=words[1], shadows=words[2], sampling=words[3])
     elif words[0] in ("fwd", "bwd"):
@@ -200,13 +202,22 @@ def table(header, rows):
     return "\n".join(out)
 
 
+# Within this fraction of its limit a case's verdict can flip from one run to the next on a
+# shared machine: the same case's median moves by more than that between runs under load.
+NOISE = 0.05
+
+
 def verdict(measured, limit):
     """Met/missed and by how much, for an upper limit."""
     if measured is None:
         return "not measured", "–"
+    near = f" (within {NOISE * 100:.0f} %: another run may"
+    close = near + " not meet it)" if measured > limit * (1 - NOISE) else ""
     if measured <= limit:
-        return "met", f"{limit / measured:.2f}× under the limit" if measured > 0 else "met"
-    return "**missed**", f"{measured / limit:.2f}× over the limit"
+        by = f"{limit / measured:.2f}× under the limit" if measured > 0 else ""
+        return "met", by + close
+    close = near + " meet it)" if measured < limit * (1 + NOISE) else ""
+    return "**missed**", f"{measured / limit:.2f}× over the limit" + close
 
 
 # ---- plots ---------------------------------------------------------------------------------
@@ -868,6 +879,14 @@ def acc_case(res, scene, model, shadows, sampling, exact_map=None):
     return None
 
 
+def acc_ratio(res, scene, shadows):
+    """The accurate/paper forward time case of a scene and mode (frames of the two in turn)."""
+    for r in res.all("accuracy_ratio"):
+        if (r["scene"], r["shadows"]) == (scene, shadows) and r.get("time_ratio"):
+            return r
+    return None
+
+
 def accuracy_rows(res):
     """The table of every scene, model, mode and sampling (reference σ_s; every map measured)."""
     rows = []
@@ -891,13 +910,14 @@ def accuracy_target_rows(res):
         for sh in ("hard", "soft"):
             a = acc_case(res, sc, "accurate", sh, "truncated")
             p = acc_case(res, sc, "paper", sh, "truncated")
+            ratio = acc_ratio(res, sc, sh)
             if not a:
                 continue
             checks = [("area", a.get("area_ratio"), lambda x: abs(x - 1) <= ACC_TARGETS["area"]),
                       ("lit", a.get("lit_error"), lambda x: x <= ACC_TARGETS["lit"]),
                       ("rmse", a.get("rmse_shadow"), lambda x: x <= ACC_TARGETS["rmse"]),
                       ("leak", a.get("leak"), lambda x: x <= ACC_TARGETS["leak"]),
-                      ("time", ms(a) / ms(p) if p and ms(p) else None,
+                      ("time", ratio["time_ratio"] if ratio else None,
                        lambda x: x <= ACC_TARGETS["time"])]
             cells = []
             for name, x, ok in checks:
@@ -955,11 +975,11 @@ def accuracy_section(res, tradeoff_plot, rel_images, accuracy_images, image_dir)
         w("")
         w(f"Truncated sampling, 256² map. Targets: area within {100 * ACC_TARGETS['area']:g} % of")
         w(f"the truth, lit error ≤ {100 * ACC_TARGETS['lit']:g} %, shadow RMSE ≤ {ACC_TARGETS['rmse']},")
-        w(f"no leak, forward time ≤ {ACC_TARGETS['time']}× the paper model's (medians of this")
-        w("run; `bench/test_accuracy.cpp`, run by ctest as `bench_accuracy_targets`, asserts the")
-        w("same targets; the time, as the fastest of 10 interleaved frames of each model summed")
-        w("over the scenes, one test per mode). One scene's time ratio swings from run to run on")
-        w("this shared machine; the sum over the scenes far less.")
+        w("no leak (`bench/test_accuracy.cpp`, run by ctest as `bench_accuracy_targets`, asserts")
+        w(f"these), forward time ≤ {ACC_TARGETS['time']}× the paper model's: the medians of the")
+        w("`accuracy/ratio` cases, which render a frame of each model in turn so that the load of")
+        w("this shared machine weighs on both alike (the forward times of the tables below come")
+        w("from separate cases, minutes apart).")
         w("")
         w(table(("scene", "shadows", "area ratio", "lit error", "shadow RMSE", "leak",
                  "time / paper"), rows))
@@ -968,10 +988,9 @@ def accuracy_section(res, tradeoff_plot, rel_images, accuracy_images, image_dir)
         w("")
         sums = []
         for sh in ("hard", "soft"):
-            pairs = [(acc_case(res, sc, "accurate", sh, "truncated"),
-                      acc_case(res, sc, "paper", sh, "truncated")) for sc in ACC_SCENES]
-            if pairs and all(a and p for a, p in pairs):
-                ratio = sum(ms(a) for a, _ in pairs) / sum(ms(p) for _, p in pairs)
+            pairs = [acc_ratio(res, sc, sh) for sc in ACC_SCENES]
+            if pairs and all(pairs):
+                ratio = sum(r["ms_accurate"] for r in pairs) / sum(r["ms_paper"] for r in pairs)
                 sums.append(f"{sh} {fmt(ratio)}" + ("" if ratio <= ACC_TARGETS["time"] else " (**missed**)"))
         if sums:
             w("Forward time of the accurate model over the paper model's, medians summed over the")

@@ -55,3 +55,22 @@ def test_a_failed_write_leaves_the_old_file_whole(tmp_path):
         raise AssertionError("writing None did not fail")
     assert page.read_text() == PAGE
     assert [p.name for p in tmp_path.iterdir()] == ["page.md"]
+
+
+def test_verdicts_near_the_limit_say_so():
+    assert report.verdict(9.0, 10.0) == ("met", "1.11× under the limit")
+    assert report.verdict(9.8, 10.0)[1].endswith("(within 5 %: another run may not meet it)")
+    assert report.verdict(10.3, 10.0) == (
+        "**missed**", "1.03× over the limit (within 5 %: another run may meet it)")
+    assert report.verdict(12.0, 10.0) == ("**missed**", "1.20× over the limit")
+    assert report.verdict(None, 10.0) == ("not measured", "–")
+
+
+def test_accuracy_ratio_cases_are_their_own_kind():
+    rec = report.parse_name(
+        "accuracy/ratio/soft/truncated/img:256/map:256/lights:1/scene:knot_h0.3/manual_time")
+    assert rec["kind"] == "accuracy_ratio" and rec["shadows"] == "soft"
+    assert rec["scene"] == "knot_h0.3"
+    fwd = report.parse_name("accuracy/fwd/soft/truncated/img:256/map:256/faces:1312/sigma_s:0.5/"
+                            "lights:1/model:accurate/scene:sphere/manual_time")
+    assert fwd["kind"] == "accuracy" and fwd["model"] == "accurate"
