@@ -87,8 +87,8 @@ SearchMap search_map(Kernels& k, const RenderParams& p, double search_sigma, con
   if (p.shadows != Shadows::Soft || st == 1) return {lm.S, lm.A, lm.W, lm.H};
   const int W = (lm.W - 1) / st + 1, H = (lm.H - 1) / st + 1;
   const size_t texels = size_t(W) * H;
-  const SearchMap m{alloc_reals(k.ctx(), k.precision(), texels),
-                    alloc_reals(k.ctx(), k.precision(), texels), W, H};
+  SearchMap m{alloc_reals(k.ctx(), k.precision(), texels),
+              alloc_reals(k.ctx(), k.precision(), texels), W, H};
   auto& copy = bind_args(k, PcfSearchMapArgs{lm.W, lm.S, lm.A, st, m},  // pcf_sample's program
                          sampling_define(p.sampling));
   launch_1d(k.ctx(), copy, size_t(m.W) * m.H);
