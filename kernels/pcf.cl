@@ -37,6 +37,9 @@
 // The blocker search cuts its Gaussian at this fraction of its peak (radius 2.45 standard
 // deviations): it only estimates a mean depth, at less than half the texels of a cut at ε_λ.
 #define PCF_SEARCH_EPS RL(0.05)
+// pcf_gather's margin on a window's squared radius: beyond it a weight's Gaussian is below
+// ε^1.01, far enough below ε that rounding cannot lift it above.
+#define GATHER_MARGIN RL(1.01)
 
 typedef struct {
   real2 mu;    // texel coordinates of the fragment in the map
@@ -354,27 +357,39 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
   }
   const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
   const real leps = log(1 / eps), leps_b = log(1 / eps_b);
+  // A fragment reaches texels within r2 of it (the larger of its filter's and search's windows).
+  // Of those, a part whose own window, its squared radius widened by GATHER_MARGIN, misses them
+  // adds exactly 0 (each weight max(0, g − ε) is 0), as does one without a gradient (dL/ds or
+  // dL/dz_b 0): the gather skips both.
+  const real r2s = soft ? 2 * sigma_b * leps_b : 0;
   FOR_EACH_GATHER_FRAGMENT(r, reach) {
-    real r2 = 2 * rec_light2[r * nl + light].z * leps;  // the filter's window, and the search's
-    if (soft) r2 = max(r2, 2 * sigma_b * leps_b);
-    r2 = sampling_r2(r2);
-    if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;
     int at = r * nl + light;
+    real2 mu = rec_light[at].xy;
+    real sigma = rec_light2[at].z, a = rec_lgrad[at].x, b = rec_lgrad2[at].z;
+    const real r2f = 2 * sigma * leps, r2 = sampling_r2(max(r2f, r2s));
+    if (!window_reaches(mu, i0, j0, rows, r2)) continue;
+    const real r2f_m = sampling_r2(r2f * GATHER_MARGIN), r2s_m = sampling_r2(r2s * GATHER_MARGIN);
+    const int filter = a != 0 && window_reaches(mu, i0, j0, rows, r2f_m);
+    const int search = soft && b != 0 && window_reaches(mu, i0, j0, rows, r2s_m);
+    if (!filter && !search) continue;
     Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
-    real sigma = rec_light2[at].z, zb = rec_light2[at].w, a = rec_lgrad[at].x;
-    real b = rec_lgrad2[at].z;
-    const int search = soft && b != 0;
-    if (a == 0 && !search) continue;  // adds nothing (unlit from this light, or outside the loss)
-    realR offx = (real)i0 + LANER - x.mu.x, gx = axis_weight(offx, sigma), hx = 0;
+    real zb = rec_light2[at].w;
+    realR offx = (real)i0 + LANER - x.mu.x, gx = 0, hx = 0;
+    if (filter) gx = axis_weight(offx, sigma);
     if (search) hx = on_grid * axis_weight(offx, sigma_b);
     for (int t = 0; t < rows; ++t) {
       real offy = j0 + t - x.mu.y;
       if (!(offy * offy < r2)) continue;
+      const int filter_row = filter && offy * offy < r2f_m;
+      const int search_row = search && (j0 + t) % L.stride == 0 && offy * offy < r2s_m;
+      if (!filter_row && !search_row) continue;
       realR lit = lit_term(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
-      realR g = fmax(gx * axis_weight(offy, sigma) - eps, (realR)0);
-      acc[t] -= a * g * dc;
-      accA[t] -= a * g * step;
-      if (search && (j0 + t) % L.stride == 0) {
+      if (filter_row) {
+        realR g = fmax(gx * axis_weight(offy, sigma) - eps, (realR)0);
+        acc[t] -= a * g * dc;
+        accA[t] -= a * g * step;
+      }
+      if (search_row) {
         realR h = fmax(hx * axis_weight(offy, sigma_b) - eps_b, (realR)0);
         acc[t] += b * h * ((1 - lit) + (Sv[t] - zb) * dc);
         accA[t] += b * h * step * (Sv[t] - zb);
