@@ -154,18 +154,18 @@ FORWARD_KERNEL void pcf_search_map(int Wm, __global const real* S, __global cons
   Ab[t] = A[at];
 }
 
-// Receiver x as the search map sees it.
+// Receiver x as the search map sees it, and the search's variance there.
 inline Receiver search_receiver(Receiver x, LightDisc L) {
   Receiver r = {x.mu / L.stride, x.d, x.grad * L.stride};
   return r;
 }
+inline real search_variance(LightDisc L) { return L.sigma_b / (L.stride * L.stride); }
 
 // The search's window in the search map (empty where μ lies outside the map).
 inline Window search_window(Receiver x, LightDisc L, __global const real* P, int Wm, int Hm,
                             int Wb, int Hb) {
-  Window none = {1, 1, 0, 0, 0};
   real eps = window_eps(P, 1), st = L.stride;
-  if (!inside_map(x.mu, Wm, Hm)) return none;
+  if (!inside_map(x.mu, Wm, Hm)) return no_window();
   return clipped_window(x.mu / st, window_radius(L.sigma_b, eps) / st, eps, Wb, Hb);
 }
 
@@ -174,7 +174,7 @@ inline real4 search_sums(Receiver x, LightDisc L, __global const real* P,
                          __global const real* Sb, __global const real* Ab, int Wm, int Hm,
                          int Wb, int Hb) {
   return window_sums(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
-                     L.sigma_b / (L.stride * L.stride), P, Sb, Ab, Wb);
+                     search_variance(L), P, Sb, Ab, Wb);
 }
 
 // Penumbra width w (texels) for blocker depth zb and receiver depth d, with ∂w/∂zb, ∂w/∂d and
@@ -273,11 +273,10 @@ inline Moments window_moments(Window w, Receiver x, real sigma, int search, real
 inline Moments search_moments(Receiver x, LightDisc L, real zb, __global const real* P,
                               __global const real* Sb, __global const real* Ab, int Wm, int Hm,
                               int Wb, int Hb) {
-  real st = L.stride;
   Moments m = window_moments(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
-                             L.sigma_b / (st * st), 1, zb, P, Sb, Ab, Wb);
-  m.mu /= st;
-  m.qoff *= st;
+                             search_variance(L), 1, zb, P, Sb, Ab, Wb);
+  m.mu /= L.stride;
+  m.qoff *= L.stride;
   return m;
 }
 
