@@ -143,7 +143,7 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
   real8 sum = 0;
   for (int i0 = 0; i0 < n; i0 += 8) {
     real8 d = (real)i0 + LANE8 - c;
-    real8 g = on ? axis_weight(d, ss) : (real8)0;
+    real8 g = on ? exp_or_zero(gaussian_arg(d, ss)) : (real8)0;
     real8 dg = g * d / ss;
     if (i0 + 8 <= n) {
       vstore8(g, 0, out + i0);
