@@ -2,9 +2,12 @@
 // alternative to CLBlast's GEMM. Row-major matrices with leading dimensions:
 //   matmul_nt  C (M × N) = A (M × K) · Bᵀ (B is N × K)  + beta·C   (T = Gx·Sᵀ)
 //   matmul_tn  C (M × N) = Aᵀ (A is K × M) · B (K × N)  + beta·C   (dL/dS = Gyᵀ·Gx)
+//   matmul_nn_rowdot  out_r = Σ_c (A·B)_rc·D_rc (B is K × N), without storing A·B
+//                     (Σ_i U_ri·Gx_ri, U = Gy·S); row_dot: the same of a stored C (CLBlast's GEMM)
 // Both run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs (PoCL);
 // each work-item computes an MM_RB × MM_RB block (nt) or MM_RB rows × MM_VW columns (tn).
-// Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/MM_VW), ceil(M/MM_RB)).
+// Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/MM_VW), ceil(M/MM_RB));
+// nn_rowdot global ceil(M/MM_RB); row_dot global M.
 // The loops over a work-item's accumulators are unrolled (#pragma unroll) so that the
 // accumulators live in registers: left as loops, PoCL kept them in memory, a load and a store
 // around every FMA (both products 2x slower on the 2-core AVX-512 CPU of docs/benchmarks.md).
@@ -77,6 +80,75 @@ __kernel void matmul_nt(int M, int N, int K, __global const real* A, int lda,
       for (int k = kv * MM_VW; k < K; ++k) s += a[i][k] * b[j][k];
       store(C, ldc, m0 + i, n0 + j, s, beta);
     }
+}
+
+// B's columns c .. c + MM_VW − 1 of row k, zeros past column N.
+inline realV load_cols(__global const real* row, int c, int N) {
+  if (c + MM_VW <= N) return VLOAD(0, row + c);
+  real t[MM_VW];
+  for (int l = 0; l < MM_VW; ++l) t[l] = c + l < N ? row[c + l] : 0;
+  return VLOAD(0, t);
+}
+
+// Each work-item takes MM_RB rows and walks the columns of A·B in blocks of 2·MM_VW: a block is
+// MM_RB × 2 vectors of accumulators, each step along k one scalar of A times a vector of B (no
+// horizontal sums until the last), then multiplied by the same columns of D into a vector per row.
+#define NB (2 * MM_VW)
+__kernel void matmul_nn_rowdot(int M, int N, int K, __global const real* A, int lda,
+                               __global const real* B, int ldb, __global const real* D, int ldd,
+                               __global real* out) {
+  int m0 = get_global_id(0) * MM_RB;
+  if (m0 >= M) return;
+  __global const real* a[MM_RB];
+  __global const real* d[MM_RB];
+  for (int r = 0; r < MM_RB; ++r) {  // rows past the edge repeat the last row (not stored)
+    a[r] = A + (size_t)min(m0 + r, M - 1) * lda;
+    d[r] = D + (size_t)min(m0 + r, M - 1) * ldd;
+  }
+  realV dot[MM_RB];
+#pragma unroll
+  for (int i = 0; i < MM_RB; ++i) dot[i] = 0;
+  for (int c = 0; c < N; c += NB) {
+    realV acc[MM_RB][2];
+#pragma unroll
+    for (int i = 0; i < MM_RB; ++i) acc[i][0] = acc[i][1] = 0;
+    if (c + NB <= N) {
+      for (int k = 0; k < K; ++k) {
+        __global const real* b = B + (size_t)k * ldb + c;
+        realV b0 = VLOAD(0, b), b1 = VLOAD(1, b);
+#pragma unroll
+        for (int i = 0; i < MM_RB; ++i) {
+          real ak = a[i][k];
+          acc[i][0] += ak * b0;
+          acc[i][1] += ak * b1;
+        }
+      }
+    } else {  // the ragged right edge
+      for (int k = 0; k < K; ++k) {
+        __global const real* b = B + (size_t)k * ldb;
+        realV b0 = load_cols(b, c, N), b1 = load_cols(b, c + MM_VW, N);
+#pragma unroll
+        for (int i = 0; i < MM_RB; ++i) {
+          real ak = a[i][k];
+          acc[i][0] += ak * b0;
+          acc[i][1] += ak * b1;
+        }
+      }
+    }
+#pragma unroll
+    for (int i = 0; i < MM_RB; ++i)
+      dot[i] += acc[i][0] * load_cols(d[i], c, N) + acc[i][1] * load_cols(d[i], c + MM_VW, N);
+  }
+  for (int i = 0; i < MM_RB && m0 + i < M; ++i) out[m0 + i] = HSUM(dot[i]);
+}
+
+__kernel void row_dot(int M, int N, __global const real* C, int ldc, __global const real* D,
+                      int ldd, __global real* out) {
+  int r = get_global_id(0);
+  if (r >= M) return;
+  real dot = 0;
+  for (int j = 0; j < N; ++j) dot += C[(size_t)r * ldc + j] * D[(size_t)r * ldd + j];
+  out[r] = dot;
 }
 
 __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,

@@ -178,20 +178,15 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   norm[k] = (real4)(sx, sy, inside, 0);
 }
 
+// dot_r = Σ_ij gy_rj·S_ji·gx_ri (matmul_nn_rowdot, matmul.cl).
 FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int light, int nl,
-                                 int Hm, __global const real* T, __global const real* Gy,
-                                 __global const real4* norm, __global real4* rec_light) {
+                                 __global const real* dot, __global const real4* norm,
+                                 __global real4* rec_light) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 nm = norm[k];
   __global real4* x = rec_light + (r0 + k) * nl + light;
-  if (nm.z == 0) {
-    x->w = 1;
-    return;
-  }
-  real acc = 0;
-  for (int j = 0; j < Hm; ++j) acc += T[(size_t)k * Hm + j] * Gy[(size_t)k * Hm + j];
-  x->w = compare(acc / (nm.x * nm.y), x->z, P);
+  x->w = nm.z == 0 ? 1 : compare(dot[k] / (nm.x * nm.y), x->z, P);
 }
 
 // Backward: T and Td = Gxd·Sᵀ are given; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in

@@ -55,7 +55,7 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
     same = detail::view_params(fitted, fitted.cameras[c]) == view_P[c];
   if (!same)
     throw Error("backward: the scene differs from the one last rendered; call render() first");
-  detail::check_memory(ctx, estimate_device_memory(scene, precision, true),
+  detail::check_memory(ctx, estimate_device_memory(scene, precision, true, &kernels.tuning()),
                        "the backward pass of the scene (" + std::to_string(packed.nf) + " faces)");
   if (grads.size() != given.cameras.size())
     throw Error("backward: got gradients for " + std::to_string(grads.size()) +

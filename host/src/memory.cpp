@@ -48,9 +48,13 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, d
 
 // The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
 // exact_backward): batches of at most ~96 MiB of weights and products, or fewer fragments.
-size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward) {
+// The forward holds Gx, Gy, dot and norm, and with CLBlast the product Gy·S (the direct kernel
+// stores none).
+size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward,
+                         bool clblast) {
   const size_t cap = std::max<size_t>(1, (size_t(96) << 20) / (texels_side * 6 * z.rs));
-  const size_t fwd = std::min(cap, fragments) * (3 * texels_side + 4) * z.rs;
+  const size_t fwd =
+      std::min(cap, fragments) * ((clblast ? 3 : 2) * texels_side + 5) * z.rs;
   const size_t bwd =
       std::min(std::max<size_t>(cap / 2, 1), fragments) * (5 * texels_side + 4) * z.rs;
   return backward ? std::max(fwd, bwd) : fwd;
@@ -58,7 +62,8 @@ size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, b
 
 }  // namespace
 
-size_t estimate_device_memory(const Scene& scene, Precision precision, bool backward) {
+size_t estimate_device_memory(const Scene& scene, Precision precision, bool backward,
+                              const Tuning* tuning) {
   Sizes z;
   z.rs = precision == Precision::Double ? 8 : 4;
   for (const Mesh& m : scene.meshes) z.nv += m.vertices.size(), z.nf += m.faces.size();
@@ -83,12 +88,15 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
     if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
     if (!sampling_method(p.sampling).windowed && p.shadows == Shadows::Hard &&
         p.shadow_model == ShadowModel::Paper) {
+      const bool clblast = tuning ? exact_backend_in_force(p, *tuning) == ExactBackend::CLBlast
+                                  : p.exact_backend != ExactBackend::Kernels;
       size_t most = 0;  // the batches live one camera at a time
       for (const Camera& c : scene.cameras)
         most = std::max(
             most, exact_batch_bytes(
                       z, size_t(p.shadow_map_size),
-                      fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel), backward));
+                      fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel), backward,
+                      clblast));
       bytes += most;
     }
   }

@@ -84,7 +84,7 @@ void Renderer::Impl::prepare(const Scene& given) {
   scene = detail::normalised(scene, norm);
   if (automatic) kernels.set_tuning(database.lookup(ctx.info(), workload_stats(given)));
   packed = pack(scene);
-  detail::check_memory(ctx, estimate_device_memory(scene, precision),
+  detail::check_memory(ctx, estimate_device_memory(scene, precision, false, &kernels.tuning()),
                        "rendering the scene (" + std::to_string(packed.nf) + " faces)");
 }
 

@@ -123,6 +123,33 @@ struct MatmulArgs {
   auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, beta, C, ldc); }
 };
 
+// out = Σ_c (A·B)_rc·D_rc by matmul_nn_rowdot, or of a stored C by row_dot.
+struct MatmulRowdotArgs {
+  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* kernel = "matmul_nn_rowdot";
+  cl_int M, N, K;
+  const cl::Buffer& A;
+  cl_int lda;
+  const cl::Buffer& B;
+  cl_int ldb;
+  const cl::Buffer& D;
+  cl_int ldd;
+  const cl::Buffer& out;
+  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, D, ldd, out); }
+};
+
+struct RowDotArgs {
+  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* kernel = "row_dot";
+  cl_int M, N;
+  const cl::Buffer& C;
+  cl_int ldc;
+  const cl::Buffer& D;
+  cl_int ldd;
+  const cl::Buffer& out;
+  auto fields() const { return std::tie(M, N, C, ldc, D, ldd, out); }
+};
+
 void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const cl::Buffer& A,
             size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc,
             size_t cols_per_item) {
@@ -143,6 +170,21 @@ void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t ldc) {
   if (clblast) return clblast_gemm(k, false, true, m, n, kk, A, lda, B, ldb, beta, C, ldc);
   direct(k, "matmul_nt", m, n, kk, A, lda, B, ldb, beta, C, ldc, k.tuning().exact.row_block);
+}
+
+void matmul_nn_rowdot(Kernels& k, bool clblast, size_t m, size_t n, size_t kk,
+                      const cl::Buffer& A, size_t lda, const cl::Buffer& B, size_t ldb,
+                      const cl::Buffer& D, size_t ldd, cl::Buffer& out) {
+  if (clblast) {
+    cl::Buffer C = alloc_reals(k.ctx(), k.precision(), m * n);
+    clblast_gemm(k, false, false, m, n, kk, A, lda, B, ldb, 0.0, C, n);
+    auto& rd = bind_args(k, RowDotArgs{int(m), int(n), C, int(n), D, int(ldd), out});
+    return launch_1d(k.ctx(), rd, m);
+  }
+  auto& mm = bind_args(k, MatmulRowdotArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), D,
+                                           int(ldd), out});
+  const size_t rows_per_item = size_t(k.tuning().exact.row_block);
+  launch_1d(k.ctx(), mm, (m + rows_per_item - 1) / rows_per_item, 8);
 }
 
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,

@@ -97,9 +97,9 @@ struct ExactFinishArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "exact_finish";
   const cl::Buffer& P;
-  cl_int r0, m, light, nl, Hm;
-  const cl::Buffer &T, &Gy, &norm, &rec_light;
-  auto fields() const { return std::tie(P, r0, m, light, nl, Hm, T, Gy, norm, rec_light); }
+  cl_int r0, m, light, nl;
+  const cl::Buffer &dot, &norm, &rec_light;
+  auto fields() const { return std::tie(P, r0, m, light, nl, dot, norm, rec_light); }
 };
 
 struct ExactFinishBwdArgs {
@@ -126,16 +126,18 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
   const Precision p = k.precision();
-  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
-             T = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
+  // every entry of a batch is written before it is read
+  cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gy = alloc_reals(ctx, p, batch * Hm),
+             dot = alloc_reals(ctx, p, batch), norm = alloc_reals(ctx, p, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
         k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, norm});
     launch_1d(ctx, wts, m);
-    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lm.S, Wm, 0.0, T, Hm);  // T = Gx·Sᵀ
-    auto& fin = bind_args(k, ExactFinishArgs{at.P, r0, m, light, nl, Hm, T, Gy, norm, f.rec_light});
+    // dot_r = Σ_i U_ri·Gx_ri, U = Gy·S
+    matmul_nn_rowdot(k, clblast, m, Wm, Hm, Gy, Hm, lm.S, Wm, Gx, Wm, dot);
+    auto& fin = bind_args(k, ExactFinishArgs{at.P, r0, m, light, nl, dot, norm, f.rec_light});
     launch_1d(ctx, fin, m);
   }
 }
