@@ -5,8 +5,8 @@
 //   matmul_nn_rowdot  out_r = Σ_c (A·B)_rc·D_rc (B is K × N), without storing A·B
 //                     (Σ_i U_ri·Gx_ri, U = Gy·S); row_dot: the same of a stored C (CLBlast's GEMM)
 // Both run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs (PoCL);
-// each work-item computes an MM_RB × MM_RB block (nt) or MM_RB rows × MM_VW columns (tn).
-// Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/MM_VW), ceil(M/MM_RB));
+// each work-item computes an MM_RB × MM_RB block (nt) or 2·MM_RB rows × 2·MM_VW columns (tn).
+// Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/(2·MM_VW)), ceil(M/(2·MM_RB)));
 // nn_rowdot global ceil(M/MM_RB); row_dot global M.
 // The loops over a work-item's accumulators are unrolled (#pragma unroll) so that the
 // accumulators live in registers: left as loops, PoCL kept them in memory, a load and a store
@@ -151,29 +151,39 @@ __kernel void row_dot(int M, int N, __global const real* C, int ldc, __global co
   out[r] = dot;
 }
 
+// matmul_tn's rows per work-item: its K (fragments) is long, so each row block streams all of
+// A and B; twice nt's rows halve that traffic.
+#define TN_RB (2 * MM_RB)
 __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
                         __global const real* B, int ldb, real beta, __global real* C, int ldc) {
-  int n0 = get_global_id(0) * MM_VW, m0 = get_global_id(1) * MM_RB;
+  int n0 = get_global_id(0) * 2 * MM_VW, m0 = get_global_id(1) * TN_RB;
   if (m0 >= M || n0 >= N) return;
-  if (n0 + MM_VW <= N) {
-    realV acc[MM_RB];
+  // Two vectors of columns (one where only one fits: the second then repeats the first and is
+  // not stored), so that 2·TN_RB independent sums hide the FMA latency.
+  int vectors = min((N - n0) / MM_VW, 2), n1 = vectors == 2 ? n0 + MM_VW : n0;
+  if (vectors > 0) {
+    realV acc[TN_RB][2];
 #pragma unroll
-    for (int i = 0; i < MM_RB; ++i) acc[i] = 0;
+    for (int i = 0; i < TN_RB; ++i) acc[i][0] = acc[i][1] = 0;
     for (int k = 0; k < K; ++k) {
-      realV bv = VLOAD(0, B + (size_t)k * ldb + n0);
+      realV b0 = VLOAD(0, B + (size_t)k * ldb + n0), b1 = VLOAD(0, B + (size_t)k * ldb + n1);
       __global const real* a = A + (size_t)k * lda;
 #pragma unroll
-      for (int i = 0; i < MM_RB; ++i) acc[i] += a[min(m0 + i, M - 1)] * bv;
+      for (int i = 0; i < TN_RB; ++i) {
+        real ak = a[min(m0 + i, M - 1)];
+        acc[i][0] += ak * b0;
+        acc[i][1] += ak * b1;
+      }
     }
-    for (int i = 0; i < MM_RB && m0 + i < M; ++i) {
-      real out[MM_VW];
-      VSTORE(acc[i], out);
-      for (int j = 0; j < MM_VW; ++j) store(C, ldc, m0 + i, n0 + j, out[j], beta);
-    }
-    return;
+    for (int i = 0; i < TN_RB && m0 + i < M; ++i)
+      for (int v = 0; v < vectors; ++v) {
+        real out[MM_VW];
+        VSTORE(acc[i][v], out);
+        for (int j = 0; j < MM_VW; ++j) store(C, ldc, m0 + i, n0 + v * MM_VW + j, out[j], beta);
+      }
   }
-  for (int i = 0; i < MM_RB && m0 + i < M; ++i)  // the ragged right edge, column by column
-    for (int j = n0; j < N; ++j) {
+  for (int i = 0; i < TN_RB && m0 + i < M; ++i)  // the ragged right edge, column by column
+    for (int j = n0 + vectors * MM_VW; j < min(n0 + 2 * MM_VW, N); ++j) {
       real s = 0;
       for (int k = 0; k < K; ++k) s += A[(size_t)k * lda + m0 + i] * B[(size_t)k * ldb + j];
       store(C, ldc, m0 + i, j, s, beta);

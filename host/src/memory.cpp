@@ -53,8 +53,7 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, d
 size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward,
                          bool clblast) {
   const size_t cap = std::max<size_t>(1, (size_t(96) << 20) / (texels_side * 6 * z.rs));
-  const size_t fwd =
-      std::min(cap, fragments) * ((clblast ? 3 : 2) * texels_side + 5) * z.rs;
+  const size_t fwd = std::min(cap, fragments) * ((clblast ? 3 : 2) * texels_side + 5) * z.rs;
   const size_t bwd =
       std::min(std::max<size_t>(cap / 2, 1), fragments) * (5 * texels_side + 4) * z.rs;
   return backward ? std::max(fwd, bwd) : fwd;
@@ -92,11 +91,10 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
                                   : p.exact_backend != ExactBackend::Kernels;
       size_t most = 0;  // the batches live one camera at a time
       for (const Camera& c : scene.cameras)
-        most = std::max(
-            most, exact_batch_bytes(
-                      z, size_t(p.shadow_map_size),
-                      fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel), backward,
-                      clblast));
+        most = std::max(most, exact_batch_bytes(
+                                  z, size_t(p.shadow_map_size),
+                                  fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel),
+                                  backward, clblast));
       bytes += most;
     }
   }

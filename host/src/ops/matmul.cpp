@@ -152,11 +152,9 @@ struct RowDotArgs {
 
 void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const cl::Buffer& A,
             size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc,
-            size_t cols_per_item) {
-  // MM_VW and MM_RB come from the tuning
+            size_t rows_per_item, size_t cols_per_item) {
   auto& mm = bind_args(
       k, MatmulArgs{name, int(m), int(n), int(kk), A, int(lda), B, int(ldb), beta, C, int(ldc)});
-  const size_t rows_per_item = size_t(k.tuning().exact.row_block);
   launch(
       k.ctx(), mm,
       cl::NDRange((n + cols_per_item - 1) / cols_per_item, (m + rows_per_item - 1) / rows_per_item),
@@ -169,20 +167,21 @@ void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
                size_t ldc) {
   if (clblast) return clblast_gemm(k, false, true, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  direct(k, "matmul_nt", m, n, kk, A, lda, B, ldb, beta, C, ldc, k.tuning().exact.row_block);
+  const size_t rb = size_t(k.tuning().exact.row_block);  // MM_RB
+  direct(k, "matmul_nt", m, n, kk, A, lda, B, ldb, beta, C, ldc, rb, rb);
 }
 
-void matmul_nn_rowdot(Kernels& k, bool clblast, size_t m, size_t n, size_t kk,
-                      const cl::Buffer& A, size_t lda, const cl::Buffer& B, size_t ldb,
-                      const cl::Buffer& D, size_t ldd, cl::Buffer& out) {
+void matmul_nn_rowdot(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
+                      size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& D, size_t ldd,
+                      cl::Buffer& out) {
   if (clblast) {
     cl::Buffer C = alloc_reals(k.ctx(), k.precision(), m * n);
     clblast_gemm(k, false, false, m, n, kk, A, lda, B, ldb, 0.0, C, n);
     auto& rd = bind_args(k, RowDotArgs{int(m), int(n), C, int(n), D, int(ldd), out});
     return launch_1d(k.ctx(), rd, m);
   }
-  auto& mm = bind_args(k, MatmulRowdotArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), D,
-                                           int(ldd), out});
+  auto& mm = bind_args(
+      k, MatmulRowdotArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), D, int(ldd), out});
   const size_t rows_per_item = size_t(k.tuning().exact.row_block);
   launch_1d(k.ctx(), mm, (m + rows_per_item - 1) / rows_per_item, 8);
 }
@@ -191,7 +190,9 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
                size_t ldc) {
   if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  direct(k, "matmul_tn", m, n, kk, A, lda, B, ldb, beta, C, ldc, k.tuning().exact.vector_width);
+  const ExactSumTuning& t = k.tuning().exact;  // TN_RB = 2·MM_RB rows, 2·MM_VW columns
+  direct(k, "matmul_tn", m, n, kk, A, lda, B, ldb, beta, C, ldc, 2 * size_t(t.row_block),
+         2 * size_t(t.vector_width));
 }
 
 }  // namespace penumbra::detail

@@ -217,9 +217,9 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc);
 // out_r = Σ_c (A·B)_rc·D_rc (B is k × n, D is m × n): the direct kernel never stores A·B;
 // CLBlast's GEMM writes it to a temporary that row_dot reads.
-void matmul_nn_rowdot(Kernels& k, bool clblast, size_t m, size_t n, size_t kk,
-                      const cl::Buffer& A, size_t lda, const cl::Buffer& B, size_t ldb,
-                      const cl::Buffer& D, size_t ldd, cl::Buffer& out);
+void matmul_nn_rowdot(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
+                      size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& D, size_t ldd,
+                      cl::Buffer& out);
 
 // The paper model: shadow terms of every fragment `f` of camera view `v` for light `light`,
 // sampled from the light's shadow map (and penumbra map for soft shadows)
