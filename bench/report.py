@@ -64,12 +64,12 @@ MISS_REASONS = [
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
      "texels per fragment."),
-    ("hard shadows, exact", "every fragment weighs every texel: 2·N·W_s·H_s flops per product, "
-     "computed by `matmul_nt` (its device time per frame is in the profile below). Besides the "
-     "product the frame computes the Gaussian weight matrices (`exact_weights`: N·(W_s + H_s) "
-     "exponentials and divisions, written to memory and read back by the product), "
-     "`exact_finish` and the two raster passes; the FMA share above counts the whole frame. "
-     "CLBlast (sampling `gemm`) is slower here and adds transposes."),
+    ("hard shadows, exact", "every fragment weighs every texel: 2·N·W_s·H_s flops, computed "
+     "by `matmul_nn_rowdot` (Gy·S, each row summed against Gx as it is formed; its device time "
+     "per frame is in the profile below). Besides the product the frame computes the Gaussian "
+     "weight matrices (`exact_weights`: written to memory and read back by the product; the "
+     "exps that are exactly 0 are skipped) and the two raster passes; the FMA share above "
+     "counts the whole frame. CLBlast (sampling `gemm`) is slower here and stores the product."),
     ("backward ≤ 3× forward (hard", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
@@ -354,7 +354,7 @@ def stage_of(kernel):
     if kernel == "clblast_gemm":
         return "CLBlast"
     for prefix, stage in (("bin_", "bin"), ("raster_", "raster"), ("shadow_", "shadow"),
-                          ("exact_", "shadow"), ("soft_", "shadow"), ("matmul_", "matmul"),
+                          ("exact_", "shadow"), ("soft_", "shadow"), ("matmul_", "matmul"), ("row_dot", "matmul"),
                           ("penumbra_", "penumbra")):
         if kernel.startswith(prefix):
             return stage
@@ -838,8 +838,9 @@ def stage_notes(res, peak, exp_rate, profiles):
                   f"{fmt(w_ms)} ms, of {fmt(total_ms)} ms of kernel time.")
             if exp_rate and r.get("fragments"):
                 exps = r["fragments"] * 2 * r["map"]
-                s += (f" Those weights are N·(W_s + H_s) = {si(exps)} exps, "
-                      f"{fmt(exps / exp_rate * 1e3)} ms at the measured exp rate.")
+                s += (f" Those weights are N·(W_s + H_s) = {si(exps)} exps at most, "
+                      f"{fmt(exps / exp_rate * 1e3)} ms at the measured exp rate (the exps "
+                      f"that are exactly 0 are skipped).")
         elif flops:
             s += (f" Counting the whole difference as product time gives ≥ "
                   f"{fmt(flops / ((ex - none) * 1e-3))} GFLOP/s.")
