@@ -1,13 +1,14 @@
 // Dense matrix products for the exact-sum shadow sampling (SPEC §4), the direct-kernel
 // alternative to CLBlast's GEMM. Row-major matrices with leading dimensions:
-//   matmul_nt  C (M × N) = A (M × K) · Bᵀ (B is N × K)  + beta·C   (T = Gx·Sᵀ)
 //   matmul_tn  C (M × N) = Aᵀ (A is K × M) · B (K × N)  + beta·C   (dL/dS = Gyᵀ·Gx)
-//   matmul_nn_rowdot  out_r = Σ_c (A·B)_rc·D_rc (B is K × N), without storing A·B
-//                     (Σ_i U_ri·Gx_ri, U = Gy·S); row_dot: the same of a stored C (CLBlast's GEMM)
-// Both run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs (PoCL);
-// each work-item computes an MM_RB × MM_RB block (nt) or 2·MM_RB rows × 2·MM_VW columns (tn).
-// Launch: nt global (ceil(N/MM_RB), ceil(M/MM_RB)); tn global (ceil(N/(2·MM_VW)), ceil(M/(2·MM_RB)));
-// nn_rowdot global ceil(M/MM_RB); row_dot global M.
+//   matmul_nn_rowdots out_r = (Σ_c (A·B)_rc·D_rc, Σ_c (A·B)_rc·Dd_rc, Σ_c (Ad·B)_rc·D_rc, 0)
+//                     (B is K × N) without storing A·B or Ad·B: with U = Gy·S, the exact sums
+//                     Σ_i U_ri·Gx_ri and the backward's Σ_i U_ri·Gxd_ri, Σ_i (Gyd·S)_ri·Gx_ri;
+//                     matmul_nn_rowdot the first alone (.y, .z 0); row_dots of stored products
+// The products run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs
+// (PoCL): a work-item computes 2·MM_RB rows × 2·MM_VW columns (tn), or MM_RB rows of A·B in
+// blocks of 2·MM_VW columns (nn_rowdot(s)). Launch: tn global (ceil(N/(2·MM_VW)),
+// ceil(M/(2·MM_RB))); nn_rowdot(s) global ceil(M/MM_RB); row_dots global M.
 // The loops over a work-item's accumulators are unrolled (#pragma unroll) so that the
 // accumulators live in registers: left as loops, PoCL kept them in memory, a load and a store
 // around every FMA (both products 2x slower on the 2-core AVX-512 CPU of docs/benchmarks.md).
@@ -46,42 +47,6 @@ inline void store(__global real* C, int ldc, int row, int col, real v, real beta
   *c = beta == 0 ? v : v + beta * *c;
 }
 
-__kernel void matmul_nt(int M, int N, int K, __global const real* A, int lda,
-                        __global const real* B, int ldb, real beta, __global real* C, int ldc) {
-  int n0 = get_global_id(0) * MM_RB, m0 = get_global_id(1) * MM_RB;
-  if (m0 >= M || n0 >= N) return;
-  // Rows past the edge repeat the last row (their results are not stored).
-  __global const real* a[MM_RB];
-  __global const real* b[MM_RB];
-  for (int r = 0; r < MM_RB; ++r) {
-    a[r] = A + (size_t)min(m0 + r, M - 1) * lda;
-    b[r] = B + (size_t)min(n0 + r, N - 1) * ldb;
-  }
-  realV acc[MM_RB][MM_RB];
-#pragma unroll
-  for (int i = 0; i < MM_RB; ++i)
-#pragma unroll
-    for (int j = 0; j < MM_RB; ++j) acc[i][j] = 0;
-  int kv = K / MM_VW;
-  for (int k = 0; k < kv; ++k) {
-    realV bv[MM_RB];
-#pragma unroll
-    for (int j = 0; j < MM_RB; ++j) bv[j] = VLOAD(k, b[j]);
-#pragma unroll
-    for (int i = 0; i < MM_RB; ++i) {
-      realV av = VLOAD(k, a[i]);
-#pragma unroll
-      for (int j = 0; j < MM_RB; ++j) acc[i][j] += av * bv[j];
-    }
-  }
-  for (int i = 0; i < MM_RB && m0 + i < M; ++i)
-    for (int j = 0; j < MM_RB && n0 + j < N; ++j) {
-      real s = HSUM(acc[i][j]);
-      for (int k = kv * MM_VW; k < K; ++k) s += a[i][k] * b[j][k];
-      store(C, ldc, m0 + i, n0 + j, s, beta);
-    }
-}
-
 // B's columns c .. c + MM_VW − 1 of row k, zeros past column N.
 inline realV load_cols(__global const real* row, int c, int N) {
   if (c + MM_VW <= N) return VLOAD(0, row + c);
@@ -90,64 +55,110 @@ inline realV load_cols(__global const real* row, int c, int N) {
   return VLOAD(0, t);
 }
 
-// Each work-item takes MM_RB rows and walks the columns of A·B in blocks of 2·MM_VW: a block is
-// MM_RB × 2 vectors of accumulators, each step along k one scalar of A times a vector of B (no
-// horizontal sums until the last), then multiplied by the same columns of D into a vector per row.
-#define NB (2 * MM_VW)
-__kernel void matmul_nn_rowdot(int M, int N, int K, __global const real* A, int lda,
-                               __global const real* B, int ldb, __global const real* D, int ldd,
-                               __global real* out) {
-  int m0 = get_global_id(0) * MM_RB;
-  if (m0 >= M) return;
-  __global const real* a[MM_RB];
-  __global const real* d[MM_RB];
-  for (int r = 0; r < MM_RB; ++r) {  // rows past the edge repeat the last row (not stored)
-    a[r] = A + (size_t)min(m0 + r, M - 1) * lda;
-    d[r] = D + (size_t)min(m0 + r, M - 1) * ldd;
+// One step along k of a column block: row i's scalar of A (and of Ad) times two vectors of B.
+inline void nn_step(realV acc[MM_RB][2], realV accd[MM_RB][2], __global const real** a,
+                    __global const real** ad, int k, realV b0, realV b1, const int derivatives) {
+#pragma unroll
+  for (int i = 0; i < MM_RB; ++i) {
+    real ak = a[i][k];
+    acc[i][0] += ak * b0;
+    acc[i][1] += ak * b1;
+    if (derivatives) {
+      real adk = ad[i][k];
+      accd[i][0] += adk * b0;
+      accd[i][1] += adk * b1;
+    }
   }
-  realV dot[MM_RB];
+}
+
+// MM_RB rows from m0 walk the columns of A·B in blocks of 2·MM_VW: a block is MM_RB × 2 vectors
+// of accumulators, each step along k one scalar of A times a vector of B (no horizontal sums
+// until the last), then multiplied by the same columns of D into a vector per row: dot[0][i].
+// With `derivatives` (a constant: the compiler drops what it does not use) also the rows of
+// Ad·B, and dot[1][i] = Σ (A·B)·Dd, dot[2][i] = Σ (Ad·B)·D.
+#define NB (2 * MM_VW)
+inline void nn_rowdots(int m0, int M, int N, int K, __global const real* A,
+                       __global const real* Ad, int lda, __global const real* B, int ldb,
+                       __global const real* D, __global const real* Dd, int ldd,
+                       const int derivatives, realV dot[3][MM_RB]) {
+  __global const real *a[MM_RB], *ad[MM_RB], *d[MM_RB], *dd[MM_RB];
+  for (int r = 0; r < MM_RB; ++r) {  // rows past the edge repeat the last row (not stored)
+    size_t row = (size_t)min(m0 + r, M - 1);
+    a[r] = A + row * lda;
+    d[r] = D + row * ldd;
+    ad[r] = derivatives ? Ad + row * lda : a[r];
+    dd[r] = derivatives ? Dd + row * ldd : d[r];
+  }
 #pragma unroll
-  for (int i = 0; i < MM_RB; ++i) dot[i] = 0;
+  for (int i = 0; i < MM_RB; ++i) dot[0][i] = dot[1][i] = dot[2][i] = 0;
   for (int c = 0; c < N; c += NB) {
-    realV acc[MM_RB][2];
+    realV acc[MM_RB][2], accd[MM_RB][2];
 #pragma unroll
-    for (int i = 0; i < MM_RB; ++i) acc[i][0] = acc[i][1] = 0;
+    for (int i = 0; i < MM_RB; ++i) acc[i][0] = acc[i][1] = accd[i][0] = accd[i][1] = 0;
     if (c + NB <= N) {
       for (int k = 0; k < K; ++k) {
         __global const real* b = B + (size_t)k * ldb + c;
-        realV b0 = VLOAD(0, b), b1 = VLOAD(1, b);
-#pragma unroll
-        for (int i = 0; i < MM_RB; ++i) {
-          real ak = a[i][k];
-          acc[i][0] += ak * b0;
-          acc[i][1] += ak * b1;
-        }
+        nn_step(acc, accd, a, ad, k, VLOAD(0, b), VLOAD(1, b), derivatives);
       }
     } else {  // the ragged right edge
       for (int k = 0; k < K; ++k) {
         __global const real* b = B + (size_t)k * ldb;
-        realV b0 = load_cols(b, c, N), b1 = load_cols(b, c + MM_VW, N);
-#pragma unroll
-        for (int i = 0; i < MM_RB; ++i) {
-          real ak = a[i][k];
-          acc[i][0] += ak * b0;
-          acc[i][1] += ak * b1;
-        }
+        nn_step(acc, accd, a, ad, k, load_cols(b, c, N), load_cols(b, c + MM_VW, N),
+                derivatives);
       }
     }
 #pragma unroll
-    for (int i = 0; i < MM_RB; ++i)
-      dot[i] += acc[i][0] * load_cols(d[i], c, N) + acc[i][1] * load_cols(d[i], c + MM_VW, N);
+    for (int i = 0; i < MM_RB; ++i) {
+      realV g0 = load_cols(d[i], c, N), g1 = load_cols(d[i], c + MM_VW, N);
+      dot[0][i] += acc[i][0] * g0 + acc[i][1] * g1;
+      if (derivatives) {
+        dot[1][i] += acc[i][0] * load_cols(dd[i], c, N) + acc[i][1] * load_cols(dd[i], c + MM_VW, N);
+        dot[2][i] += accd[i][0] * g0 + accd[i][1] * g1;
+      }
+    }
   }
-  for (int i = 0; i < MM_RB && m0 + i < M; ++i) out[m0 + i] = HSUM(dot[i]);
 }
 
-__kernel void row_dot(int M, int N, __global const real* C, int ldc, __global const real* D,
-                      int ldd, __global real* out) {
+// out_r = (dot[0], dot[1], dot[2], 0) of nn_rowdots, each summed across its vector.
+inline void nn_rowdots_kernel(int M, int N, int K, __global const real* A,
+                              __global const real* Ad, int lda, __global const real* B, int ldb,
+                              __global const real* D, __global const real* Dd, int ldd,
+                              __global real4* out, const int derivatives) {
+  int m0 = get_global_id(0) * MM_RB;
+  if (m0 >= M) return;
+  realV dot[3][MM_RB];
+  nn_rowdots(m0, M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, derivatives, dot);
+  for (int i = 0; i < MM_RB && m0 + i < M; ++i)
+    out[m0 + i] = (real4)(HSUM(dot[0][i]), HSUM(dot[1][i]), HSUM(dot[2][i]), 0);
+}
+
+__kernel void matmul_nn_rowdot(int M, int N, int K, __global const real* A,
+                               __global const real* Ad, int lda, __global const real* B, int ldb,
+                               __global const real* D, __global const real* Dd, int ldd,
+                               __global real4* out) {
+  nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out, 0);
+}
+
+__kernel void matmul_nn_rowdots(int M, int N, int K, __global const real* A,
+                                __global const real* Ad, int lda, __global const real* B,
+                                int ldb, __global const real* D, __global const real* Dd,
+                                int ldd, __global real4* out) {
+  nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out, 1);
+}
+
+// out_r = (Σ C·D, Σ C·Dd, Σ Cd·D, 0) of stored products (CLBlast's GEMM).
+__kernel void row_dots(int M, int N, __global const real* C, __global const real* Cd, int ldc,
+                       __global const real* D, __global const real* Dd, int ldd,
+                       __global real4* out) {
   int r = get_global_id(0);
   if (r >= M) return;
-  real dot = 0;
-  for (int j = 0; j < N; ++j) dot += C[(size_t)r * ldc + j] * D[(size_t)r * ldd + j];
+  real4 dot = 0;
+  for (int j = 0; j < N; ++j) {
+    real c = C[(size_t)r * ldc + j], d = D[(size_t)r * ldd + j];
+    dot.x += c * d;
+    dot.y += c * Dd[(size_t)r * ldd + j];
+    dot.z += Cd[(size_t)r * ldc + j] * d;
+  }
   out[r] = dot;
 }
 

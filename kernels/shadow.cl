@@ -133,9 +133,9 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
 }
 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
-// T = Gx·Sᵀ (n × H_s) and v_r = Σ_j T_rj·Gy_rj / (Σgx_r·Σgy_r). -------------------------------
-// Gx n × W_s, Gy n × H_s; Gxd (backward only) = Gx ⊙ (i − μx)/σ_s; norm n × real4
-// (Σgx, Σgy, inside?, 0).
+// U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------
+// Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
+// norm n × real4 (Σgx, Σgy, inside?, 0).
 // One axis of the weights, eight entries at a time: out[i] = g_i (and dout[i] = g_i·(i − c)/σ_s),
 // i < n, g_i = exp(−(i − c)²/(2σ_s)); returns Σ g_i.
 inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
@@ -166,7 +166,7 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
 FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int light, int nl,
                                   int Wm, int Hm, __global const real4* rec_light,
                                   __global real* Gx, __global real* Gxd, int with_derivative,
-                                  __global real* Gy, __global real4* norm) {
+                                  __global real* Gy, __global real* Gyd, __global real4* norm) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 x = rec_light[(r0 + k) * nl + light];
@@ -174,52 +174,50 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   int inside = inside_map(x.xy, Wm, Hm);
   real sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
                           with_derivative ? Gxd + (size_t)k * Wm : 0);
-  real sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm, 0);
+  real sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm,
+                          with_derivative ? Gyd + (size_t)k * Hm : 0);
   norm[k] = (real4)(sx, sy, inside, 0);
 }
 
-// dot_r = Σ_ij gy_rj·S_ji·gx_ri (matmul_nn_rowdot, matmul.cl).
+// dot_r.x = Σ_ij gy_rj·S_ji·gx_ri (matmul_nn_rowdot, matmul.cl).
 FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int light, int nl,
-                                 __global const real* dot, __global const real4* norm,
+                                 __global const real4* dot, __global const real4* norm,
                                  __global real4* rec_light) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 nm = norm[k];
   __global real4* x = rec_light + (r0 + k) * nl + light;
-  x->w = nm.z == 0 ? 1 : compare(dot[k] / (nm.x * nm.y), x->z, P);
+  x->w = nm.z == 0 ? 1 : compare(dot[k].x / (nm.x * nm.y), x->z, P);
 }
 
-// Backward: T and Td = Gxd·Sᵀ are given; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in
-// place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
+// Backward: dots_r = (A, Ax, Ay) = Σ_ij S_ji·(gx_i·gy_j, gxd_i·gy_j, gx_i·gyd_j) are given
+// (matmul_nn_rowdots); writes dL/dμ, dL/dd into rec_lgrad and scales Gy in place by
+// a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
 BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl,
-                                      int Wm, int Hm, __global const real* T,
-                                      __global const real* Td, __global const real* Gx,
-                                      __global real* Gy, __global const real4* norm,
+                                      int Wm, int Hm, __global const real4* dots,
+                                      __global const real* Gx, __global real* Gy,
+                                      __global const real4* norm,
                                       __global const real4* rec_light, __global real4* rec_lgrad) {
   int k = get_global_id(0);
   if (k >= n) return;
-  real4 nm = norm[k], x = rec_light[(r0 + k) * nl + light];
+  real4 nm = norm[k], x = rec_light[(r0 + k) * nl + light], d = dots[k];
   __global real4* g = rec_lgrad + (r0 + k) * nl + light;
+  __global real* gy = Gy + (size_t)k * Hm;
   if (nm.z == 0) {
     *g = 0;
-    for (int j = 0; j < Hm; ++j) Gy[(size_t)k * Hm + j] = 0;
+    for (int j = 0; j < Hm; ++j) gy[j] = 0;
     return;
   }
-  real ss = P[P_SIGMA_S], A = 0, Ax = 0, Ay = 0, sdx = 0, sdy = 0;
-  for (int j = 0; j < Hm; ++j) {
-    real gy = Gy[(size_t)k * Hm + j], t = T[(size_t)k * Hm + j];
-    real gyd = gy * (j - x.y) / ss;
-    A += t * gy;
-    Ax += Td[(size_t)k * Hm + j] * gy;
-    Ay += t * gyd;
-    sdy += gyd;
-  }
-  for (int i = 0; i < Wm; ++i) sdx += Gx[(size_t)k * Wm + i] * (i - x.x) / ss;
-  real nrm = nm.x * nm.y, v = A / nrm;
+  real ss = P[P_SIGMA_S], sdx = 0, sdy = 0;
+  real nrm = nm.x * nm.y, v = d.x / nrm;
   real gv = g->x * x.w * (1 - x.w) / P[P_GAMMA_S];
-  real dvx = Ax / nrm - v * sdx / nm.x, dvy = Ay / nrm - v * sdy / nm.y;
+  for (int i = 0; i < Wm; ++i) sdx += Gx[(size_t)k * Wm + i] * (i - x.x) / ss;
+  for (int j = 0; j < Hm; ++j) {
+    sdy += gy[j] * (j - x.y) / ss;
+    gy[j] *= gv / nrm;
+  }
+  real dvx = d.y / nrm - v * sdx / nm.x, dvy = d.z / nrm - v * sdy / nm.y;
   *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);
-  for (int j = 0; j < Hm; ++j) Gy[(size_t)k * Hm + j] *= gv / nrm;
 }
 
 // ---- soft shadows (SPEC §4, eq. 11 with a receiver-plane depth bias; compare then filter) ---

@@ -108,10 +108,9 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk, c
   if (done) detail::profile_launch("clblast_gemm", cl::Event(done));  // takes the reference
 }
 
-// matmul_nt and matmul_tn take the same arguments; `kernel` says which.
-struct MatmulArgs {
+struct MatmulTnArgs {
   static constexpr const char* file = "matmul.cl";
-  const char* kernel;
+  static constexpr const char* kernel = "matmul_tn";
   cl_int M, N, K;
   const cl::Buffer& A;
   cl_int lda;
@@ -123,66 +122,55 @@ struct MatmulArgs {
   auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, beta, C, ldc); }
 };
 
-// out = Σ_c (A·B)_rc·D_rc by matmul_nn_rowdot, or of a stored C by row_dot.
-struct MatmulRowdotArgs {
+// matmul_nn_rowdot and matmul_nn_rowdots take the same arguments; `kernel` says which.
+struct MatmulRowdotsArgs {
   static constexpr const char* file = "matmul.cl";
-  static constexpr const char* kernel = "matmul_nn_rowdot";
+  const char* kernel;
   cl_int M, N, K;
-  const cl::Buffer& A;
+  const cl::Buffer &A, &Ad;
   cl_int lda;
   const cl::Buffer& B;
   cl_int ldb;
-  const cl::Buffer& D;
+  const cl::Buffer &D, &Dd;
   cl_int ldd;
   const cl::Buffer& out;
-  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, D, ldd, out); }
+  auto fields() const { return std::tie(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out); }
 };
 
-struct RowDotArgs {
+struct RowDotsArgs {
   static constexpr const char* file = "matmul.cl";
-  static constexpr const char* kernel = "row_dot";
+  static constexpr const char* kernel = "row_dots";
   cl_int M, N;
-  const cl::Buffer& C;
+  const cl::Buffer &C, &Cd;
   cl_int ldc;
-  const cl::Buffer& D;
+  const cl::Buffer &D, &Dd;
   cl_int ldd;
   const cl::Buffer& out;
-  auto fields() const { return std::tie(M, N, C, ldc, D, ldd, out); }
+  auto fields() const { return std::tie(M, N, C, Cd, ldc, D, Dd, ldd, out); }
 };
-
-void direct(Kernels& k, const char* name, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-            size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C, size_t ldc,
-            size_t rows_per_item, size_t cols_per_item) {
-  auto& mm = bind_args(
-      k, MatmulArgs{name, int(m), int(n), int(kk), A, int(lda), B, int(ldb), beta, C, int(ldc)});
-  launch(
-      k.ctx(), mm,
-      cl::NDRange((n + cols_per_item - 1) / cols_per_item, (m + rows_per_item - 1) / rows_per_item),
-      cl::NDRange(8, 8));  // no barriers: the group size only sets scheduling
-}
 
 }  // namespace
 
-void matmul_nt(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
-               size_t ldc) {
-  if (clblast) return clblast_gemm(k, false, true, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  const size_t rb = size_t(k.tuning().exact.row_block);  // MM_RB
-  direct(k, "matmul_nt", m, n, kk, A, lda, B, ldb, beta, C, ldc, rb, rb);
-}
-
-void matmul_nn_rowdot(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-                      size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& D, size_t ldd,
-                      cl::Buffer& out) {
+void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
+                       const cl::Buffer* Ad, size_t lda, const cl::Buffer& B, size_t ldb,
+                       const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd, cl::Buffer& out) {
+  const bool derivatives = Ad && Dd;
+  const cl::Buffer &ad = derivatives ? *Ad : A, &dd = derivatives ? *Dd : D;
   if (clblast) {
     cl::Buffer C = alloc_reals(k.ctx(), k.precision(), m * n);
     clblast_gemm(k, false, false, m, n, kk, A, lda, B, ldb, 0.0, C, n);
-    auto& rd = bind_args(k, RowDotArgs{int(m), int(n), C, int(n), D, int(ldd), out});
+    cl::Buffer Cd = C;
+    if (derivatives) {
+      Cd = alloc_reals(k.ctx(), k.precision(), m * n);
+      clblast_gemm(k, false, false, m, n, kk, ad, lda, B, ldb, 0.0, Cd, n);
+    }
+    auto& rd = bind_args(k, RowDotsArgs{int(m), int(n), C, Cd, int(n), D, dd, int(ldd), out});
     return launch_1d(k.ctx(), rd, m);
   }
   auto& mm = bind_args(
-      k, MatmulRowdotArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), D, int(ldd), out});
-  const size_t rows_per_item = size_t(k.tuning().exact.row_block);
+      k, MatmulRowdotsArgs{derivatives ? "matmul_nn_rowdots" : "matmul_nn_rowdot", int(m), int(n),
+                           int(kk), A, ad, int(lda), B, int(ldb), D, dd, int(ldd), out});
+  const size_t rows_per_item = size_t(k.tuning().exact.row_block);  // MM_RB
   launch_1d(k.ctx(), mm, (m + rows_per_item - 1) / rows_per_item, 8);
 }
 
@@ -190,9 +178,12 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
                size_t ldc) {
   if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  const ExactSumTuning& t = k.tuning().exact;  // TN_RB = 2·MM_RB rows, 2·MM_VW columns
-  direct(k, "matmul_tn", m, n, kk, A, lda, B, ldb, beta, C, ldc, 2 * size_t(t.row_block),
-         2 * size_t(t.vector_width));
+  auto& mm = bind_args(
+      k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), beta, C, int(ldc)});
+  const ExactSumTuning& t = k.tuning().exact;  // 2·MM_RB rows, 2·MM_VW columns per work-item
+  const size_t rows = 2 * size_t(t.row_block), cols = 2 * size_t(t.vector_width);
+  launch(k.ctx(), mm, cl::NDRange((n + cols - 1) / cols, (m + rows - 1) / rows),
+         cl::NDRange(8, 8));  // no barriers: the group size only sets scheduling
 }
 
 }  // namespace penumbra::detail

@@ -87,9 +87,10 @@ struct ExactWeightsArgs {
   cl_int r0, m, light, nl, Wm, Hm;
   const cl::Buffer &rec_light, &Gx, &Gxd;
   cl_int with_derivative;
-  const cl::Buffer &Gy, &norm;
+  const cl::Buffer &Gy, &Gyd, &norm;
   auto fields() const {
-    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, norm);
+    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, Gyd,
+                    norm);
   }
 };
 
@@ -108,9 +109,9 @@ struct ExactFinishBwdArgs {
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer& P;
   cl_int r0, m, light, nl, Wm, Hm;
-  const cl::Buffer &T, &Td, &Gx, &Gy, &norm, &rec_light, &rec_lgrad;
+  const cl::Buffer &dots, &Gx, &Gy, &norm, &rec_light, &rec_lgrad;
   auto fields() const {
-    return std::tie(P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm, rec_light, rec_lgrad);
+    return std::tie(P, r0, m, light, nl, Wm, Hm, dots, Gx, Gy, norm, rec_light, rec_lgrad);
   }
 };
 
@@ -128,15 +129,15 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
   const Precision p = k.precision();
   // every entry of a batch is written before it is read
   cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gy = alloc_reals(ctx, p, batch * Hm),
-             dot = alloc_reals(ctx, p, batch), norm = alloc_reals(ctx, p, batch * 4);
+             dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
-        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, norm});
+        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, Gy, norm});
     launch_1d(ctx, wts, m);
     // dot_r = Σ_i U_ri·Gx_ri, U = Gy·S
-    matmul_nn_rowdot(k, clblast, m, Wm, Hm, Gy, Hm, lm.S, Wm, Gx, Wm, dot);
+    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, nullptr, Hm, lm.S, Wm, Gx, nullptr, Wm, dot);
     auto& fin = bind_args(k, ExactFinishArgs{at.P, r0, m, light, nl, dot, norm, f.rec_light});
     launch_1d(ctx, fin, m);
   }
@@ -181,18 +182,19 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
   const Precision p = k.precision();
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
-  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gxd = zero_reals(ctx, p, batch * Wm),
-             Gy = zero_reals(ctx, p, batch * Hm), T = zero_reals(ctx, p, batch * Hm),
-             Td = zero_reals(ctx, p, batch * Hm), norm = zero_reals(ctx, p, batch * 4);
+  // every entry of a batch is written before it is read
+  cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gxd = alloc_reals(ctx, p, batch * Wm),
+             Gy = alloc_reals(ctx, p, batch * Hm), Gyd = alloc_reals(ctx, p, batch * Hm),
+             dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
-    auto& wts = bind_args(
-        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gxd, 1, Gy, norm});
+    auto& wts = bind_args(k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gxd,
+                                              1, Gy, Gyd, norm});
     launch_1d(ctx, wts, m);
-    matmul_nt(k, clblast, m, Hm, Wm, Gx, Wm, lm.S, Wm, 0.0, T, Hm);    // Gx·Sᵀ
-    matmul_nt(k, clblast, m, Hm, Wm, Gxd, Wm, lm.S, Wm, 0.0, Td, Hm);  // Gxd·Sᵀ
-    auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Wm, Hm, T, Td, Gx, Gy, norm,
+    // dots_r = Σ_i (U_ri·Gx_ri, U_ri·Gxd_ri, Ud_ri·Gx_ri), U = Gy·S, Ud = Gyd·S
+    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, dots);
+    auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Wm, Hm, dots, Gx, Gy, norm,
                                                 f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
     matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
