@@ -365,9 +365,12 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
     real4 x = rec_light[r * nl + light];
     realR offx = (real)i0 + LANER - x.x, gx = axis_weight(offx, ss);
     real2 grad = rec_light2[r * nl + light].xy;
-    for (int t = 0; t < rows; ++t) {
-      real dy = j0 + t - x.y, gy = axis_weight(dy, ss);
-      if (!(dy * dy < r2) || gy <= eps) continue;
+    real gys[ROW];  // the rows' weights, as one vector exp rather than one scalar exp each
+    vstoreR(axis_weight((real)j0 + LANER - x.y, ss), 0, gys);
+#pragma unroll
+    for (int t = 0; t < GATHER_ROWS; ++t) {  // unrolled: the rows' vectors stay in registers
+      real dy = j0 + t - x.y, gy = gys[t];
+      if (t >= rows || !(dy * dy < r2) || gy <= eps) continue;
       realR g = fmax(gx * gy - eps, (realR)0);
       soft_term(Sv[t], Pv[t], x.z + grad.x * offx + grad.y * dy, cmp, &dd, &dP);
       realR a = k * g;
