@@ -376,6 +376,11 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
     realR offx = (real)i0 + LANER - x.mu.x, gx = 0, hx = 0;
     if (filter) gx = axis_weight(offx, sigma);
     if (search) hx = on_grid * axis_weight(offx, sigma_b);
+    // the rows' weights, each as one vector exp rather than one scalar exp per row
+    real gy[ROW], hy[ROW];
+    const realR offy_rows = (real)j0 + LANER - x.mu.y;
+    if (filter) vstoreR(axis_weight(offy_rows, sigma), 0, gy);
+    if (search) vstoreR(axis_weight(offy_rows, sigma_b), 0, hy);
     for (int t = 0; t < rows; ++t) {
       real offy = j0 + t - x.mu.y;
       if (!(offy * offy < r2)) continue;
@@ -384,12 +389,12 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
       if (!filter_row && !search_row) continue;
       realR lit = lit_term(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
       if (filter_row) {
-        realR g = fmax(gx * axis_weight(offy, sigma) - eps, (realR)0);
+        realR g = fmax(gx * gy[t] - eps, (realR)0);
         acc[t] -= a * g * dc;
         accA[t] -= a * g * step;
       }
       if (search_row) {
-        realR h = fmax(hx * axis_weight(offy, sigma_b) - eps_b, (realR)0);
+        realR h = fmax(hx * hy[t] - eps_b, (realR)0);
         acc[t] += b * h * ((1 - lit) + (Sv[t] - zb) * dc);
         accA[t] += b * h * step * (Sv[t] - zb);
       }

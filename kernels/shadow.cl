@@ -124,9 +124,11 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
     real a = rec_lgrad[r * nl + light].x;
     if (a == 0 || !window_reaches(x.xy, i0, j0, rows, r2)) continue;
     realR gx = axis_weight((real)i0 + LANER - x.x, ss);
+    real gys[ROW];  // the rows' weights, as one vector exp rather than one scalar exp each
+    vstoreR(axis_weight((real)j0 + LANER - x.y, ss), 0, gys);
     for (int t = 0; t < rows; ++t) {
       real dy = j0 + t - x.y;
-      if (dy * dy < r2) acc[t] += a * fmax(gx * axis_weight(dy, ss) - eps, (realR)0);
+      if (dy * dy < r2) acc[t] += a * fmax(gx * gys[t] - eps, (realR)0);
     }
   }
   store_rows(acc, rows, min(ROW, Wm - i0), i0, j0, Wm, gS);
