@@ -137,12 +137,12 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
 // U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------
 // Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
-// norm n × real4 (Σgx, Σgy, inside?, 0).
+// norm n × real4 (Σgx, Σgy, inside?, 0); dsum (backward only) n × real2 (Σgxd, Σgyd).
 // One axis of the weights, eight entries at a time: out[i] = g_i (and dout[i] = g_i·(i − c)/σ_s),
-// i < n, g_i = exp(−(i − c)²/(2σ_s)); returns Σ g_i.
-inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
-                          __global real* dout) {
-  real8 sum = 0;
+// i < n, g_i = exp(−(i − c)²/(2σ_s)); returns (Σ g_i, Σ dout_i).
+inline real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
+                           __global real* dout) {
+  real8 sum = 0, dsum = 0;
   for (int i0 = 0; i0 < n; i0 += 8) {
     real8 d = (real)i0 + LANE8 - c;
     real8 g = on ? exp_or_zero(gaussian_arg(d, ss)) : (real8)0;
@@ -151,6 +151,7 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
       vstore8(g, 0, out + i0);
       if (dout) vstore8(dg, 0, dout + i0);
       sum += g;
+      dsum += dg;
     } else {
       real t[8], dt[8];
       vstore8(g, 0, t);
@@ -159,26 +160,29 @@ inline real axis_weights8(real c, int n, real ss, int on, __global real* out,
         out[i0 + l] = t[l];
         if (dout) dout[i0 + l] = dt[l];
         sum.s0 += t[l];
+        dsum.s0 += dt[l];
       }
     }
   }
-  return hsum8(sum);
+  return (real2)(hsum8(sum), hsum8(dsum));
 }
 
 FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int light, int nl,
                                   int Wm, int Hm, __global const real4* rec_light,
                                   __global real* Gx, __global real* Gxd, int with_derivative,
-                                  __global real* Gy, __global real* Gyd, __global real4* norm) {
+                                  __global real* Gy, __global real* Gyd, __global real4* norm,
+                                  __global real2* dsum) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 x = rec_light[(r0 + k) * nl + light];
   real ss = P[P_SIGMA_S];
   int inside = inside_map(x.xy, Wm, Hm);
-  real sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
-                          with_derivative ? Gxd + (size_t)k * Wm : 0);
-  real sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm,
-                          with_derivative ? Gyd + (size_t)k * Hm : 0);
-  norm[k] = (real4)(sx, sy, inside, 0);
+  real2 sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
+                           with_derivative ? Gxd + (size_t)k * Wm : 0);
+  real2 sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm,
+                           with_derivative ? Gyd + (size_t)k * Hm : 0);
+  norm[k] = (real4)(sx.x, sy.x, inside, 0);
+  if (with_derivative) dsum[k] = (real2)(sx.y, sy.y);
 }
 
 // dot_r.x = Σ_ij gy_rj·S_ji·gx_ri (matmul_nn_rowdot, matmul.cl).
@@ -193,12 +197,11 @@ FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int ligh
 }
 
 // Backward: dots_r = (A, Ax, Ay) = Σ_ij S_ji·(gx_i·gy_j, gxd_i·gy_j, gx_i·gyd_j) are given
-// (matmul_nn_rowdots); writes dL/dμ, dL/dd into rec_lgrad and scales Gy in place by
+// (matmul_nn_rowdots), and dsum from exact_weights; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in place by
 // a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
 BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl,
-                                      int Wm, int Hm, __global const real4* dots,
-                                      __global const real* Gx, __global real* Gy,
-                                      __global const real4* norm,
+                                      int Hm, __global const real4* dots, __global real* Gy,
+                                      __global const real4* norm, __global const real2* dsum,
                                       __global const real4* rec_light, __global real4* rec_lgrad) {
   int k = get_global_id(0);
   if (k >= n) return;
@@ -210,15 +213,10 @@ BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int
     for (int j = 0; j < Hm; ++j) gy[j] = 0;
     return;
   }
-  real ss = P[P_SIGMA_S], sdx = 0, sdy = 0;
-  real nrm = nm.x * nm.y, v = d.x / nrm;
-  real gv = g->x * x.w * (1 - x.w) / P[P_GAMMA_S];
-  for (int i = 0; i < Wm; ++i) sdx += Gx[(size_t)k * Wm + i] * (i - x.x) / ss;
-  for (int j = 0; j < Hm; ++j) {
-    sdy += gy[j] * (j - x.y) / ss;
-    gy[j] *= gv / nrm;
-  }
-  real dvx = d.y / nrm - v * sdx / nm.x, dvy = d.z / nrm - v * sdy / nm.y;
+  real nrm = nm.x * nm.y, v = d.x / nrm, gv = g->x * x.w * (1 - x.w) / P[P_GAMMA_S];
+  for (int j = 0; j < Hm; ++j) gy[j] *= gv / nrm;
+  real2 sd = dsum[k];  // Σgxd, Σgyd
+  real dvx = d.y / nrm - v * sd.x / nm.x, dvy = d.z / nrm - v * sd.y / nm.y;
   *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);
 }
 

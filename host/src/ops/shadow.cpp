@@ -87,10 +87,10 @@ struct ExactWeightsArgs {
   cl_int r0, m, light, nl, Wm, Hm;
   const cl::Buffer &rec_light, &Gx, &Gxd;
   cl_int with_derivative;
-  const cl::Buffer &Gy, &Gyd, &norm;
+  const cl::Buffer &Gy, &Gyd, &norm, &dsum;
   auto fields() const {
-    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, Gyd,
-                    norm);
+    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, Gyd, norm,
+                    dsum);
   }
 };
 
@@ -108,10 +108,10 @@ struct ExactFinishBwdArgs {
   static constexpr const char* kernel = "exact_finish_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer& P;
-  cl_int r0, m, light, nl, Wm, Hm;
-  const cl::Buffer &dots, &Gx, &Gy, &norm, &rec_light, &rec_lgrad;
+  cl_int r0, m, light, nl, Hm;
+  const cl::Buffer &dots, &Gy, &norm, &dsum, &rec_light, &rec_lgrad;
   auto fields() const {
-    return std::tie(P, r0, m, light, nl, Wm, Hm, dots, Gx, Gy, norm, rec_light, rec_lgrad);
+    return std::tie(P, r0, m, light, nl, Hm, dots, Gy, norm, dsum, rec_light, rec_lgrad);
   }
 };
 
@@ -134,7 +134,8 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
-        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, Gy, norm});
+        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, Gy, norm,
+                            norm});  // no derivatives: Gxd, Gyd and dsum are not written
     launch_1d(ctx, wts, m);
     // dot_r = Σ_i U_ri·Gx_ri, U = Gy·S
     matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, nullptr, Hm, lm.S, Wm, Gx, nullptr, Wm, dot);
@@ -185,16 +186,17 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
   // every entry of a batch is written before it is read
   cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gxd = alloc_reals(ctx, p, batch * Wm),
              Gy = alloc_reals(ctx, p, batch * Hm), Gyd = alloc_reals(ctx, p, batch * Hm),
-             dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4);
+             dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
+             dsum = alloc_reals(ctx, p, batch * 2);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gxd,
-                                              1, Gy, Gyd, norm});
+                                              1, Gy, Gyd, norm, dsum});
     launch_1d(ctx, wts, m);
     // dots_r = Σ_i (U_ri·Gx_ri, U_ri·Gxd_ri, Ud_ri·Gx_ri), U = Gy·S, Ud = Gyd·S
     matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, dots);
-    auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Wm, Hm, dots, Gx, Gy, norm,
+    auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Hm, dots, Gy, norm, dsum,
                                                 f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
     matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
