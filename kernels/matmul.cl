@@ -4,11 +4,11 @@
 //   matmul_nn_rowdots out_r = (Σ_c (A·B)_rc·D_rc, Σ_c (A·B)_rc·Dd_rc, Σ_c (Ad·B)_rc·D_rc, 0)
 //                     (B is K × N) without storing A·B or Ad·B: with U = Gy·S, the exact sums
 //                     Σ_i U_ri·Gx_ri and the backward's Σ_i U_ri·Gxd_ri, Σ_i (Gyd·S)_ri·Gx_ri;
-//                     matmul_nn_rowdot the first alone (.y, .z 0); row_dots of stored products
+//                     matmul_nn_rowdot the first alone (.y, .z 0); row_dot(s) of stored products
 // The products run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs
 // (PoCL): a work-item computes 2·MM_RB rows × 2·MM_VW columns (tn), or MM_RB rows of A·B in
 // blocks of 2·MM_VW columns (nn_rowdot(s)). Launch: tn global (ceil(N/(2·MM_VW)),
-// ceil(M/(2·MM_RB))); nn_rowdot(s) global ceil(M/MM_RB); row_dots global M.
+// ceil(M/(2·MM_RB))); nn_rowdot(s) global ceil(M/MM_RB); row_dot(s) global M.
 // The loops over a work-item's accumulators are unrolled (#pragma unroll) so that the
 // accumulators live in registers: left as loops, PoCL kept them in memory, a load and a store
 // around every FMA (both products 2x slower on the 2-core AVX-512 CPU of docs/benchmarks.md).
@@ -146,20 +146,35 @@ __kernel void matmul_nn_rowdots(int M, int N, int K, __global const real* A,
   nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out, 1);
 }
 
-// out_r = (Σ C·D, Σ C·Dd, Σ Cd·D, 0) of stored products (CLBlast's GEMM).
-__kernel void row_dots(int M, int N, __global const real* C, __global const real* Cd, int ldc,
-                       __global const real* D, __global const real* Dd, int ldd,
-                       __global real4* out) {
+// out_r = (Σ C·D, Σ C·Dd, Σ Cd·D, 0) of stored products (CLBlast's GEMM); row_dot the first
+// alone, as nn_rowdots does.
+inline void row_dots_kernel(int M, int N, __global const real* C, __global const real* Cd,
+                            int ldc, __global const real* D, __global const real* Dd, int ldd,
+                            __global real4* out, const int derivatives) {
   int r = get_global_id(0);
   if (r >= M) return;
   real4 dot = 0;
   for (int j = 0; j < N; ++j) {
     real c = C[(size_t)r * ldc + j], d = D[(size_t)r * ldd + j];
     dot.x += c * d;
-    dot.y += c * Dd[(size_t)r * ldd + j];
-    dot.z += Cd[(size_t)r * ldc + j] * d;
+    if (derivatives) {
+      dot.y += c * Dd[(size_t)r * ldd + j];
+      dot.z += Cd[(size_t)r * ldc + j] * d;
+    }
   }
   out[r] = dot;
+}
+
+__kernel void row_dot(int M, int N, __global const real* C, __global const real* Cd, int ldc,
+                      __global const real* D, __global const real* Dd, int ldd,
+                      __global real4* out) {
+  row_dots_kernel(M, N, C, Cd, ldc, D, Dd, ldd, out, 0);
+}
+
+__kernel void row_dots(int M, int N, __global const real* C, __global const real* Cd, int ldc,
+                       __global const real* D, __global const real* Dd, int ldd,
+                       __global real4* out) {
+  row_dots_kernel(M, N, C, Cd, ldc, D, Dd, ldd, out, 1);
 }
 
 // matmul_tn's rows per work-item: its K (fragments) is long, so each row block streams all of

@@ -137,9 +137,10 @@ struct MatmulRowdotsArgs {
   auto fields() const { return std::tie(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out); }
 };
 
+// row_dot and row_dots take the same arguments; `kernel` says which.
 struct RowDotsArgs {
   static constexpr const char* file = "matmul.cl";
-  static constexpr const char* kernel = "row_dots";
+  const char* kernel;
   cl_int M, N;
   const cl::Buffer &C, &Cd;
   cl_int ldc;
@@ -164,7 +165,8 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
       Cd = alloc_reals(k.ctx(), k.precision(), m * n);
       clblast_gemm(k, false, false, m, n, kk, ad, lda, B, ldb, 0.0, Cd, n);
     }
-    auto& rd = bind_args(k, RowDotsArgs{int(m), int(n), C, Cd, int(n), D, dd, int(ldd), out});
+    auto& rd = bind_args(k, RowDotsArgs{derivatives ? "row_dots" : "row_dot", int(m), int(n), C, Cd,
+                                        int(n), D, dd, int(ldd), out});
     return launch_1d(k.ctx(), rd, m);
   }
   auto& mm = bind_args(

@@ -216,7 +216,7 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
 // out_r = (Σ_c (A·B)_rc·D_rc, Σ_c (A·B)_rc·Dd_rc, Σ_c (Ad·B)_rc·D_rc, 0) as a real4 (B is
 // k × n, D is m × n, Ad and Dd shaped as A and D); without Ad and Dd only the first (.y, .z
 // unspecified). The direct kernels never store A·B; CLBlast's GEMM writes it (and Ad·B) to
-// temporaries that row_dots reads.
+// temporaries that row_dot(s) reads.
 void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                        const cl::Buffer* Ad, size_t lda, const cl::Buffer& B, size_t ldb,
                        const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd, cl::Buffer& out);
