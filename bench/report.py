@@ -68,8 +68,9 @@ MISS_REASONS = [
      "by `matmul_nn_rowdot` (Gy·S, each row summed against Gx as it is formed; its device time "
      "per frame is in the profile below). Besides the product the frame computes the Gaussian "
      "weight matrices (`exact_weights`: written to memory and read back by the product; the "
-     "exps that are exactly 0 are skipped) and the two raster passes; the FMA share above "
-     "counts the whole frame. CLBlast (sampling `gemm`) is slower here and stores the product."),
+     "exps below the smallest normal number are skipped) and the two raster passes; the FMA "
+     "share above counts the whole frame. CLBlast (sampling `gemm`) is slower here and stores "
+     "the product."),
     ("backward ≤ 3× forward (hard", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
@@ -840,7 +841,7 @@ def stage_notes(res, peak, exp_rate, profiles):
                 exps = r["fragments"] * 2 * r["map"]
                 s += (f" Those weights are N·(W_s + H_s) = {si(exps)} exps at most, "
                       f"{fmt(exps / exp_rate * 1e3)} ms at the measured exp rate (the exps "
-                      f"that are exactly 0 are skipped).")
+                      f"below the smallest normal number are skipped).")
         elif flops:
             s += (f" Counting the whole difference as product time gives ≥ "
                   f"{fmt(flops / ((ex - none) * 1e-3))} GFLOP/s.")
