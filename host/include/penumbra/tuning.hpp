@@ -47,7 +47,7 @@ struct ExactSumTuning {
   // kernels. An explicit `kernels` or `clblast` ignores it.
   bool clblast = false;
   int vector_width = 8;  // MM_VW: 1, 2, 4, 8 or 16
-  int row_block = 4;     // MM_RB: rows of the product per work-item, 1 to 8
+  int row_block = 4;     // MM_RB: rows per work-item of the products (matmul_tn: twice), 1 to 8
   // CLBlast's GEMM (exact backend `clblast`, or `auto` with clblast), set with
   // clblast::OverrideParameters. Unset: CLBlast's built-in parameters for the device.
   std::optional<XgemmParameters> xgemm;
