@@ -112,7 +112,8 @@ inline void nn_rowdots(int m0, int M, int N, int K, __global const real* A,
       realV g0 = load_cols(d[i], c, N), g1 = load_cols(d[i], c + MM_VW, N);
       dot[0][i] += acc[i][0] * g0 + acc[i][1] * g1;
       if (derivatives) {
-        dot[1][i] += acc[i][0] * load_cols(dd[i], c, N) + acc[i][1] * load_cols(dd[i], c + MM_VW, N);
+        realV e0 = load_cols(dd[i], c, N), e1 = load_cols(dd[i], c + MM_VW, N);
+        dot[1][i] += acc[i][0] * e0 + acc[i][1] * e1;
         dot[2][i] += accd[i][0] * g0 + accd[i][1] * g1;
       }
     }

@@ -146,7 +146,7 @@ inline real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
   for (int i0 = 0; i0 < n; i0 += 8) {
     real8 d = (real)i0 + LANE8 - c;
     real8 g = on ? exp_or_zero(gaussian_arg(d, ss)) : (real8)0;
-    real8 dg = g * d / ss;
+    real8 dg = dout ? g * d / ss : 0;  // the forward needs no derivative weights
     if (i0 + 8 <= n) {
       vstore8(g, 0, out + i0);
       if (dout) vstore8(dg, 0, dout + i0);
@@ -197,8 +197,9 @@ FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int ligh
 }
 
 // Backward: dots_r = (A, Ax, Ay) = Σ_ij S_ji·(gx_i·gy_j, gxd_i·gy_j, gx_i·gyd_j) are given
-// (matmul_nn_rowdots), and dsum from exact_weights; writes dL/dμ, dL/dd into rec_lgrad and scales Gy in place by
-// a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more product.
+// (matmul_nn_rowdots), and dsum from exact_weights; writes dL/dμ, dL/dd into rec_lgrad and
+// scales Gy in place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more
+// product.
 BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl,
                                       int Hm, __global const real4* dots, __global real* Gy,
                                       __global const real4* norm, __global const real2* dsum,

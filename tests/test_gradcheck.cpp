@@ -337,6 +337,29 @@ TEST(GradCheck, HardShadowsBundledScene) {
     }
 }
 
+// The paper model's exact sum on a 40² map: no multiple of matmul.cl's column blocks, so the
+// products' ragged edges (matmul_nn_rowdots, matmul_tn) are in the gradients checked. (Twelve
+// sampled entries need not touch every texel column: ExactEqualsGemmGradients compares all of
+// dL/dS's effect with CLBlast's on the same map.)
+TEST(GradCheck, HardExactShadowsRaggedMap) {
+  REQUIRE_CONTEXT(ctx);
+  Scene scene = small_turnaround(40);
+  scene.params.shadows = penumbra::Shadows::Hard;
+  scene.params.shadow_model = penumbra::ShadowModel::Paper;
+  scene.params.shadow_map_size = 40;
+  set_method(scene.params, Method::Exact);
+  penumbra::refit_light_frusta(scene);
+  GradCheckOptions options;
+  options.samples = 12;
+  options.seed = 3;
+  const GradCheckResult r = penumbra::gradcheck(*ctx, scene, options);
+  const std::string what = "turnaround 40x40 hard, paper, exact, 40² map";
+  report(what, r);
+  EXPECT_EQ(r.checked, 12);
+  EXPECT_TRUE(r.passed()) << what << "\n" << describe(r);
+  expect_shadow_coverage(scene, r, what);
+}
+
 TEST(GradCheck, HardShadowsRandomScenesWithUnfittedFrusta) {
   // Random scenes with point and directional lights; the frusta are left unfitted, so the
   // check must fit them once itself (a frustum refitted to every perturbed copy would follow
