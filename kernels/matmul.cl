@@ -77,7 +77,7 @@ inline void nn_step(realV acc[MM_RB][2], realV accd[MM_RB][2], __global const re
 // With `derivatives` (a constant: the compiler drops what it does not use) also the rows of
 // Ad·B, and dot[1][i] = Σ (A·B)·Dd, dot[2][i] = Σ (Ad·B)·D.
 #define NB (2 * MM_VW)
-inline void nn_rowdots(int m0, int M, int N, int K, __global const real* A,
+INLINE void nn_rowdots(int m0, int M, int N, int K, __global const real* A,
                        __global const real* Ad, int lda, __global const real* B, int ldb,
                        __global const real* D, __global const real* Dd, int ldd,
                        const int derivatives, realV dot[3][MM_RB]) {

@@ -100,14 +100,14 @@ inline real window_eps(__global const real* P, int search) {
 inline real window_radius(real sigma, real eps) { return sqrt(2 * sigma * log(1 / eps)); }
 
 // The filter's window of variance `sigma` around μ (empty outside the map).
-inline Window filter_window(real2 mu, real sigma, __global const real* P, int Wm, int Hm) {
+INLINE Window filter_window(real2 mu, real sigma, __global const real* P, int Wm, int Hm) {
   real eps = window_eps(P, 0);
   return sampling_window(mu, window_radius(sigma, eps), eps, Wm, Hm);
 }
 
 // Σ w, Σ w·c, Σ w·S, Σ w·c·S over window w of a map S, A (rows of Wm texels) for the Gaussian
 // of variance `sigma` around x (w = g').
-inline real4 window_sums(Window w, Receiver x, real sigma, __global const real* P,
+INLINE real4 window_sums(Window w, Receiver x, real sigma, __global const real* P,
                          __global const real* S, __global const real* A, int Wm) {
   realR sw = 0, swc = 0, sws = 0, swcs = 0, dc, step;
   Columns c;
@@ -162,7 +162,7 @@ inline Receiver search_receiver(Receiver x, LightDisc L) {
 inline real search_variance(LightDisc L) { return L.sigma_b / (L.stride * L.stride); }
 
 // The search's window in the search map (empty where μ lies outside the map).
-inline Window search_window(Receiver x, LightDisc L, __global const real* P, int Wm, int Hm,
+INLINE Window search_window(Receiver x, LightDisc L, __global const real* P, int Wm, int Hm,
                             int Wb, int Hb) {
   real eps = window_eps(P, 1), st = L.stride;
   if (!inside_map(x.mu, Wm, Hm)) return no_window();
@@ -170,7 +170,7 @@ inline Window search_window(Receiver x, LightDisc L, __global const real* P, int
 }
 
 // The search's sums (Σh', Σh'c, Σh'S, Σh'cS) over the search map.
-inline real4 search_sums(Receiver x, LightDisc L, __global const real* P,
+INLINE real4 search_sums(Receiver x, LightDisc L, __global const real* P,
                          __global const real* Sb, __global const real* Ab, int Wm, int Hm,
                          int Wb, int Hb) {
   return window_sums(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
@@ -236,7 +236,7 @@ typedef struct {
   real q, r2, w, wo;
 } Moments;
 
-inline Moments window_moments(Window w, Receiver x, real sigma, int search, real ref,
+INLINE Moments window_moments(Window w, Receiver x, real sigma, int search, real ref,
                               __global const real* P, __global const real* S,
                               __global const real* A, int Wm) {
   realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc, step;
@@ -270,7 +270,7 @@ inline Moments window_moments(Window w, Receiver x, real sigma, int search, real
 
 // The search's moments over the search map, in the map's texels: .mu (Σ over offsets / σ_b)
 // and .qoff (Σ over offsets) scale with the stride.
-inline Moments search_moments(Receiver x, LightDisc L, real zb, __global const real* P,
+INLINE Moments search_moments(Receiver x, LightDisc L, real zb, __global const real* P,
                               __global const real* Sb, __global const real* Ab, int Wm, int Hm,
                               int Wb, int Hb) {
   Moments m = window_moments(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),

@@ -40,7 +40,7 @@ typedef struct {
   real d, b, r, tau, sig, m, v;
 } Occluder;
 
-inline int occluder_fwd(real2 q, real S, const ScreenFace* F, __global const real* P,
+INLINE int occluder_fwd(real2 q, real S, const ScreenFace* F, __global const real* P,
                         Occluder* o) {
   fragment_shape(q, F->p, F->area, &o->fr);
   fragment_depth(F->z, P, &o->fr);
@@ -60,7 +60,7 @@ inline int occluder_fwd(real2 q, real S, const ScreenFace* F, __global const rea
 
 // Backward of one occluder's v_t for dL/dv = gv: adds dL/dS_q and dL/dD_L, and returns
 // dL/dz_t and dL/dd²_t through `gz`, `gd2`.
-inline void occluder_bwd(real S, const Occluder* o, __global const real* P, real gv, real* gS,
+INLINE void occluder_bwd(real S, const Occluder* o, __global const real* P, real gv, real* gS,
                          real* gDL, real* gz, real* gd2) {
   real z = o->fr.z, DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S];
   real gm = -gv * (1 - o->tau), gtau = gv * o->m;
@@ -100,7 +100,7 @@ FORWARD_KERNEL void penumbra_cells(int W, int H, __global const real* S, int cel
 
 // Texels of the face's screen box widened by `radius` (screen units), with a texel of margin;
 // x0 > x1 when it misses the map. Texel centres x = (2i + 1 − W)/H, y = (H − 2j − 1)/H.
-inline int4 widened_box(const ScreenFace* F, real radius, int W, int H) {
+INLINE int4 widened_box(const ScreenFace* F, real radius, int W, int H) {
   real xlo = fmin(F->p[0].x, fmin(F->p[1].x, F->p[2].x)) - radius;
   real xhi = fmax(F->p[0].x, fmax(F->p[1].x, F->p[2].x)) + radius;
   real ylo = fmin(F->p[0].y, fmin(F->p[1].y, F->p[2].y)) - radius;
@@ -158,7 +158,7 @@ typedef struct {
   maskP in_cone;
 } LanesOccluder;
 
-inline int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const ScreenFace* F,
+INLINE int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const ScreenFace* F,
                           __global const real* P, LanesOccluder* o) {
   const real DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S], beta = P[P_BETA];
   realP w[3], d2, bc[3];
@@ -290,7 +290,7 @@ BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global 
 // Which of texels i0 .. i0 + PPW − 1 of row j face F counts at (1, else 0): occluder_fwd's
 // test on PPW lanes at once, which round as it does, so that penumbra_bwd_face runs its
 // per-texel work only where occluder_fwd passes.
-inline void lanes_counted(int i0, int j, int W, int H, const ScreenFace* F,
+INLINE void lanes_counted(int i0, int j, int W, int H, const ScreenFace* F,
                           __global const real* S, __global const real* P, real* counts) {
   LanesOccluder o;
   if (!lanes_occluder(lanes_x(i0, W, H), (real)(H - 2 * j - 1) / H, lanes_load(S, i0, j, W),

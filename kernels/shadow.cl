@@ -18,7 +18,7 @@
 #include "common/window.clh"
 
 // Filtered depth v = Σ g'·S / Σ g'; returns 0 in `*norm` if no texel has weight.
-inline real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
+INLINE real filter_depth(real2 mu, Window w, __global const real* P, __global const real* S,
                          int Wm, real* norm) {
   real ss = P[P_SIGMA_S];
   realR sum = 0, acc = 0;
@@ -140,7 +140,7 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
 // norm n × real4 (Σgx, Σgy, inside?, 0); dsum (backward only) n × real2 (Σgxd, Σgyd).
 // One axis of the weights, eight entries at a time: out[i] = g_i (and dout[i] = g_i·(i − c)/σ_s),
 // i < n, g_i = exp(−(i − c)²/(2σ_s)); returns (Σ g_i, Σ dout_i).
-inline real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
+INLINE real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
                            __global real* dout) {
   real8 sum = 0, dsum = 0;
   for (int i0 = 0; i0 < n; i0 += 8) {
