@@ -106,8 +106,9 @@ INLINE Window filter_window(real2 mu, real sigma, __global const real* P, int Wm
 }
 
 // Σ w, Σ w·c, Σ w·S, Σ w·c·S over window w of a map S, A (rows of Wm texels) for the Gaussian
-// of variance `sigma` around x (w = g').
-INLINE real4 window_sums(Window w, Receiver x, real sigma, __global const real* P,
+// of variance `sigma` around x (w = g'). Called twice by pcf_sample, so not forced inline (that
+// doubled pcf.cl's build time); its own helpers are.
+inline real4 window_sums(Window w, Receiver x, real sigma, __global const real* P,
                          __global const real* S, __global const real* A, int Wm) {
   realR sw = 0, swc = 0, sws = 0, swcs = 0, dc, step;
   Columns c;
@@ -236,7 +237,8 @@ typedef struct {
   real q, r2, w, wo;
 } Moments;
 
-INLINE Moments window_moments(Window w, Receiver x, real sigma, int search, real ref,
+// Called twice by pcf_sample_bwd: not forced inline, as window_sums.
+inline Moments window_moments(Window w, Receiver x, real sigma, int search, real ref,
                               __global const real* P, __global const real* S,
                               __global const real* A, int Wm) {
   realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc, step;
