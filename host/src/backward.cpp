@@ -23,8 +23,19 @@ void check_grad_image(const Image& g, int W, int H, int C, const char* what, siz
 // Adds the `into.size()` reals of `buf` to `into`.
 void accumulate(Context& ctx, Precision precision, std::vector<double>& into,
                 const cl::Buffer& buf) {
-  auto host = detail::download_reals(ctx, precision, buf, into.size());
-  for (size_t i = 0; i < host.size(); ++i) into[i] += host[i];
+  detail::read_reals(ctx, precision, buf, into.size(), [&](const auto* g) {
+    for (size_t i = 0; i < into.size(); ++i) into[i] += g[i];
+  });
+}
+
+// Adds the `rows` rows of `sum.size()` reals of `buf` to `sum`, in row order (reproducible).
+void accumulate_rows(Context& ctx, Precision precision, std::vector<double>& sum,
+                     const cl::Buffer& buf, size_t rows) {
+  const size_t n = sum.size();
+  detail::read_reals(ctx, precision, buf, rows * n, [&](const auto* g) {
+    for (size_t r = 0; r < rows; ++r)
+      for (size_t i = 0; i < n; ++i) sum[i] += g[r * n + i];
+  });
 }
 
 // An image gradient (R, G, B, silhouette per pixel) with dL/d(silhouette) = `g`: a light view's
@@ -125,10 +136,7 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
   stage("faces");
   auto fg = detail::raster_backward(kernels, geometry, cp.view, cp.screen, cp.fragments, fgr,
                                     gimage_buf, gdepth_buf);
-  auto gl = sum_face_grads(cp, fg, sums, nullptr);
-  std::vector<double>& glight = sums.lights;
-  for (int f = 0; f < packed.nf; ++f)  // fixed order: reproducible
-    for (size_t i = 0; i < glight.size(); ++i) glight[i] += gl[f * glight.size() + i];
+  sum_face_grads(cp, fg, sums, &sums.lights, nullptr);
 }
 
 // The penumbra map back to its shadow map, the light's size and the occluders; then the shadow
@@ -157,26 +165,20 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
   if (gpen())
     detail::penumbra_backward_faces(kernels, geometry, lp.view, lp.screen, S, lp.penumbra, gpen,
                                     fg);
-  sum_face_grads(lp, fg, sums, &sums.frames[light]);
+  sum_face_grads(lp, fg, sums, nullptr, &sums.frames[light]);
 }
 
-// The face corners' gradients of one view through its transform: adds dL/d(vertices),
-// dL/d(albedo) and (gframe) dL/d(the view's frame) to the sums and returns the per-face light
-// gradients.
-std::vector<double> Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
-                                                   BackwardSums& sums,
-                                                   std::vector<double>* gframe) {
+// The face corners' gradients of one view through its transform: adds dL/d(vertices) and
+// dL/d(albedo) to the sums, and a camera's per-face light gradients to `glights` or a light
+// view's dL/d(its frame) to `gframe`.
+void Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
+                                    BackwardSums& sums, std::vector<double>* glights,
+                                    std::vector<double>* gframe) {
   auto gv = detail::transform_backward(kernels, geometry, vp.view, vp.screen, fg);
-  const Packed& p = packed;
   accumulate(ctx, precision, sums.vertices, gv.vertices);
   accumulate(ctx, precision, sums.albedo, fg.albedo);
-  if (gframe) {  // Σ over vertices, in order
-    auto gf_host = detail::download_reals(ctx, precision, gv.frame, size_t(p.nv) * 16);
-    for (int vtx = 0; vtx < p.nv; ++vtx)
-      for (int i = 0; i < 16; ++i) (*gframe)[i] += gf_host[size_t(vtx) * 16 + i];
-  }
-  return detail::download_reals(ctx, precision, fg.light,
-                                size_t(p.nf) * (6 * vp.view.nlights + 1) * 4);
+  if (gframe) accumulate_rows(ctx, precision, *gframe, gv.frame, size_t(packed.nv));
+  if (glights) accumulate_rows(ctx, precision, *glights, fg.light, size_t(packed.nf));
 }
 
 SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {

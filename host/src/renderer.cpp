@@ -14,6 +14,11 @@ namespace penumbra {
 
 Packed pack(const Scene& s) {
   Packed p;
+  size_t nv = 0, nf = 0;
+  for (auto& m : s.meshes) nv += m.vertices.size(), nf += m.faces.size();
+  p.vworld.reserve(nv * 4);
+  p.faces.reserve(nf * 4);
+  p.albedo.reserve(nf * 12);
   for (auto& m : s.meshes) {
     p.vertex_offset.push_back(p.nv);
     p.face_offset.push_back(p.nf);

@@ -85,8 +85,8 @@ struct Renderer::Impl {
   void camera_backward(int camera, const OutputGrads& grads, BackwardSums& sums);
   void light_backward(int light, BackwardSums& sums);
   SceneGrads scene_grads(const BackwardSums& sums) const;
-  std::vector<double> sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
-                                     BackwardSums& sums, std::vector<double>* gframe);
+  void sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg, BackwardSums& sums,
+                      std::vector<double>* glights, std::vector<double>* gframe);
 };
 
 }  // namespace penumbra

@@ -87,15 +87,8 @@ void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<d
 }
 
 std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count) {
-  std::vector<double> out(count);
-  if (count == 0) return out;
-  if (p == Precision::Double) {
-    ctx.queue().enqueueReadBuffer(buf, CL_TRUE, 0, count * 8, out.data());
-  } else {
-    std::vector<float> f(count);
-    ctx.queue().enqueueReadBuffer(buf, CL_TRUE, 0, count * 4, f.data());
-    std::copy(f.begin(), f.end(), out.begin());
-  }
+  std::vector<double> out;
+  read_reals(ctx, p, buf, count, [&](const auto* r) { out.assign(r, r + count); });
   return out;
 }
 

@@ -73,9 +73,10 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
                  const Fragments& f, int light) {
   double sigma = shadow_sigma_s(p), r2 = 0;  // hard shadows: every filter has σ_s
   if (p.shadows == Shadows::Soft) {          // the widest filter the forward chose (rec_light2.z)
-    auto rec = download_reals(k.ctx(), k.precision(), f.rec_light2, f.nrec * v.nlights * 4);
-    for (size_t r = 0; r < f.nrec; ++r)
-      sigma = std::max(sigma, rec[(r * v.nlights + light) * 4 + 2]);
+    read_reals(k.ctx(), k.precision(), f.rec_light2, f.nrec * v.nlights * 4, [&](const auto* rec) {
+      for (size_t r = 0; r < f.nrec; ++r)
+        sigma = std::max(sigma, double(rec[(r * v.nlights + light) * 4 + 2]));
+    });
     r2 = 2 * search_sigma * std::log(1 / kSearchEps);
   }
   r2 = std::max(r2, 2 * sigma * std::log(1 / p.lambda_eps));
@@ -137,8 +138,9 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
                        variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
-    auto g2 = download_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4);
-    for (int r = 0; r < n; ++r) *gsize += g2[(size_t(r) * nl + light) * 4 + 3];
+    read_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4, [&](const auto* g2) {
+      for (int r = 0; r < n; ++r) *gsize += g2[(size_t(r) * nl + light) * 4 + 3];
+    });
   }
   return g;
 }

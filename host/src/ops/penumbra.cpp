@@ -119,7 +119,9 @@ cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, const V
   auto& pb = bind_args(
       k, PenumbraBwdTexelArgs{texel_faces(g, lv, sg, S, pm), pm.map, pm.sums, gP, gS, gDL});
   launch_texels(k, pb, lv);
-  for (double v : download_reals(ctx, k.precision(), gDL, ntex)) *gsize += v;  // texel order
+  read_reals(ctx, k.precision(), gDL, ntex, [&](const auto* gdl) {
+    for (size_t i = 0; i < ntex; ++i) *gsize += gdl[i];  // texel order
+  });
   return gS;
 }
 
