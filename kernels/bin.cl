@@ -4,7 +4,7 @@
 // tiling (and the brute-force path) bit-identical.
 //
 // Buffers: fbbox F × int4 (from face_setup); count, offsets, cursor: tiles × int;
-//          faces_out Σcount × int. Tiles are row-major, tiles_x per row.
+//          faces_out, scratch Σcount × int. Tiles are row-major, tiles_x per row.
 // Launch: one work-item per face (bin_count, bin_fill), one per tile (bin_sort).
 #ifndef TILE
 #define TILE 16  // tile edge in pixels; must match the raster's TILE
@@ -34,28 +34,41 @@ __kernel void bin_fill(__global const int4* fbbox, int nf, int tiles_x,
     }
 }
 
-inline void sift_down(__global int* a, int root, int len) {
-  for (int child; (child = 2 * root + 1) < len; root = child) {
-    if (child + 1 < len && a[child] < a[child + 1]) ++child;
-    if (a[root] >= a[child]) return;
-    int tmp = a[root];
-    a[root] = a[child];
-    a[child] = tmp;
+// The end of the ascending run of a that starts at i.
+inline int run_end(__global const int* a, int i, int n) {
+  while (++i < n && a[i - 1] < a[i]) {
   }
+  return i;
 }
 
-// In-place heapsort of one tile's list: O(n log n), no extra memory.
+// Merges the ascending runs a[lo, mid) and a[mid, hi) into b[lo, hi).
+inline void merge_runs(__global const int* a, int lo, int mid, int hi, __global int* b) {
+  for (int i = lo, j = mid, k = lo; k < hi; ++k)
+    b[k] = j >= hi || (i < mid && a[i] < a[j]) ? a[i++] : a[j++];
+}
+
+// One tile's list into face order by a natural merge sort (scratch: as long as the list): each
+// pass merges neighbouring ascending runs, halving their number. bin_fill's lists interleave a
+// few long runs (the work-groups running at once), so a few linear passes sort them; lists in
+// any order take O(n log n).
 __kernel void bin_sort(__global const int* offsets, __global const int* count, int ntiles,
-                       __global int* faces_out) {
+                       __global int* faces_out, __global int* scratch) {
   int t = get_global_id(0);
   if (t >= ntiles) return;
-  __global int* a = faces_out + offsets[t];
-  int n = count[t];
-  for (int start = n / 2 - 1; start >= 0; --start) sift_down(a, start, n);
-  for (int end = n - 1; end > 0; --end) {
-    int tmp = a[0];
-    a[0] = a[end];
-    a[end] = tmp;
-    sift_down(a, 0, end);
+  __global int* list = faces_out + offsets[t];
+  __global int *a = list, *b = scratch + offsets[t];
+  const int n = count[t];
+  for (int runs = 2; runs > 1;) {
+    runs = 0;
+    for (int lo = 0; lo < n; ++runs) {
+      const int mid = run_end(a, lo, n), hi = mid < n ? run_end(a, mid, n) : n;
+      merge_runs(a, lo, mid, hi, b);
+      lo = hi;
+    }
+    __global int* merged = b;
+    b = a;
+    a = merged;
   }
+  if (a != list)
+    for (int k = 0; k < n; ++k) list[k] = a[k];
 }

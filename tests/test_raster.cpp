@@ -9,14 +9,18 @@
 // Every comparison also checks that no output holds NaN or inf.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
+#include <numeric>
+#include <random>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "ops/args.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/image.hpp"
 #include "penumbra/reference.hpp"
@@ -501,6 +505,57 @@ TEST(RasterDeterminism, RepeatedRendersIdentical) {
     Renderer other(*ctx, precision);
     ASSERT_NO_THROW(c = other.render(scene));
     expect_identical(a, c, p + " fresh renderer");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// bin_sort puts each tile's list into face order whatever order bin_fill wrote it in (a CPU
+// writes nearly sorted lists, a GPU any order): lists given here reversed, shuffled, as
+// interleaved runs, and of length 0 and 1.
+
+struct BinSortArgs {
+  static constexpr const char* file = "bin.cl";
+  static constexpr const char* kernel = "bin_sort";
+  const cl::Buffer &offsets, &counts;
+  cl_int ntiles;
+  const cl::Buffer &items, &scratch;
+  auto fields() const { return std::tie(offsets, counts, ntiles, items, scratch); }
+};
+
+TEST(Binning, SortsListsInAnyOrder) {
+  REQUIRE_CONTEXT(ctx);
+  std::mt19937 rng(7);
+  std::vector<std::vector<int>> lists(6);
+  for (int n : {0, 1}) lists[n].resize(n, 42);
+  lists[2].resize(777);
+  std::iota(lists[2].rbegin(), lists[2].rend(), 0);  // reversed
+  lists[3].resize(1500);
+  std::iota(lists[3].begin(), lists[3].end(), 100);
+  std::shuffle(lists[3].begin(), lists[3].end(), rng);
+  for (int i = 0; i < 1000; ++i)  // two ascending runs interleaved at random
+    lists[4].push_back(rng() % 2 ? i : 5000 + i);
+  for (int i = 0; i < 300; ++i) lists[5].push_back(i % 3 * 1000 + i);  // three, in turn
+  std::vector<int> offsets, counts, items;
+  for (const auto& l : lists) {
+    offsets.push_back(int(items.size()));
+    counts.push_back(int(l.size()));
+    items.insert(items.end(), l.begin(), l.end());
+  }
+  namespace d = penumbra::detail;
+  d::Kernels kernels(*ctx, Precision::Float, {});
+  const cl::Buffer off = d::upload_ints(*ctx, offsets), cnt = d::upload_ints(*ctx, counts),
+                   buf = d::upload_ints(*ctx, items), scratch = d::alloc_ints(*ctx, items.size());
+  const int ntiles = int(lists.size());
+  auto& sort =
+      d::bind_args(kernels, BinSortArgs{off, cnt, ntiles, buf, scratch}, d::bin_define(16));
+  d::launch_1d(*ctx, sort, lists.size(), 1);
+  const std::vector<int> sorted = d::download_ints(*ctx, buf, items.size());
+  for (size_t t = 0; t < lists.size(); ++t) {
+    std::vector<int> want = lists[t];
+    std::sort(want.begin(), want.end());
+    const std::vector<int> got(sorted.begin() + offsets[t],
+                               sorted.begin() + offsets[t] + counts[t]);
+    EXPECT_EQ(got, want) << "list " << t;
   }
 }
 

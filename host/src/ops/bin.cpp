@@ -28,8 +28,8 @@ struct BinSortArgs {
   static constexpr const char* kernel = "bin_sort";
   const cl::Buffer &offsets, &counts;
   cl_int ntiles;
-  const cl::Buffer& items;
-  auto fields() const { return std::tie(offsets, counts, ntiles, items); }
+  const cl::Buffer &items, &scratch;
+  auto fields() const { return std::tie(offsets, counts, ntiles, items, scratch); }
 };
 
 }  // namespace
@@ -55,14 +55,15 @@ Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int til
     total += size_t(counts[t]);
   }
   b.total = total;
-  check_memory(ctx, total * sizeof(cl_int),
+  check_memory(ctx, 2 * total * sizeof(cl_int),  // the lists and bin_sort's scratch
                std::to_string(ntiles) + " tile lists of " + std::to_string(total) + " boxes");
   b.offsets = upload_ints(ctx, offsets);
   b.items = alloc_ints(ctx, total);
   cl::Buffer cursor = upload_ints(ctx, std::vector<int>(ntiles, 0));
   auto& fill = bind_args(k, BinFillArgs{boxes, n, b.tiles_x, b.offsets, cursor, b.items}, variant);
   launch_1d(ctx, fill, n);
-  auto& sort = bind_args(k, BinSortArgs{b.offsets, b.counts, ntiles, b.items}, variant);
+  const cl::Buffer scratch = alloc_ints(ctx, total);
+  auto& sort = bind_args(k, BinSortArgs{b.offsets, b.counts, ntiles, b.items, scratch}, variant);
   launch_1d(ctx, sort, ntiles, 16);
   return b;
 }
