@@ -78,10 +78,6 @@ inline Face load_face(int f, __global const real4* vscreen, __global const real4
   return F;
 }
 
-inline int depth_in_range(real z, __global const real* P) {
-  return z >= P[P_NEAR] && z <= P[P_FAR];
-}
-
 #include "common/lanes.clh"
 #include "common/raster_tiles.clh"
 
@@ -293,8 +289,8 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
 }
 
 // Which of pixels px0 .. px0 + PPW − 1 of row py face F's cut-off leaves in (1, else 0): the
-// test of fragment_fwd on PPW lanes at once, which round as fragment_shape does, so that the
-// scalar work of raster_bwd runs only where fragment_fwd passes.
+// test of fragment_cover on PPW lanes at once, which round as fragment_shape does, so that the
+// scalar work of raster_bwd runs only where fragment_cover passes.
 inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global const real* P,
                           real* reach) {
   realP w[3], d2;
@@ -383,13 +379,15 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) continue;
       real2 q = pixel_centre(px, py, W, H);
       Fragment fr;
-      if (!fragment_fwd(q, F.p, F.z, F.area, P, &fr)) continue;
+      if (!fragment_cover(q, F.p, F.area, P, &fr)) continue;
       real D = sigmoid(fr.u);
       // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D, with 1 − A = exp(Σ log(1 − D)).
       real gu = gimg.w * exp(aux[pix].w) * D;
       real gzf = 0, gb[3] = {0, 0, 0};
-      int r = depth_in_range(fr.z, P) ? find_fragment(pix, f, pix_offset, pix_n, rec_face) : -1;
+      // Only a kept fragment (its depth within [near, far]) needs the depth.
+      int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);
       if (r >= 0) {
+        fragment_depth(F.z, P, &fr);
         real w = rec_wg[r].x, G = rec_wg[r].y;
         // The weight is D·e^{z̃/γ}/Z: d(log weight)/du = 1 − D, d/dz̃ = 1/γ.
         gu += w * (1 - D) * G;
