@@ -321,6 +321,17 @@ TEST_F(ErrorsBackward, BeforeRenderOrOnAnotherScene) {
   Scene moved = scene;
   moved.meshes[0].vertices[3].y += 0.1;
   EXPECT_CONTAINS(error_of([&] { renderer.backward(moved, g); }), "call render() first");
+  Scene recoloured = scene;
+  recoloured.meshes[0].albedo[0].x *= 0.5;
+  EXPECT_CONTAINS(error_of([&] { renderer.backward(recoloured, g); }), "call render() first");
+  Scene turned = scene;
+  turned.cameras[0].eye.x += 0.1;
+  EXPECT_CONTAINS(error_of([&] { renderer.backward(turned, g); }), "call render() first");
+  Scene dimmer = scene;
+  dimmer.ambient *= 0.5;
+  EXPECT_CONTAINS(error_of([&] { renderer.backward(dimmer, g); }), "call render() first");
+  g[0].color = Image(scene.cameras[0].width, scene.cameras[0].height, 3, 1.0);
+  EXPECT_NO_THROW(renderer.backward(scene, g));  // the scene rendered
 }
 
 TEST_F(ErrorsBackward, InvalidSceneIsRefusedBeforeRendering) {

@@ -50,18 +50,28 @@ glm::dvec3 vec3_at(const std::vector<double>& a, size_t at) {
   return glm::dvec3(a[at], a[at + 1], a[at + 2]);
 }
 
+bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i].vertices != b[i].vertices || a[i].faces != b[i].faces || a[i].albedo != b[i].albedo ||
+        a[i].albedo_mode != b[i].albedo_mode)
+      return false;
+  return true;
+}
+
 }  // namespace
 
 void Renderer::Impl::check_backward(const Scene& given, const std::vector<OutputGrads>& grads) {
+  // The meshes as given (packing them again took longer than some backward passes); the rest
+  // as render() fitted and normalised it.
   Scene fitted = given;
+  fitted.meshes.clear();
   for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
     if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
   fitted = detail::normalised(fitted, norm);
-  Packed now = pack(fitted);
-  bool same = now.vworld == packed.vworld && now.faces == packed.faces &&
-              now.albedo == packed.albedo && fitted.cameras.size() == camera_passes.size() &&
-              fitted.lights.size() == scene.lights.size() &&
-              fitted.params.shadows == scene.params.shadows;
+  bool same =
+      same_meshes(given.meshes, given_meshes) && fitted.cameras.size() == camera_passes.size() &&
+      fitted.lights.size() == scene.lights.size() && fitted.params.shadows == scene.params.shadows;
   for (size_t c = 0; same && c < fitted.cameras.size(); ++c)
     same = detail::view_params(fitted, fitted.cameras[c]) == view_P[c];
   if (!same)

@@ -82,6 +82,7 @@ void Renderer::Impl::prepare(const Scene& given) {
     throw Error("scene has " + std::to_string(given.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
   scene = given;
+  given_meshes = given.meshes;
   fit_light_frusta(scene);  // frusta not given are fitted to this scene and then fixed
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);

@@ -52,6 +52,7 @@ struct Renderer::Impl {
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
   Scene scene;                       // as rendered: light frusta fitted, then normalised (`norm`)
+  std::vector<Mesh> given_meshes;    // the meshes as given, which backward() must be given again
   detail::Normalisation norm;        // device points = (world points − norm.origin) · norm.scale
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;

@@ -11,19 +11,6 @@
 
 namespace penumbra::detail {
 
-namespace {
-std::vector<unsigned char> to_bytes(Precision p, const std::vector<double>& v) {
-  std::vector<unsigned char> bytes(std::max<size_t>(v.size(), 1) * real_size(p));
-  if (p == Precision::Double) {
-    std::copy(v.begin(), v.end(), reinterpret_cast<double*>(bytes.data()));
-  } else {
-    auto* f = reinterpret_cast<float*>(bytes.data());
-    for (size_t i = 0; i < v.size(); ++i) f[i] = float(v[i]);
-  }
-  return bytes;
-}
-}  // namespace
-
 // Bytes of the buffers made below that the OpenCL implementation has not freed yet, and of those
 // made since the last reset_device_memory_peak() (its generation) the most at once
 // (device_memory_use). A buffer's bytes are counted back by its destructor callback, which may
@@ -77,13 +64,22 @@ cl::Buffer make_buffer(Context& ctx, size_t bytes, void* host) {
 }
 
 cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& values) {
-  auto bytes = to_bytes(p, values);
-  return make_buffer(ctx, bytes.size(), bytes.data());
+  cl::Buffer buf = alloc_reals(ctx, p, values.size());
+  write_reals(ctx, p, buf, values);
+  return buf;
 }
 
+// Converts into the buffer mapped for writing: no host copy of the converted values.
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values) {
-  auto bytes = to_bytes(p, values);
-  ctx.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, values.size() * real_size(p), bytes.data());
+  if (values.empty()) return;
+  const size_t bytes = values.size() * real_size(p);
+  void* at = ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, bytes);
+  if (p == Precision::Double)
+    std::copy(values.begin(), values.end(), static_cast<double*>(at));
+  else
+    std::transform(values.begin(), values.end(), static_cast<float*>(at),
+                   [](double v) { return float(v); });
+  ctx.queue().enqueueUnmapMemObject(buf, at);
 }
 
 std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count) {
