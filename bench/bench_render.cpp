@@ -6,7 +6,8 @@
 //   image 256², map 256², 1312 faces (1280-face sphere + 32-face ground), σ_s = 2, 1 light,
 // the paper's shadow model (Case::model).
 //
-// Names: [large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L.
+// Names: [large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L, then
+// /model:accurate for the cases of the accurate model (at the reference point only).
 // Cases under large/ (1024² images or maps, 200k faces, soft exact at 256² maps, ...) take far
 // longer; they run only when the filter names them (see main.cpp).
 #include <set>
@@ -53,12 +54,12 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
   memory_counter(state);
 }
 
-using Key = std::tuple<bool, int, int, int, int, int, int, double, int>;
+using Key = std::tuple<bool, int, int, int, int, int, int, double, int, int>;
 
 void add(bool backward, const Case& c, bool large = false) {
   static std::set<Key> seen;  // a case shared by several sweeps runs once
   const Key key{backward,    int(c.shadows), int(c.sampling), int(c.exact_backend), c.image, c.map,
-                c.frequency, c.sigma_s,      c.lights};
+                c.frequency, c.sigma_s,      c.lights,        int(c.model)};
   if (!seen.insert(key).second) return;
   const std::string name = (large ? "large/" : "") + case_name("", backward, c).substr(1);
   benchmark::RegisterBenchmark(name.c_str(),
@@ -94,6 +95,8 @@ void register_render_benchmarks() {
     for (const Case& c : {none, hard, hard_exact, hard_gemm, soft}) add(bwd, c);
     add(bwd, set(soft_exact, &Case::map, 64));  // exact soft costs N·W_s·H_s sigmoids
     add(bwd, soft_exact, true);
+    // The accurate model (the renderer's default) at the same point.
+    for (const Case& c : {hard, soft}) add(bwd, set(c, &Case::model, ShadowModel::Accurate));
   }
 
   // Image size (map 256²).

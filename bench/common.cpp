@@ -281,6 +281,7 @@ std::string case_name(const std::string& group, bool backward, const Case& c) {
   o << group << '/' << (backward ? "bwd" : "fwd") << '/' << word(c.shadows) << '/'
     << word(c.sampling, c.exact_backend) << "/img:" << c.image << "/map:" << c.map
     << "/faces:" << faces << "/sigma_s:" << c.sigma_s << "/lights:" << c.lights;
+  if (c.model != ShadowModel::Paper) o << "/model:" << word(c.model);  // the paper's: no suffix
   return o.str();
 }
 

@@ -27,7 +27,7 @@ import tempfile
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # bench/: its sibling modules
 import docfile  # noqa: E402
 
-REF = {"img": 256, "map": 256, "faces": 1312, "sigma_s": 2.0, "lights": 1}
+REF = {"img": 256, "map": 256, "faces": 1312, "sigma_s": 2.0, "lights": 1, "model": "paper"}
 TEXT_KEYS = ("model", "scene")  # name segments key:value whose value is a word
 
 # The accuracy group (bench/accuracy.hpp): scenes in their order, and the targets for
@@ -81,7 +81,7 @@ MISS_REASONS = [
      "(`soft_sample_bwd`, about 11 ms), against one lookup (`soft_sample`, about 11 ms) in the "
      "forward; the per-face raster backward of both views takes about 12 ms and the penumbra "
      "map's backward under 2 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^bwd/soft/"
-     "truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/`, 2026-11-25). Shrinking the penumbra map's "
+     "truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/manual_time`, 2026-11-25). Shrinking the penumbra map's "
      "face boxes (`penumbra_boxes`) sped the forward up more than the backward, which had met "
      "this target at 2.76×."),
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
@@ -119,8 +119,9 @@ def parse_name(name):
         rec.update(kind="accuracy_ratio", shadows=words[2], sampling=words[3])
     elif words[0] in ("turnaround", "accuracy"):
         rec.update(kind=words[0], pass_=words[1], shadows=words[2], sampling=words[3])
-    elif words[0] in ("fwd", "bwd"):
-        rec.update(kind="render", pass_=words[0], shadows=words[1], sampling=words[2])
+    elif words[0] in ("fwd", "bwd"):  # the paper's model unless the name says /model:
+        rec.update(kind="render", pass_=words[0], shadows=words[1], sampling=words[2],
+                   model="paper")
     else:
         return None
     rec.update(params)
@@ -398,7 +399,7 @@ def profile_section(res, profiles):
     L = ["Device time per kernel and forward frame of the suite's cases at the reference point",
          "(bundled scene, 256², 256² map, the paper's shadow model), from",
          "`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^fwd/S/M/img:256/map:256/"
-         "faces:1312/sigma_s:2/lights:1/`:",
+         "faces:1312/sigma_s:2/lights:1/manual_time`:",
          "each launch waited for, its device time summed per kernel over the case's frames",
          f"({'–'.join(str(f) for f in (frames[0], frames[-1])) if frames else 'none'} per mode,"
          " the warm-up included) and divided by them; CLBlast's GEMM is",
@@ -859,6 +860,16 @@ def stage_notes(res, peak, exp_rate, profiles):
                    "re-runs no forward stage; it walks the stages in reverse (resolve, shadow "
                    "lookup, texel gathers, raster per face, transform per vertex) and copies the "
                    "gradients to the host.")
+    acc = []
+    for sh in ("hard", "soft"):
+        f, b = (res.render(p, shadows=sh, sampling="truncated", model="accurate")
+                for p in ("fwd", "bwd"))
+        if ms(f) and ms(b):
+            acc.append(f"{sh} forward {fmt(ms(f))} ms, backward {fmt(ms(b))} ms "
+                       f"({fmt(ms(b) / ms(f))}×)")
+    if acc:
+        out.append("- **The accurate model** (the renderer's default; truncated, the same "
+                   "settings as above): " + "; ".join(acc) + ".")
     fc = sweep(res, "faces").get(("fwd", "none", "truncated"), [])
     if len(fc) >= 2:
         (f0, t0), (f1, t1) = fc[0], fc[-1]
@@ -1057,8 +1068,9 @@ def files_section():
         "  (`--accuracy`: the accuracy group alone, which rewrites only its section and this one).",
         "- `bench/first_call.py` the first render in new processes, kernel caches cold and warm",
         "  (its section; `--doc docs/benchmarks.md` rewrites that section alone).",
-        "- Case names: `[large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L`,",
-        "  accuracy cases `accuracy/fwd/...` with `/model:<accurate|paper>/scene:<name>` after them,",
+        "- Case names: `[large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L`",
+        "  (the paper's model; `/model:accurate` after them for the accurate model's), accuracy",
+        "  cases `accuracy/fwd/...` with `/model:<accurate|paper>/scene:<name>` after them,",
         "  so `--benchmark_filter` selects by any of them, e.g. `build/penumbra_bench",
         "  --benchmark_filter='^fwd/hard/.*/img:256/'` or `'^accuracy/.*/scene:knot_h0/'`.",
         "- ctest runs `bench_smoke` (two tiny cases), `bench_report_smoke` (`report.py --smoke`)",
@@ -1070,7 +1082,7 @@ def files_section():
 
 # ---- smoke ---------------------------------------------------------------------------------
 
-SMOKE_FILTER = "^(fwd|bwd)/hard/truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/"
+SMOKE_FILTER = "^(fwd|bwd)/hard/truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/manual_time"
 
 
 def smoke(bench, out_dir):

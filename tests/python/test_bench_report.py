@@ -66,6 +66,19 @@ def test_verdicts_near_the_limit_say_so():
     assert report.verdict(None, 10.0) == ("not measured", "–")
 
 
+def test_render_cases_name_their_model_unless_the_papers():
+    paper = report.parse_name("bwd/soft/truncated/img:256/map:256/faces:1312/sigma_s:2/"
+                              "lights:1/manual_time")
+    accurate = report.parse_name("bwd/soft/truncated/img:256/map:256/faces:1312/sigma_s:2/"
+                                 "lights:1/model:accurate/manual_time")
+    assert paper["model"] == "paper" and accurate["model"] == "accurate"
+    for r in (paper, accurate):
+        r.update(name="", error=None, ms_median=10.0 if r is paper else 20.0)
+    res = report.Results([accurate, paper])
+    assert res.render("bwd", shadows="soft")["ms_median"] == 10.0  # the reference: paper
+    assert res.render("bwd", shadows="soft", model="accurate")["ms_median"] == 20.0
+
+
 def test_accuracy_ratio_cases_are_their_own_kind():
     rec = report.parse_name(
         "accuracy/ratio/soft/truncated/img:256/map:256/lights:1/scene:knot_h0.3/manual_time")
