@@ -250,8 +250,10 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
 
 // Backward of raster_resolve. gimage N × real4 (dL/dR, dL/dG, dL/dB, dL/dA), gdepth N × real
 // (dL/dI_z). Writes rec_wg K × real4 (w, G, 0, 0): the fragment's normalised weight w and
-// G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; and rec_lgrad K·nl × real4
-// (dL/ds, 0, 0, 0), which the shadow backward completes.
+// G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; rec_lgrad K·nl × real4
+// (dL/ds, 0, 0, 0), which the shadow backward completes; and gcover N × real, dL/dA·(1 − A)
+// with 1 − A = exp(Σ log(1 − D)), which raster_bwd would otherwise recompute for every face
+// of the pixel.
 BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
                                         __global const int* pix_offset, __global const int* pix_n,
                                         __global const real4* rec_frag,
@@ -259,12 +261,14 @@ BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
                                         __global const real4* rec_light,
                                         __global const real4* image, __global const real4* aux,
                                         __global const real4* gimage, __global const real* gdepth,
-                                        __global real4* rec_wg, __global real4* rec_lgrad) {
+                                        __global real4* rec_wg, __global real4* rec_lgrad,
+                                        __global real* gcover) {
   int pix = get_global_id(0);
   if (pix >= W * H) return;
   const int nl = (int)P[P_NLIGHTS];
   real3 I = image[pix].xyz, gI = gimage[pix].xyz;
   real Iz = aux[pix].x, Z = aux[pix].z, gz = gdepth[pix];
+  gcover[pix] = gimage[pix].w * exp(aux[pix].w);
   for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
     real4 fr = rec_frag[r];
     real w = fr.x / Z;
@@ -300,7 +304,7 @@ inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global
   VSTOREP(inside || !(d2 >= P[P_CUTOFF_D2]) ? (realP)1 : (realP)0, 0, reach);
 }
 
-// Backward of count/fragments/resolve and of the shading, per face. Inputs: aux, gimage (its
+// Backward of count/fragments/resolve and of the shading, per face. Inputs: gcover, gimage (its
 // .w is dL/dA), rec_wg and rec_lgrad (the latter as completed by the shadow backward:
 // (dL/ds, dL/dμx, dL/dμy, dL/dd)), rec_lgrad2 (dL/d∇_μ d, soft shadows). Outputs per face
 // corner (3F × real4): gface_screen (dL/d screen x, y, depth z), gface_world (dL/d world
@@ -329,7 +333,7 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
                                 __global const int4* faces, __global const int4* fbbox,
                                 __global const real4* fnormal, __global const real4* albedo,
                                 __global const real* P, int W, int H, int nf,
-                                __global const real4* aux, __global const real4* gimage,
+                                __global const real* gcover, __global const real4* gimage,
                                 __global const real* gdepth, __global const int* pix_offset,
                                 __global const int* pix_n, __global const int* rec_face,
                                 __global const real4* rec_light, __global const real4* rec_wg,
@@ -381,8 +385,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       Fragment fr;
       if (!fragment_cover(q, F.p, F.area, P, &fr)) continue;
       real D = sigmoid(fr.u);
-      // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D, with 1 − A = exp(Σ log(1 − D)).
-      real gu = gimg.w * exp(aux[pix].w) * D;
+      // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
+      real gu = gcover[pix] * D;
       real gzf = 0, gb[3] = {0, 0, 0};
       // Only a kept fragment (its depth within [near, far]) needs the depth.
       int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);

@@ -172,6 +172,7 @@ struct LightMaps {
 // which the shadow backward completes.
 struct FragmentGrads {
   cl::Buffer rec_wg, rec_lgrad, rec_lgrad2;
+  cl::Buffer gcover;  // per pixel: dL/dA·(1 − A)
 };
 
 // Per-face-corner gradients written by raster_backward.

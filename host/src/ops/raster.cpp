@@ -54,10 +54,10 @@ struct RasterResolveBwdArgs {
   const cl::Buffer& P;
   cl_int W, H;
   const cl::Buffer &pix_offset, &pix_n, &rec_frag, &rec_shade, &rec_light, &image, &aux;
-  const cl::Buffer &gimage, &gdepth, &rec_wg, &rec_lgrad;
+  const cl::Buffer &gimage, &gdepth, &rec_wg, &rec_lgrad, &gcover;
   auto fields() const {
     return std::tie(P, W, H, pix_offset, pix_n, rec_frag, rec_shade, rec_light, image, aux, gimage,
-                    gdepth, rec_wg, rec_lgrad);
+                    gdepth, rec_wg, rec_lgrad, gcover);
   }
 };
 
@@ -67,11 +67,11 @@ struct RasterBwdArgs {
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vscreen, &vworld, &faces, &fbbox, &fnormal, &albedo, &P;
   cl_int W, H, nf;
-  const cl::Buffer &aux, &gimage, &gdepth, &pix_offset, &pix_n;
+  const cl::Buffer &gcover, &gimage, &gdepth, &pix_offset, &pix_n;
   const cl::Buffer &rec_face, &rec_light, &rec_wg, &rec_lgrad, &rec_lgrad2;
   const cl::Buffer &gface_screen, &gface_world, &gface_albedo, &gface_light;
   auto fields() const {
-    return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, aux, gimage,
+    return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, gcover, gimage,
                     gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad, rec_lgrad2,
                     gface_screen, gface_world, gface_albedo, gface_light);
   }
@@ -191,9 +191,10 @@ FragmentGrads raster_resolve_backward(Kernels& k, const View& v, const Fragments
   fgr.rec_wg = alloc_reals(k.ctx(), k.precision(), f.nrec * 4);
   fgr.rec_lgrad = alloc_reals(k.ctx(), k.precision(), f.nrec * 4 * v.nlights);
   fgr.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), f.nrec * 4 * v.nlights);
+  fgr.gcover = alloc_reals(k.ctx(), k.precision(), size_t(v.W) * v.H);
   auto& rb = bind_args(k, RasterResolveBwdArgs{v.P, v.W, v.H, f.pix_offset, f.pix_n, f.rec_frag,
                                                f.rec_shade, f.rec_light, r.image, f.aux, gimage,
-                                               gdepth, fgr.rec_wg, fgr.rec_lgrad});
+                                               gdepth, fgr.rec_wg, fgr.rec_lgrad, fgr.gcover});
   launch_1d(k.ctx(), rb, size_t(v.W) * v.H);
   return fgr;
 }
@@ -210,7 +211,7 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
   auto& rb =
       bind_args(k, RasterBwdArgs{sg.vscreen, g.vworld,    g.faces,    sg.fbbox,      sg.fnormal,
                                  g.albedo,   v.P,         v.W,        v.H,           g.nf,
-                                 f.aux,      gimage,      gdepth,     f.pix_offset,  f.pix_n,
+                                 fgr.gcover, gimage,      gdepth,     f.pix_offset,  f.pix_n,
                                  f.rec_face, f.rec_light, fgr.rec_wg, fgr.rec_lgrad, fgr.rec_lgrad2,
                                  fg.screen,  fg.world,    fg.albedo,  fg.light});
   const int lanes = k.tuning().raster.face_lanes;  // a work-group per face when more than 1
