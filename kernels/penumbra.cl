@@ -163,7 +163,7 @@ INLINE int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const Screen
   const real DL = P[P_LIGHT_SIZE], gs = P[P_GAMMA_S], beta = P[P_BETA];
   realP w[3], d2, bc[3];
   maskP inside;
-  lanes_shape(qx, (realP)qy, F->p, F->area, P, w, &d2, &inside);
+  lanes_shape(qx, (realP)qy, F->p, F->area, P, w, &d2, &inside, 0);
   o->z = lanes_depth(w, F->z, P, bc);
   maskP front = valid && o->z < Sq;
   if (!ANY(front)) return 0;

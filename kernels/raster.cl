@@ -292,16 +292,35 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
   return lo < pix_offset[pix] + pix_n[pix] && rec_face[lo] == f ? lo : -1;
 }
 
-// Which of pixels px0 .. px0 + PPW − 1 of row py face F's cut-off leaves in (1, else 0): the
-// test of fragment_cover on PPW lanes at once, which round as fragment_shape does, so that the
-// scalar work of raster_bwd runs only where fragment_cover passes.
-inline void lanes_reached(int px0, int py, int W, int H, const Face* F, __global const real* P,
-                          real* reach) {
-  realP w[3], d2;
+// Face F at pixels px0 .. px0 + PPW − 1 of row py, computed on PPW lanes at once (which round
+// as fragment_shape does): which of them its cut-off leaves in (reach: 1, else 0), so that the
+// scalar work of raster_bwd runs only there, and the shape fragment_shape would compute there.
+typedef struct {
+  real reach[PPW], w[3][PPW], d2[PPW], inside[PPW], edge[PPW], t[PPW];
+} RowLanes;
+
+inline void lanes_row(int px0, int py, int W, int H, const Face* F, __global const real* P,
+                      RowLanes* row) {
+  realP w[3], d2, closest[2];
   maskP inside;
   lanes_shape(lanes_x(px0, W, H), (realP)((real)(H - 2 * py - 1) / H), F->p, F->area, P, w, &d2,
-              &inside);
-  VSTOREP(inside || !(d2 >= P[P_CUTOFF_D2]) ? (realP)1 : (realP)0, 0, reach);
+              &inside, closest);
+  VSTOREP(inside || !(d2 >= P[P_CUTOFF_D2]) ? (realP)1 : (realP)0, 0, row->reach);
+  for (int k = 0; k < 3; ++k) VSTOREP(w[k], 0, row->w[k]);
+  VSTOREP(d2, 0, row->d2);
+  VSTOREP(inside ? (realP)1 : (realP)0, 0, row->inside);
+  VSTOREP(closest[0], 0, row->edge);
+  VSTOREP(closest[1], 0, row->t);
+}
+
+// The fragment at lane j of a row: fragment_shape's values there and the coverage logit u.
+inline void lane_fragment(const RowLanes* row, int j, __global const real* P, Fragment* f) {
+  for (int k = 0; k < 3; ++k) f->w[k] = row->w[k][j];
+  f->inside = row->inside[j] != 0;
+  f->d2 = row->d2[j];
+  f->edge = (int)row->edge[j];
+  f->t = row->t[j];
+  f->u = (f->inside ? f->d2 : -f->d2) / P[P_SIGMA];
 }
 
 // Backward of count/fragments/resolve and of the shading, per face. Inputs: gcover, gimage (its
@@ -371,11 +390,11 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
     for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
   }
   for (int py = y0; py <= y1; ++py) {
-    real reach[PPW];
+    RowLanes row;
     for (int px = bb.x; px <= bb.z; ++px) {
       int lane = (px - bb.x) % PPW;
-      if (lane == 0) lanes_reached(px, py, W, H, &F, P, reach);
-      if (reach[lane] == 0) continue;
+      if (lane == 0) lanes_row(px, py, W, H, &F, P, &row);
+      if (row.reach[lane] == 0) continue;
       int pix = py * W + px;
       real4 gimg = gimage[pix];
       // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
@@ -383,7 +402,7 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) continue;
       real2 q = pixel_centre(px, py, W, H);
       Fragment fr;
-      if (!fragment_cover(q, F.p, F.area, P, &fr)) continue;
+      lane_fragment(&row, lane, P, &fr);
       real D = sigmoid(fr.u);
       // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
       real gu = gcover[pix] * D;
