@@ -378,11 +378,10 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
     realR offx = (real)i0 + LANER - x.mu.x, gx = 0, hx = 0;
     if (filter) gx = axis_weight(offx, sigma);
     if (search) hx = on_grid * axis_weight(offx, sigma_b);
-    // the rows' weights, each as one vector exp rather than one scalar exp per row
-    real gy[ROW], hy[ROW];
-    const realR offy_rows = (real)j0 + LANER - x.mu.y;
-    if (filter) vstoreR(axis_weight(offy_rows, sigma), 0, gy);
-    if (search) vstoreR(axis_weight(offy_rows, sigma_b), 0, hy);
+    real gy[ROW], hy[ROW];  // the rows' weights (realG)
+    const realG offy_rows = (real)j0 + LANEG - x.mu.y;
+    if (filter) vstoreG(axis_weight(offy_rows, sigma), 0, gy);
+    if (search) vstoreG(axis_weight(offy_rows, sigma_b), 0, hy);
     for (int t = 0; t < rows; ++t) {
       real offy = j0 + t - x.mu.y;
       if (!(offy * offy < r2)) continue;

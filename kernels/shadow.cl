@@ -124,8 +124,8 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
     real a = rec_lgrad[r * nl + light].x;
     if (a == 0 || !window_reaches(x.xy, i0, j0, rows, r2)) continue;
     realR gx = axis_weight((real)i0 + LANER - x.x, ss);
-    real gys[ROW];  // the rows' weights, as one vector exp rather than one scalar exp each
-    vstoreR(axis_weight((real)j0 + LANER - x.y, ss), 0, gys);
+    real gys[ROW];  // the rows' weights (realG)
+    vstoreG(axis_weight((real)j0 + LANEG - x.y, ss), 0, gys);
     for (int t = 0; t < rows; ++t) {
       real dy = j0 + t - x.y;
       if (dy * dy < r2) acc[t] += a * fmax(gx * gys[t] - eps, (realR)0);
@@ -366,8 +366,8 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
     real4 x = rec_light[r * nl + light];
     realR offx = (real)i0 + LANER - x.x, gx = axis_weight(offx, ss);
     real2 grad = rec_light2[r * nl + light].xy;
-    real gys[ROW];  // the rows' weights, as one vector exp rather than one scalar exp each
-    vstoreR(axis_weight((real)j0 + LANER - x.y, ss), 0, gys);
+    real gys[ROW];  // the rows' weights (realG)
+    vstoreG(axis_weight((real)j0 + LANEG - x.y, ss), 0, gys);
 #pragma unroll
     for (int t = 0; t < GATHER_ROWS; ++t) {  // unrolled: the rows' vectors stay in registers
       real dy = j0 + t - x.y, gy = gys[t];
