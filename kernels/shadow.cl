@@ -66,6 +66,10 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
     return;
   }
   real gv = gs * x.w * (1 - x.w) / P[P_GAMMA_S];
+  if (gv == 0) {  // a saturated compare (s rounds to 1): no gradient reaches the window
+    rec_lgrad[r * nl + light] = (real4)(gv / norm, 0, 0, -gv);
+    return;
+  }
   // dv/dμ = Σ ∂g'/∂μ·(S − v)/Σg', with ∂g'/∂μx = g·(i − μx)/σ_s where g' > 0.
   realR dvx = 0, dvy = 0;
   real ss = P[P_SIGMA_S];
