@@ -513,15 +513,6 @@ TEST(RasterDeterminism, RepeatedRendersIdentical) {
 // writes nearly sorted lists, a GPU any order): lists given here reversed, shuffled, as
 // interleaved runs, and of length 0 and 1.
 
-struct BinSortArgs {
-  static constexpr const char* file = "bin.cl";
-  static constexpr const char* kernel = "bin_sort";
-  const cl::Buffer &offsets, &counts;
-  cl_int ntiles;
-  const cl::Buffer &items, &scratch;
-  auto fields() const { return std::tie(offsets, counts, ntiles, items, scratch); }
-};
-
 TEST(Binning, SortsListsInAnyOrder) {
   REQUIRE_CONTEXT(ctx);
   std::mt19937 rng(7);
@@ -543,13 +534,15 @@ TEST(Binning, SortsListsInAnyOrder) {
   }
   namespace d = penumbra::detail;
   d::Kernels kernels(*ctx, Precision::Float, {});
-  const cl::Buffer off = d::upload_ints(*ctx, offsets), cnt = d::upload_ints(*ctx, counts),
-                   buf = d::upload_ints(*ctx, items), scratch = d::alloc_ints(*ctx, items.size());
-  const int ntiles = int(lists.size());
-  auto& sort =
-      d::bind_args(kernels, BinSortArgs{off, cnt, ntiles, buf, scratch}, d::bin_define(16));
-  d::launch_1d(*ctx, sort, lists.size(), 1);
-  const std::vector<int> sorted = d::download_ints(*ctx, buf, items.size());
+  d::Bins bins;  // one row of tiles, one list each
+  bins.tiles_x = int(lists.size());
+  bins.tiles_y = 1;
+  bins.total = items.size();
+  bins.offsets = d::upload_ints(*ctx, offsets);
+  bins.counts = d::upload_ints(*ctx, counts);
+  bins.items = d::upload_ints(*ctx, items);
+  d::sort_lists(kernels, bins);
+  const std::vector<int> sorted = d::download_ints(*ctx, bins.items, items.size());
   for (size_t t = 0; t < lists.size(); ++t) {
     std::vector<int> want = lists[t];
     std::sort(want.begin(), want.end());

@@ -62,10 +62,16 @@ Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int til
   cl::Buffer cursor = upload_ints(ctx, std::vector<int>(ntiles, 0));
   auto& fill = bind_args(k, BinFillArgs{boxes, n, b.tiles_x, b.offsets, cursor, b.items}, variant);
   launch_1d(ctx, fill, n);
-  const cl::Buffer scratch = alloc_ints(ctx, total);
-  auto& sort = bind_args(k, BinSortArgs{b.offsets, b.counts, ntiles, b.items, scratch}, variant);
-  launch_1d(ctx, sort, ntiles, 16);
+  sort_lists(k, b);
   return b;
+}
+
+void sort_lists(Kernels& k, const Bins& b) {
+  const int ntiles = b.tiles_x * b.tiles_y;
+  const cl::Buffer scratch = alloc_ints(k.ctx(), b.total);
+  auto& sort =
+      bind_args(k, BinSortArgs{b.offsets, b.counts, ntiles, b.items, scratch}, bin_define(b.tile));
+  launch_1d(k.ctx(), sort, size_t(ntiles), 16);
 }
 
 }  // namespace penumbra::detail

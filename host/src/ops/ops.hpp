@@ -194,6 +194,9 @@ VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& 
 // Sorts `n` items with pixel boxes `boxes` (int4 (x0, y0, x1, y1), empty when x0 > x1) into
 // tiles of `tile` pixels over a W × H grid; each tile's list is in item order.
 Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int tile);
+// Sorts each of b's lists (b.items from b.offsets, b.counts long) into ascending order, whatever
+// order it is in (bin_sort; the program of `b.tile`).
+void sort_lists(Kernels& k, const Bins& b);
 
 // Passes 1–2 of the raster: the kept fragments of the view, with shadow terms s = 1.
 Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
