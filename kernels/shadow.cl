@@ -66,7 +66,7 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
     return;
   }
   real gv = gs * x.w * (1 - x.w) / P[P_GAMMA_S];
-  if (gv == 0) {  // a saturated compare (s rounds to 1): no gradient reaches the window
+  if (gv == 0) {  // dL/ds = 0, or the compare saturated (s rounds to 1): nothing reaches μ
     rec_lgrad[r * nl + light] = (real4)(gv / norm, 0, 0, -gv);
     return;
   }
