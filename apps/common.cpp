@@ -94,11 +94,9 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
   o.o_light_size = cmd.add_option("--light-size", o.light_size,
                                   "diameter D_L of every light (world units, >= 0; soft shadows)")
                        ->group(shadow_group);
-  o.o_light_sigma =
-      cmd.add_option("--light-sigma", o.light_sigma,
-                     "coverage sharpness σ_L of the light pass, in [0, 1) "
-                     "(0: σ/32 with the accurate shadow model, σ/10 with the paper's)")
-          ->group(shadow_group);
+  o.o_light_sigma = cmd.add_option("--light-sigma", o.light_sigma,
+                                   "coverage sharpness σ_L of the light pass, in [0, 1) (0: σ/10)")
+                        ->group(shadow_group);
   o.o_light_gamma = cmd.add_option("--light-gamma", o.light_gamma,
                                    "aggregation sharpness γ_L of the light pass, in [0, 1) "
                                    "(0: the same as γ)")

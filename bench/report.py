@@ -1013,7 +1013,7 @@ def accuracy_section(res, tradeoff_plot, rel_images, accuracy_images, image_dir)
     w("")
     w("Exact sampling weighs every texel of the map for every fragment: the default suite runs it")
     w("at a 128² map (seconds a frame here), the `large/` cases at 256². σ_s is each model's")
-    w("default (accurate 0.5 texel², paper 2) unless the sphere scene varies it, with the map")
+    w("default (accurate 0.35 texel², paper 2) unless the sphere scene varies it, with the map")
     w("size, under truncated sampling.")
     w("")
     w(table(("scene", "model", "shadows / sampling", "map", "σ_s", "forward ms", "area ratio",

@@ -297,15 +297,14 @@ Bounds bounds(const Scene& scene) {
 }
 
 double light_pass_sigma(const RenderParams& p) {
-  if (p.light_sigma > 0) return p.light_sigma;
-  return p.shadow_model == ShadowModel::Accurate ? p.sigma / 32 : p.sigma / 10;
+  return p.light_sigma > 0 ? p.light_sigma : p.sigma / 10;
 }
 double light_pass_gamma(const RenderParams& p) {
   return p.light_gamma > 0 ? p.light_gamma : p.gamma;
 }
 
 double shadow_sigma_s(const RenderParams& p) {
-  return p.sigma_s ? *p.sigma_s : p.shadow_model == ShadowModel::Paper ? 2.0 : 0.5;
+  return p.sigma_s ? *p.sigma_s : p.shadow_model == ShadowModel::Paper ? 2.0 : 0.35;
 }
 double shadow_gamma_s(const RenderParams& p) {
   return p.gamma_s ? *p.gamma_s

@@ -144,7 +144,7 @@ struct RenderParams {
   ExactBackend exact_backend = ExactBackend::Auto;  // exact sum of the paper's hard shadows
   ShadowModel shadow_model = ShadowModel::Accurate;
   int shadow_map_size = 256;  // W_s = H_s, texels
-  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/32 or σ/10 (light_pass_sigma)
+  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/10 (light_pass_sigma)
   double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ (light_pass_gamma)
   // A fragment whose aggregation weight is below ε_w times the largest (the background's
   // included) is left out of the colour and depth (but not the silhouette), so
@@ -156,7 +156,7 @@ struct RenderParams {
 };
 
 // σ_s, γ_s and β in force: the value given, else the shadow model's default — paper: 2 texel²,
-// 0.02, 0.05 (SPEC §7); accurate: 0.5 texel², 0.004, 0.01 (its compare needs no slack for a
+// 0.02, 0.05 (SPEC §7); accurate: 0.35 texel², 0.004, 0.01 (its compare needs no slack for a
 // tilted receiver, so a small β keeps contact shadows closed; docs/shadows.md). γ_s and β
 // defaults are multiplied by depth_unit.
 double shadow_sigma_s(const RenderParams& p);
@@ -185,15 +185,15 @@ struct Bounds {
 };
 Bounds bounds(const Scene& scene);
 
-// σ_L and γ_L of the light pass (SPEC §3): light_sigma / light_gamma when set, else σ_L = σ/32
-// for the accurate shadow model, σ/10 for the paper's, and γ_L = γ.
+// σ_L and γ_L of the light pass (SPEC §3): light_sigma / light_gamma when set, else σ_L = σ/10
+// and γ_L = γ.
 // A face's soft depth just outside its edge is taken at its nearest boundary point (clamped
 // barycentrics, SPEC §1), which biases S near the edges of coplanar neighbours by about
 // (√σ_L in texels) × (depth slope per texel); at σ_L = σ a ground plane seen at a grazing angle
-// showed faint lines along every edge. A tenth of σ keeps the bias well under β. An occluder
-// also reaches about 3√σ_L beyond its outline in the map (until its coverage falls below ε_D),
-// which the accurate model's compare-then-filter turns into a shadow that large: σ/32 brought
-// the shadow areas against the ray tracer from 1.009–1.053 to 1.007–1.032 (bench/accuracy.hpp).
+// showed faint lines along every edge. A tenth of σ keeps the bias well under β. The accurate
+// model weights each compare by the casters' coverage, which keeps its shadow's edge on the
+// outline; against the ray tracer (bench/accuracy.hpp) a sharper σ/32 (with σ_s = 0.5) left
+// the knots' hard shadow-region RMSE at 0.0495, σ/10 with σ_s = 0.35 gives 0.047.
 double light_pass_sigma(const RenderParams& p);
 double light_pass_gamma(const RenderParams& p);
 
