@@ -206,3 +206,38 @@ TEST(ProgramCache, UnwritableFolderStillRenders) {
     EXPECT_EQ(err[0].rfind("penumbra: warning:", 0), 0u) << r.err;
   }
 }
+
+// On PoCL a process that loads the kernel cache compiles no kernel: launches run the code the
+// cached binaries hold (POCL_WORK_GROUP_SPECIALIZATION=0, host/src/cl/context.cpp). PoCL keeps
+// what it compiles for a launch's sizes in POCL_CACHE_DIR, one folder per size ("64-1-1-goffs0"
+// ...), and the code unpacked from a binary in folders named "0-0-0"; with PoCL's default
+// (specialization on) the same warm run compiles for the sizes it launches.
+namespace {
+int kernels_compiled_for_launch_sizes(const fs::path& pocl_cache) {
+  int n = 0;
+  if (fs::is_directory(pocl_cache))
+    for (auto& e : fs::recursive_directory_iterator(pocl_cache))
+      n += e.path().extension() == ".so" && e.path().parent_path().filename() != "0-0-0";
+  return n;
+}
+}  // namespace
+
+TEST(ProgramCache, WarmCacheLeavesPoclNothingToCompile) {
+  if (penumbra::list_devices().front().platform.find("Portable Computing Language") ==
+      std::string::npos)
+    GTEST_SKIP() << "not PoCL";
+  const fs::path dir = fresh_dir("pocl_compiles");
+  // Unset, as in a user's shell: the tool sets it (this process's list_devices set it too).
+  ScopedEnv cache("PENUMBRA_CACHE_DIR", (dir / "cache").c_str()),
+      unset("POCL_WORK_GROUP_SPECIALIZATION", nullptr);
+  auto render_with = [&](const std::string& pocl_cache) {
+    ScopedEnv pocl("POCL_CACHE_DIR", (dir / pocl_cache).c_str());
+    const RunResult r = run(render_args(dir / pocl_cache), dir, pocl_cache);
+    EXPECT_EQ(r.exit_code, 0) << show(r);
+    return kernels_compiled_for_launch_sizes(dir / pocl_cache);
+  };
+  render_with("fill");
+  EXPECT_EQ(render_with("warm"), 0);
+  ScopedEnv specialize("POCL_WORK_GROUP_SPECIALIZATION", "1");
+  EXPECT_GT(render_with("specialized"), 0);
+}
