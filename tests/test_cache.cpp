@@ -232,7 +232,7 @@ TEST(ProgramCache, WarmCacheLeavesPoclNothingToCompile) {
       unset("POCL_WORK_GROUP_SPECIALIZATION", nullptr);
   auto render_with = [&](const std::string& pocl_cache) {
     ScopedEnv pocl("POCL_CACHE_DIR", (dir / pocl_cache).c_str());
-    const RunResult r = run(render_args(dir / pocl_cache), dir, pocl_cache);
+    const RunResult r = run(render_args(dir / ("raw_" + pocl_cache)), dir, pocl_cache);
     EXPECT_EQ(r.exit_code, 0) << show(r);
     return kernels_compiled_for_launch_sizes(dir / pocl_cache);
   };
