@@ -37,17 +37,6 @@ Packed pack(const Scene& s) {
   return p;
 }
 
-namespace {
-
-Image channels(const std::vector<double>& rgba, int W, int H, int first, int count) {
-  Image img(W, H, count);
-  for (size_t i = 0; i < size_t(W) * H; ++i)
-    for (int c = 0; c < count; ++c) img.data[i * count + c] = rgba[i * 4 + first + c];
-  return img;
-}
-
-}  // namespace
-
 Renderer::Impl::Impl(Context& c, Precision p, bool automatic_, const Tuning& t)
     : ctx(c), precision(p), automatic(automatic_), kernels(c, p, t) {
   if (automatic) database = TuningDatabase::load_default();
@@ -146,17 +135,22 @@ void Renderer::Impl::rasterise(ViewPass& vp, int W, int H, int nlights,
   vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen);
 }
 
+// The outputs read in place from the mapped buffers, each value written once: at 256² a copy of
+// the RGBA buffer and zero-filled images to overwrite had cost ~1 ms a frame, most of it the
+// page faults of their fresh memory.
 RenderOutput Renderer::Impl::download(const ViewPass& cp) {
   const int W = cp.view.W, H = cp.view.H;
   const size_t npix = size_t(W) * H;
-  auto image = detail::download_reals(ctx, precision, cp.resolved.image, npix * 4);
-  RenderOutput o;
-  o.color = channels(image, W, H, 0, 3);
-  o.silhouette = channels(image, W, H, 3, 1);
-  o.depth = Image(W, H, 1);
-  o.depth.data = detail::download_reals(ctx, precision, cp.resolved.depth, npix);
-  if (norm.scale != 1)
-    for (double& z : o.depth.data) z /= norm.scale;
+  RenderOutput o{Image(W, H, 3), Image(W, H, 1), Image(W, H, 1)};
+  detail::read_reals(ctx, precision, cp.resolved.image, npix * 4, [&](const auto* rgba) {
+    for (size_t i = 0; i < npix; ++i) {
+      for (int c = 0; c < 3; ++c) o.color.data[3 * i + c] = rgba[4 * i + c];
+      o.silhouette.data[i] = rgba[4 * i + 3];
+    }
+  });
+  detail::read_reals(ctx, precision, cp.resolved.depth, npix, [&](const auto* z) {
+    for (size_t i = 0; i < npix; ++i) o.depth.data[i] = norm.scale != 1 ? z[i] / norm.scale : z[i];
+  });
   return o;
 }
 
