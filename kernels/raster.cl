@@ -299,7 +299,7 @@ typedef struct {
   real reach[PPW], w[3][PPW], d2[PPW], inside[PPW], edge[PPW], t[PPW];
 } RowLanes;
 
-inline void lanes_row(int px0, int py, int W, int H, const Face* F, __global const real* P,
+INLINE void lanes_row(int px0, int py, int W, int H, const Face* F, __global const real* P,
                       RowLanes* row) {
   realP w[3], d2, closest[2];
   maskP inside;
