@@ -35,7 +35,7 @@ struct KnownMiss {
 // casters, their coverage weighting the compare); docs/benchmarks.md has the whole table.
 // Remove an entry when the model meets its target. The leak: 1 of the 33 contact pixels the
 // truth shadows renders at 0.60, on the shadow's edge (beside a pixel the truth lights; with a
-// 1024² map it renders 0.39); the other edge pixels there render at most 0.40.
+// 512² map it renders 0.44); the other edge pixels there render at most 0.40.
 const std::vector<KnownMiss> kKnownMisses = {
     {"knot_h0_hard_leak", "0.0303"},
 };
