@@ -148,8 +148,9 @@ RenderOutput Renderer::Impl::download(const ViewPass& cp) {
       o.silhouette.data[i] = rgba[4 * i + 3];
     }
   });
+  const double scale = norm.scale;  // (z / 1 is z)
   detail::read_reals(ctx, precision, cp.resolved.depth, npix, [&](const auto* z) {
-    for (size_t i = 0; i < npix; ++i) o.depth.data[i] = norm.scale != 1 ? z[i] / norm.scale : z[i];
+    for (size_t i = 0; i < npix; ++i) o.depth.data[i] = z[i] / scale;
   });
   return o;
 }
