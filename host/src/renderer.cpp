@@ -135,9 +135,9 @@ void Renderer::Impl::rasterise(ViewPass& vp, int W, int H, int nlights,
   vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen);
 }
 
-// The outputs read in place from the mapped buffers: a copy of the RGBA buffer and a zero-filled
-// depth image to overwrite, most of it page faults of fresh memory, had made this function 9.9 %
-// of a 256² no-shadow benchmark's samples (perf), 3.8 % since.
+// The outputs read in place from the mapped buffers, each image allocated once: a copy of the
+// RGBA buffer and a second depth image, most of their cost page faults of fresh memory, had made
+// this function 9.9 % of a 256² no-shadow benchmark's samples (perf), 3.8 % since.
 RenderOutput Renderer::Impl::download(const ViewPass& cp) {
   const int W = cp.view.W, H = cp.view.H;
   const size_t npix = size_t(W) * H;
