@@ -88,9 +88,10 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
                      "blocker search, PCSS) or paper (filter then compare; the penumbra map)")
           ->check(one_of<ShadowModel>())
           ->group(shadow_group);
-  o.o_map_size =
-      cmd.add_option("--map-size", o.map_size, "shadow-map size W_s = H_s in texels (1 to 8192)")
-          ->group(shadow_group);
+  o.o_map_size = cmd.add_option("--map-size", o.map_size,
+                                "shadow-map size W_s = H_s in texels (1 to 8192; default: the "
+                                "model's, 384 accurate, 256 paper)")
+                     ->group(shadow_group);
   o.o_light_size = cmd.add_option("--light-size", o.light_size,
                                   "diameter D_L of every light (world units, >= 0; soft shadows)")
                        ->group(shadow_group);

@@ -88,8 +88,8 @@ int run_render(const RenderArgs& a) {
   if (scene.params.shadows != Shadows::None)
     shadows += " (" + word(scene.params.shadow_model) + ", " +
                sampling_summary(scene.params, renderer) + ", " +
-               std::to_string(scene.params.shadow_map_size) + "x" +
-               std::to_string(scene.params.shadow_map_size) + " map)";
+               std::to_string(shadow_map_side(scene.params)) + "x" +
+               std::to_string(shadow_map_side(scene.params)) + " map)";
   std::printf("rendered %zu view%s, %dx%d, %zu faces, shadows %s, %.1f ms (%s) -> %s%s\n",
               views.size(), views.size() == 1 ? "" : "s", cam.width, cam.height, faces,
               shadows.c_str(), ms, precision == Precision::Double ? "double" : "float",

@@ -205,10 +205,10 @@ Scene accuracy_scene(const AccuracyCase& c) {
   k.shadows = c.shadows;
   k.sampling = c.sampling;
   k.exact_backend = c.exact_backend;
-  k.map = c.map;
   k.model = c.model;
   k.image = 256;
   Scene s = make_scene(k);
+  s.params.shadow_map_size = c.map;
   s.params.sigma_s = c.sigma_s;
   set_scene(s, c.scene);
   for (auto& L : s.lights) L.frustum = LightFrustum{};

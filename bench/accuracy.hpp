@@ -53,7 +53,7 @@ struct AccuracyCase {
   Shadows shadows = Shadows::Hard;
   Sampling sampling = Sampling::Truncated;
   ExactBackend exact_backend = ExactBackend::Kernels;  // as Case::exact_backend
-  int map = 256;
+  std::optional<int> map;         // unset: the shadow model's default (shadow_map_side)
   std::optional<double> sigma_s;  // unset: the shadow model's default
 };
 

@@ -9,7 +9,7 @@
 // run minutes apart). Counters of the fwd cases (accuracy.hpp defines them): area_ratio,
 // lit_error, rmse_shadow, leak (scenes with a contact), the pixel counts of each region, plus
 // the timing counters of the render cases. With $PENUMBRA_BENCH_IMAGES set, every case at the
-// reference settings (truncated, 256² map, the model's default σ_s) writes
+// reference settings (truncated, the model's default map size and σ_s) writes
 // truth | penumbra | difference as
 // compare_<scene>_<model>_<shadows>.png there.
 //
@@ -40,6 +40,7 @@ constexpr int kExactMap = 128;
 void metric_counters(benchmark::State& state, const AccuracyCase& c, const AccuracyMetrics& m) {
   auto& C = state.counters;
   C["default_sigma_s"] = c.sigma_s ? 0 : 1;  // σ_s left to the shadow model
+  C["default_map"] = c.map ? 0 : 1;          // the map size too
   C["area_ratio"] = m.area_ratio;
   C["lit_error"] = m.lit_error;
   C["rmse_shadow"] = m.rmse_shadow;
@@ -53,7 +54,7 @@ void metric_counters(benchmark::State& state, const AccuracyCase& c, const Accur
 }
 
 bool reference_settings(const AccuracyCase& c) {
-  return c.sampling == Sampling::Truncated && c.map == 256 && !c.sigma_s;
+  return c.sampling == Sampling::Truncated && !c.map && !c.sigma_s;
 }
 
 void save_images(const AccuracyCase& c, const Image& color) {
@@ -112,7 +113,8 @@ void run_ratio(benchmark::State& state, const AccuracyCase& accurate, const Accu
 std::string name_of(const AccuracyCase& c, bool large) {
   std::ostringstream o;
   o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/'
-    << word(c.sampling, c.exact_backend) << "/img:256/map:" << c.map
+    << word(c.sampling, c.exact_backend)
+    << "/img:256/map:" << shadow_map_side(accuracy_scene(c).params)
     << "/faces:" << total_faces(accuracy_scene(c))
     << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params)
     << "/lights:1/model:" << word(c.model) << "/scene:" << c.scene;
@@ -127,7 +129,8 @@ void add(const AccuracyCase& c, bool large = false) {
 }
 
 AccuracyCase make(const std::string& scene, ShadowModel model, Shadows sh, Sampling sa,
-                  int map = 256, std::optional<double> sigma_s = std::nullopt) {
+                  std::optional<int> map = std::nullopt,
+                  std::optional<double> sigma_s = std::nullopt) {
   AccuracyCase c;
   c.scene = scene;
   c.model = model;
@@ -138,9 +141,11 @@ AccuracyCase make(const std::string& scene, ShadowModel model, Shadows sh, Sampl
   return c;
 }
 
+// The models at equal settings: both at the paper model's 256² map (the accurate model's default
+// is 384²; its fwd cases time that).
 void add_ratio(const std::string& scene, Shadows sh) {
-  const AccuracyCase a = make(scene, ShadowModel::Accurate, sh, Sampling::Truncated),
-                     p = make(scene, ShadowModel::Paper, sh, Sampling::Truncated);
+  const AccuracyCase a = make(scene, ShadowModel::Accurate, sh, Sampling::Truncated, 256),
+                     p = make(scene, ShadowModel::Paper, sh, Sampling::Truncated, 256);
   const std::string name = std::string("accuracy/ratio/") + word(sh) +
                            "/truncated/img:256/map:256/lights:1/scene:" + scene;
   benchmark::RegisterBenchmark(name.c_str(), [a, p](benchmark::State& st) { run_ratio(st, a, p); })
@@ -158,18 +163,21 @@ void register_accuracy_benchmarks() {
       for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
         add(make(scene, model, sh, Sampling::Truncated));
         add(make(scene, model, sh, Sampling::Exact, kExactMap));
-        add(make(scene, model, sh, Sampling::Exact), true);
+        add(make(scene, model, sh, Sampling::Exact, 256), true);
       }
   }
   // The sphere scene: filter width (those of 0.5, 2 and 8 texel² that are not the model's
-  // default) and map size, both models.
+  // default) and map size (those of 128², 256² and 512² that are not), both models.
   for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})
     for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
       const AccuracyCase base = make("sphere", model, sh, Sampling::Truncated);
-      const double standard = shadow_sigma_s(accuracy_scene(base).params);
+      const RenderParams standard = accuracy_scene(base).params;
       for (double ss : {0.5, 2.0, 8.0})
-        if (ss != standard) add(make("sphere", model, sh, Sampling::Truncated, 256, ss));
-      for (int map : {128, 512}) add(make("sphere", model, sh, Sampling::Truncated, map));
+        if (ss != shadow_sigma_s(standard))
+          add(make("sphere", model, sh, Sampling::Truncated, std::nullopt, ss));
+      for (int map : {128, 256, 512})
+        if (map != shadow_map_side(standard))
+          add(make("sphere", model, sh, Sampling::Truncated, map));
     }
   AccuracyCase gemm = make("sphere", ShadowModel::Paper, Shadows::Hard, Sampling::Exact);
   gemm.exact_backend = ExactBackend::CLBlast;

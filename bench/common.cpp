@@ -242,14 +242,14 @@ void throughput_counters(benchmark::State& state, const Scene& s, double fragmen
                          bool backward) {
   const RenderParams& p = s.params;
   const double faces = total_faces(s), lights = double(s.lights.size());
-  const double map_texels = double(p.shadow_map_size) * p.shadow_map_size;
+  const double map_texels = double(shadow_map_side(p)) * shadow_map_side(p);
   double pixels = 0;
   for (const Camera& c : s.cameras) pixels += double(c.width) * c.height;
   const bool shadows = p.shadows != Shadows::None;
   const double pairs = (pixels + (shadows ? lights * map_texels : 0.0)) * faces;
   auto& C = state.counters;
   C["image"] = s.cameras.front().width;
-  C["map"] = p.shadow_map_size;
+  C["map"] = shadow_map_side(p);
   C["faces"] = faces;
   C["sigma_s"] = shadow_sigma_s(p);
   C["lights"] = lights;

@@ -31,14 +31,11 @@ struct KnownMiss {
   const char* test;  // <scene>_<mode>_<target>
   const char* measured;
 };
-// Measured on this project's 2-core machine with the model's defaults (the maps hold only the
-// casters, their coverage weighting the compare); docs/benchmarks.md has the whole table.
-// Remove an entry when the model meets its target. The leak: 1 of the 33 contact pixels the
-// truth shadows renders at 0.60, on the shadow's edge (beside a pixel the truth lights; with a
-// 512² map it renders 0.44); the other edge pixels there render at most 0.40.
-const std::vector<KnownMiss> kKnownMisses = {
-    {"knot_h0_hard_leak", "0.0303"},
-};
+// Measured on this project's 2-core machine with the model's defaults; docs/benchmarks.md has
+// the whole table. Remove an entry when the model meets its target. None is missed since the
+// accurate model's default map became 384² (at 256² the knot touching the ground left 1 of its
+// 33 contact pixels lit: one on the shadow's edge at 0.60).
+const std::vector<KnownMiss> kKnownMisses = {};
 
 bool known_miss(const std::string& test) {
   for (const auto& m : kKnownMisses)

@@ -782,7 +782,7 @@ TEST(FaultsMemory, EstimateGrowsWithEveryPartOfTheWork) {
   };
   const size_t base = estimate(scene);
   penumbra::Scene more = scene;
-  more.params.shadow_map_size *= 2;
+  more.params.shadow_map_size = 2 * shadow_map_side(more.params);
   EXPECT_GT(estimate(more), base);
   more = scene;
   more.cameras.front().width *= 2;

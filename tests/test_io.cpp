@@ -361,6 +361,14 @@ TEST(IoScene, DefaultsAndOptions) {
   EXPECT_EQ(s.ambient, Scene().ambient);
   EXPECT_TRUE(s.params.cull_backfaces);
   EXPECT_EQ(s.params.sigma, RenderParams().sigma);
+  // A map size left out follows the shadow model (docs/scene-format.md); a given one stays.
+  RenderParams p = s.params;
+  EXPECT_FALSE(p.shadow_map_size.has_value());
+  EXPECT_EQ(shadow_map_side(p), 384);
+  p.shadow_model = ShadowModel::Paper;
+  EXPECT_EQ(shadow_map_side(p), 256);
+  p.shadow_map_size = 100;
+  EXPECT_EQ(shadow_map_side(p), 100);
 }
 
 // "sampling" and "exact_backend" are independent keys; "sampling": "gemm" stays a shorthand

@@ -429,7 +429,7 @@ TEST_P(PenumbraGradCheck, OverlappingPenumbraeOnly) {
   int pixels = 0;
   for (int texel : overlap_texels(scene)) {
     // The ground point the texel's centre sees, and the camera pixel that shows it.
-    const dvec3 X = texel_on_ground(scene.lights[0], scene.params.shadow_map_size, texel);
+    const dvec3 X = texel_on_ground(scene.lights[0], shadow_map_side(scene.params), texel);
     const auto [px, py] = pixel_of(cam, X);
     for (int y = py - 1; y <= py + 1; ++y)
       for (int x = px - 1; x <= px + 1; ++x) {

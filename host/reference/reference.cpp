@@ -97,7 +97,7 @@ Scene casters_only(const Scene& scene, const Light& light) {
 
 ShadowMap light_pass(const Scene& scene, size_t index) {
   const RenderParams& p = scene.params;
-  const View view = View::of_light(scene.lights.at(index), p.shadow_map_size);
+  const View view = View::of_light(scene.lights.at(index), shadow_map_side(p));
   const double sigma = light_pass_sigma(p);
   const double gamma = light_pass_gamma(p);
   const Shader no_colour = [](const Face&, const dvec3&) { return dvec3(0.0); };

@@ -101,9 +101,9 @@ double search_sigma_from(const RenderParams& p, const Light& light, double zmin)
   const LightFrustum& f = light.frustum;
   const bool ortho = light.type == LightType::Directional;
   const double tan_half = std::tan(f.fov_deg * 3.14159265358979323846 / 360);
-  const double k = p.shadow_map_size / (2 * (ortho ? f.half_size : tan_half));
+  const double k = shadow_map_side(p) / (2 * (ortho ? f.half_size : tan_half));
   double w = light.size * k * (ortho ? f.far - zmin : 1 / zmin - 1 / f.far);
-  w = std::min(std::max(w, 0.0), 0.5 * p.shadow_map_size);
+  w = std::min(std::max(w, 0.0), 0.5 * shadow_map_side(p));
   return shadow_sigma_s(p) + w * w / 16;
 }
 
@@ -132,8 +132,8 @@ void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::d
   const RenderParams& p = scene.params;
   const double soft = p.shadows == Shadows::Soft ? l.size : 0.0;
   const double window =
-      std::sqrt(2 * shadow_sigma_s(p) * std::log(1 / p.lambda_eps)) + 1;  // texels
-  const double texels = std::min(2.0 * window / p.shadow_map_size, 0.5);  // share of the map
+      std::sqrt(2 * shadow_sigma_s(p) * std::log(1 / p.lambda_eps)) + 1;   // texels
+  const double texels = std::min(2.0 * window / shadow_map_side(p), 0.5);  // share of the map
   if (l.type == LightType::Point) {
     double zocc = std::numeric_limits<double>::infinity();
     for (const glm::dvec3& v : occ) zocc = std::min(zocc, glm::length(v - l.position));

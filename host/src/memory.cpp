@@ -75,7 +75,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
                         kFragmentsPerPixel) +
              (backward ? size_t(c.width) * size_t(c.height) * 6 * z.rs : 0);  // dL/d(image, depth)
   if (p.shadows == Shadows::None) return bytes;
-  const size_t texels = size_t(p.shadow_map_size) * size_t(p.shadow_map_size);
+  const size_t texels = size_t(shadow_map_side(p)) * size_t(shadow_map_side(p));
   for (size_t l = 0; l < lights; ++l) {
     bytes += view_bytes(
         z, texels, 0, backward,
@@ -92,7 +92,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
       size_t most = 0;  // the batches live one camera at a time
       for (const Camera& c : scene.cameras)
         most = std::max(most, exact_batch_bytes(
-                                  z, size_t(p.shadow_map_size),
+                                  z, size_t(shadow_map_side(p)),
                                   fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel),
                                   backward, clblast));
       bytes += most;

@@ -94,7 +94,7 @@ void Renderer::Impl::upload_geometry() {
 // transform → raster → resolve: the shadow map S (and coverage A), then the penumbra map.
 void Renderer::Impl::shadow_map_pass(int light) {
   LightPass& lp = light_passes[light];
-  const int size = scene.params.shadow_map_size;
+  const int size = shadow_map_side(scene.params);
   stage("shadow map");
   rasterise(lp, size, size, 0, detail::light_view_params(scene, light));
   lp.resolved = detail::raster_resolve(kernels, lp.view, lp.fragments);

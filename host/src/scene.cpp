@@ -193,8 +193,8 @@ void validate_params(const RenderParams& p) {
   if (!std::isfinite(shadow_beta(p)))
     fail("render parameter beta = " + num(shadow_beta(p)) + " is not finite");
   check_positive("gamma_p", p.gamma_p);
-  if (!(p.shadow_map_size >= 1 && p.shadow_map_size <= 8192))
-    fail("render parameter shadow_map_size = " + std::to_string(p.shadow_map_size) +
+  if (!(shadow_map_side(p) >= 1 && shadow_map_side(p) <= 8192))
+    fail("render parameter shadow_map_size = " + std::to_string(shadow_map_side(p)) +
          " must be in [1, 8192]");
   if (p.light_sigma != 0) check_open_unit("light_sigma", p.light_sigma);
   if (p.light_gamma != 0) check_open_unit("light_gamma", p.light_gamma);
@@ -312,6 +312,9 @@ double shadow_gamma_s(const RenderParams& p) {
 }
 double shadow_beta(const RenderParams& p) {
   return p.beta ? *p.beta : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.05 : 0.01);
+}
+int shadow_map_side(const RenderParams& p) {
+  return p.shadow_map_size ? *p.shadow_map_size : p.shadow_model == ShadowModel::Paper ? 256 : 384;
 }
 
 Scene framed_scene(Mesh mesh, int width, int height) {

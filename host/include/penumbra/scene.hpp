@@ -143,9 +143,10 @@ struct RenderParams {
   Sampling sampling = Sampling::Truncated;
   ExactBackend exact_backend = ExactBackend::Auto;  // exact sum of the paper's hard shadows
   ShadowModel shadow_model = ShadowModel::Accurate;
-  int shadow_map_size = 256;  // W_s = H_s, texels
-  double light_sigma = 0.0;   // σ_L of the light pass; 0 → σ/10 (light_pass_sigma)
-  double light_gamma = 0.0;   // γ_L of the light pass; 0 → γ (light_pass_gamma)
+  // W_s = H_s, texels; unset, the shadow model's default (shadow_map_side).
+  std::optional<int> shadow_map_size;
+  double light_sigma = 0.0;  // σ_L of the light pass; 0 → σ/10 (light_pass_sigma)
+  double light_gamma = 0.0;  // γ_L of the light pass; 0 → γ (light_pass_gamma)
   // A fragment whose aggregation weight is below ε_w times the largest (the background's
   // included) is left out of the colour and depth (but not the silhouette), so
   // that shadow terms are sampled only where they can show.
@@ -162,6 +163,11 @@ struct RenderParams {
 double shadow_sigma_s(const RenderParams& p);
 double shadow_gamma_s(const RenderParams& p);
 double shadow_beta(const RenderParams& p);
+// The shadow map's side W_s = H_s in force: shadow_map_size, else the shadow model's default —
+// paper: 256 texels; accurate: 384 (a hard shadow's edge falls within a fraction of a texel of
+// the true edge, so the map sets how far it can stray; against the ray tracer a 256² map left
+// one contact pixel lit on a knot touching the ground, bench/accuracy.hpp).
+int shadow_map_side(const RenderParams& p);
 
 struct Scene {
   std::vector<Mesh> meshes;

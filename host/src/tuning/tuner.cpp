@@ -170,7 +170,7 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
     if (options.quick) {
       for (Camera& c : scene.cameras)
         c.width = std::min(c.width, 128), c.height = std::min(c.height, 128);
-      scene.params.shadow_map_size = std::min(scene.params.shadow_map_size, 128);
+      scene.params.shadow_map_size = std::min(shadow_map_side(scene.params), 128);
     }
     refit_light_frusta(scene);
     // The reference output: the configuration the stage starts from.
