@@ -288,23 +288,26 @@ NB_MODULE(_penumbra, m) {
       .def_rw("size", &Light::size)
       .def_rw("frustum", &Light::frustum);
 
+  // The optional parameters read None where the shadow model's default applies, and take None
+  // to go back to it.
+  const auto unset_by_none = nb::for_setter(nb::arg("value").none());
   nb::class_<RenderParams>(m, "RenderParams")
       .def(nb::init<>())
       .def_rw("sigma", &RenderParams::sigma)
       .def_rw("gamma", &RenderParams::gamma)
       .def_rw("eps", &RenderParams::eps)
       .def_rw("dist_eps", &RenderParams::dist_eps)
-      .def_rw("sigma_s", &RenderParams::sigma_s)
+      .def_rw("sigma_s", &RenderParams::sigma_s, unset_by_none)
       .def_rw("lambda_eps", &RenderParams::lambda_eps)
-      .def_rw("gamma_s", &RenderParams::gamma_s)
-      .def_rw("beta", &RenderParams::beta)
+      .def_rw("gamma_s", &RenderParams::gamma_s, unset_by_none)
+      .def_rw("beta", &RenderParams::beta, unset_by_none)
       .def_rw("gamma_p", &RenderParams::gamma_p)
       .def_rw("cull_backfaces", &RenderParams::cull_backfaces)
       .def_rw("shadows", &RenderParams::shadows)
       .def_rw("sampling", &RenderParams::sampling)
       .def_rw("exact_backend", &RenderParams::exact_backend)
       .def_rw("shadow_model", &RenderParams::shadow_model)
-      .def_rw("shadow_map_size", &RenderParams::shadow_map_size)
+      .def_rw("shadow_map_size", &RenderParams::shadow_map_size, unset_by_none)
       .def_rw("light_sigma", &RenderParams::light_sigma)
       .def_rw("light_gamma", &RenderParams::light_gamma)
       .def_rw("weight_eps", &RenderParams::weight_eps)

@@ -148,6 +148,17 @@ def test_parameters_round_trip_and_shape_errors():
         scene.set_parameters(moved, p["albedo"], p["lights"][:, :3], p["ambient"])
 
 
+def test_model_defaults_read_and_take_none():
+    # docs/api.md: the optional parameters are None where the shadow model's default applies.
+    p = penumbra.RenderParams()
+    for name in ("sigma_s", "gamma_s", "beta", "shadow_map_size"):
+        assert getattr(p, name) is None, name
+        setattr(p, name, 64)
+        assert getattr(p, name) == 64, name
+        setattr(p, name, None)
+        assert getattr(p, name) is None, name
+
+
 def test_outputs_are_moved_not_copied(context):
     renderer = penumbra.Renderer(context)
     (view,) = renderer.render(bundled("none", 16))
