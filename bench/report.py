@@ -871,7 +871,8 @@ def stage_notes(res, peak, exp_rate, profiles):
                        f"({fmt(ms(b) / ms(f))}×)")
     if acc:
         out.append("- **The accurate model** (the renderer's default; truncated, the same "
-                   "settings as above): " + "; ".join(acc) + ".")
+                   "settings as above, so a 256² map where its default is 384²): "
+                   + "; ".join(acc) + ".")
     fc = sweep(res, "faces").get(("fwd", "none", "truncated"), [])
     if len(fc) >= 2:
         (f0, t0), (f1, t1) = fc[0], fc[-1]
