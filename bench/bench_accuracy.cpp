@@ -3,7 +3,8 @@
 //
 // Case names: accuracy/fwd/<shadows>/<sampling>/img:256/map:M/faces:F/sigma_s:S/lights:1/
 // model:<accurate|paper>/scene:<name>, and accuracy/ratio/<shadows>/truncated/img:256/map:256/
-// lights:1/scene:<name>: the accurate model's forward time over the paper model's, a frame of
+// lights:1/scene:<name> (both models at a 256² map) or .../img:256/maps:default/... (each at its
+// own default map): the accurate model's forward time over the paper model's, a frame of
 // each in turn so that what else runs on this shared machine weighs on both alike (counters
 // ms_accurate and ms_paper, the medians, and time_ratio, their quotient; the separate fwd cases
 // run minutes apart). Counters of the fwd cases (accuracy.hpp defines them): area_ratio,
@@ -141,13 +142,14 @@ AccuracyCase make(const std::string& scene, ShadowModel model, Shadows sh, Sampl
   return c;
 }
 
-// The models at equal settings: both at the paper model's 256² map (the accurate model's default
-// is 384²; its fwd cases time that).
-void add_ratio(const std::string& scene, Shadows sh) {
-  const AccuracyCase a = make(scene, ShadowModel::Accurate, sh, Sampling::Truncated, 256),
-                     p = make(scene, ShadowModel::Paper, sh, Sampling::Truncated, 256);
-  const std::string name = std::string("accuracy/ratio/") + word(sh) +
-                           "/truncated/img:256/map:256/lights:1/scene:" + scene;
+// The models at equal settings, both at the paper model's 256² map, or each at its own default
+// map (the accurate model's is 384²).
+void add_ratio(const std::string& scene, Shadows sh, bool equal_maps) {
+  const std::optional<int> map = equal_maps ? std::optional<int>(256) : std::nullopt;
+  const AccuracyCase a = make(scene, ShadowModel::Accurate, sh, Sampling::Truncated, map),
+                     p = make(scene, ShadowModel::Paper, sh, Sampling::Truncated, map);
+  const std::string name = std::string("accuracy/ratio/") + word(sh) + "/truncated/img:256/" +
+                           (equal_maps ? "map:256" : "maps:default") + "/lights:1/scene:" + scene;
   benchmark::RegisterBenchmark(name.c_str(), [a, p](benchmark::State& st) { run_ratio(st, a, p); })
       ->UseManualTime()
       ->Unit(benchmark::kMillisecond);
@@ -158,7 +160,8 @@ void add_ratio(const std::string& scene, Shadows sh) {
 void register_accuracy_benchmarks() {
   for (const std::string& scene : accuracy_scene_names()) {
     add(make(scene, ShadowModel::Accurate, Shadows::None, Sampling::Truncated));
-    for (Shadows sh : {Shadows::Hard, Shadows::Soft}) add_ratio(scene, sh);
+    for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+      for (bool equal_maps : {true, false}) add_ratio(scene, sh, equal_maps);
     for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})
       for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
         add(make(scene, model, sh, Sampling::Truncated));

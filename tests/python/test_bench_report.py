@@ -87,3 +87,12 @@ def test_accuracy_ratio_cases_are_their_own_kind():
     fwd = report.parse_name("accuracy/fwd/soft/truncated/img:256/map:256/faces:1312/sigma_s:0.5/"
                             "lights:1/model:accurate/scene:sphere/manual_time")
     assert fwd["kind"] == "accuracy" and fwd["model"] == "accurate"
+    # The same pair at each model's default map is told apart from the equal-map one.
+    own = report.parse_name(
+        "accuracy/ratio/soft/truncated/img:256/maps:default/lights:1/scene:knot_h0.3/manual_time")
+    assert own["maps"] == "default" and "map" not in own
+    for r, ratio in ((rec, 1.2), (own, 1.4)):
+        r.update(name="", error=None, ms_median=1.0, time_ratio=ratio)
+    res = report.Results([own, rec])
+    assert report.acc_ratio(res, "knot_h0.3", "soft")["time_ratio"] == 1.2
+    assert report.acc_ratio(res, "knot_h0.3", "soft", default_maps=True)["time_ratio"] == 1.4
