@@ -112,12 +112,11 @@ void run_ratio(benchmark::State& state, const AccuracyCase& accurate, const Accu
 }
 
 std::string name_of(const AccuracyCase& c, bool large) {
+  const Scene s = accuracy_scene(c);
   std::ostringstream o;
   o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/'
-    << word(c.sampling, c.exact_backend)
-    << "/img:256/map:" << shadow_map_side(accuracy_scene(c).params)
-    << "/faces:" << total_faces(accuracy_scene(c))
-    << "/sigma_s:" << shadow_sigma_s(accuracy_scene(c).params)
+    << word(c.sampling, c.exact_backend) << "/img:256/map:" << shadow_map_side(s.params)
+    << "/faces:" << total_faces(s) << "/sigma_s:" << shadow_sigma_s(s.params)
     << "/lights:1/model:" << word(c.model) << "/scene:" << c.scene;
   return o.str();
 }

@@ -117,10 +117,12 @@ def section(doc):
         "uses: `POCL_DEBUG=llvm,timing` timed 2.3 s of work-group generation and code generation",
         "on 2026-11-26, 0.75 s of it for raster_fragments and 0.48 s for raster_count (the",
         "kernels with the PPW-lane vector code), besides ~0.5 s loading PoCL's built-in library.",
-        "PoCL compiles one program at a time: four of these programs built and asked for their",
-        "binaries from four threads of one process took as long as one after another (2.66–2.84",
-        "s against 2.69–2.82 s, user time equal to wall time, 2026-11-26), so the second core",
-        "cannot shorten the cold call.",
+        "PoCL compiles one program at a time: the variants a first render uses of raster.cl,",
+        "pcf.cl, transform.cl and bin.cl (`penumbra kernels --kind cpu --variants DIR`), each",
+        "built with clBuildProgram and asked for CL_PROGRAM_BINARIES, from four threads sharing",
+        "one context took as long as one after another (2.66–2.84 s against 2.69–2.82 s, two",
+        "runs each, empty POCL_CACHE_DIR, user time equal to wall time, 2026-11-26), so the",
+        "second core cannot shorten the cold call.",
         "",
     ]
 

@@ -8,10 +8,8 @@
 //          knot touching the ground; the spheres touch it too, but out of the camera's sight).
 // The time target (forward ≤ 1.5× the paper model's) is a speed target: it lives in the
 // benchmark suite's report (docs/benchmarks.md), not in a timed test.
-// Each target of each scene and mode is one test, AccurateModel.<scene>_<mode>_<target>. A
-// target the model is known to miss is listed in kKnownMisses with what it measured: its test
-// is registered DISABLED_ (still built, run by --gtest_also_run_disabled_tests) until the model
-// meets it; the target itself is never loosened.
+// Each target of each scene and mode is one test, AccurateModel.<scene>_<mode>_<target>; every
+// one passes with the model's defaults (docs/benchmarks.md has the measured table).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -26,22 +24,6 @@ namespace penumbra::bench {
 namespace {
 
 constexpr const char* kContactScene = "knot_h0";
-
-struct KnownMiss {
-  const char* test;  // <scene>_<mode>_<target>
-  const char* measured;
-};
-// Measured on this project's 2-core machine with the model's defaults; docs/benchmarks.md has
-// the whole table. Remove an entry when the model meets its target. None is missed since the
-// accurate model's default map became 384² (at 256² the knot touching the ground left 1 of its
-// 33 contact pixels lit: one on the shadow's edge at 0.60).
-const std::vector<KnownMiss> kKnownMisses = {};
-
-bool known_miss(const std::string& test) {
-  for (const auto& m : kKnownMisses)
-    if (test == m.test) return true;
-  return false;
-}
 
 AccuracyCase accurate(const std::string& scene, Shadows shadows) {
   AccuracyCase c;
@@ -96,8 +78,7 @@ std::string test_name(std::string scene, Shadows shadows, const std::string& tar
 }
 
 void add_test(const std::string& scene, Shadows shadows, const std::string& target) {
-  std::string name = test_name(scene, shadows, target);
-  if (known_miss(name)) name = "DISABLED_" + name;
+  const std::string name = test_name(scene, shadows, target);
   testing::RegisterTest(
       "AccurateModel", name.c_str(), nullptr, nullptr, __FILE__, __LINE__,
       [=]() -> testing::Test* { return new Target([=] { check(scene, shadows, target); }); });
