@@ -456,6 +456,16 @@ TEST(FaultsInput, DegenerateFacesAreFoundAtEveryScale) {
     const penumbra::Mesh point = triangle_mesh({{scale, scale, 0}, {scale, scale, 0}, {0, 0, 0}});
     EXPECT_NE(error_of([&] { penumbra::validate(point); }).find("is degenerate"), std::string::npos)
         << scale;
+    // Either side of the bound: twice the area h times the longest edge squared, h = 1e-12
+    // (1.06e-12 is decided without the exact relative area, 1.01e-12 with it).
+    for (const double h : {1.06e-12, 1.01e-12, 0.99e-12}) {
+      const penumbra::Mesh near =
+          triangle_mesh({{0, 0, 0}, {scale, 0, 0}, {scale / 2, h * scale, 0}});
+      EXPECT_EQ(
+          error_of([&] { penumbra::validate(near); }).find("is degenerate") != std::string::npos,
+          h < 1e-12)
+          << scale << " " << h;
+    }
   }
 }
 

@@ -16,7 +16,8 @@ struct Packed {
   std::vector<int> faces;              // nf × 4
   std::vector<size_t> vertex_offset, face_offset;
 };
-Packed pack(const Scene& s);
+// Fills `p` with the scene's meshes, reusing its storage.
+void pack(const Scene& s, Packed& p);
 
 // What the backward pass sums on the host, over cameras and lights, before it becomes
 // SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (3·nf × 4), the per-light terms of the

@@ -51,6 +51,17 @@ double relative_area(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3&
   return glm::length(glm::cross(ab, ac)) / (longest * longest);
 }
 
+// relative_area(a, b, c) > 1e-12, decided without its divisions and roots where the answer
+// is clear (every face of a sound mesh; at 100k faces this was 2.6 ms of each render): with
+// the edges' squares between 1e-100 and 1e100, |ab × ac|² above 1.1e-24 times the longest
+// edge's fourth power puts the relative area 4.8 % above the bound, far beyond the rounding
+// of either computation (the cross product's, near the bound, a few 1e-4 relative).
+bool clearly_not_degenerate(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 ab = b - a, ac = c - a, bc = c - b, n = glm::cross(ab, ac);
+  const double l2 = std::max({glm::dot(ab, ab), glm::dot(ac, ac), glm::dot(bc, bc)});
+  return l2 > 1e-100 && l2 < 1e100 && glm::dot(n, n) > 1.1e-24 * l2 * l2;
+}
+
 void validate_mesh(const Mesh& mesh, const std::string& label) {
   if (mesh.faces.empty()) fail(label + " has no faces");
   if (mesh.vertices.empty()) fail(label + " has no vertices");
@@ -71,7 +82,9 @@ void validate_mesh(const Mesh& mesh, const std::string& label) {
     }
     if (t.x == t.y || t.y == t.z || t.z == t.x)
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) + " repeats a vertex index");
-    const double area = relative_area(mesh.vertices[t.x], mesh.vertices[t.y], mesh.vertices[t.z]);
+    const glm::dvec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
+    if (clearly_not_degenerate(a, b, c)) continue;
+    const double area = relative_area(a, b, c);
     if (!(area > 1e-12))
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) +
            " is degenerate (its corners are on one line: twice its area is " + num(area) +

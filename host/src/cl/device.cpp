@@ -45,7 +45,7 @@ void count_made(const cl::Buffer& buffer, size_t bytes) {
 
 // Every device buffer is made here, after a check that it fits: a clear error naming the sizes
 // rather than an OpenCL failure (or worse) later.
-cl::Buffer make_buffer(Context& ctx, size_t bytes, void* host) {
+cl::Buffer make_buffer(Context& ctx, size_t bytes, const void* host) {
   const DeviceInfo& d = ctx.info();
   auto mib = [](size_t b) { return std::to_string((b + (1 << 20) - 1) >> 20) + " MiB"; };
   if (bytes > d.max_alloc)
@@ -54,7 +54,7 @@ cl::Buffer make_buffer(Context& ctx, size_t bytes, void* host) {
                 "); use a smaller image, shadow map or mesh");
   try {
     cl::Buffer buffer(ctx.cl_context(), CL_MEM_READ_WRITE | (host ? CL_MEM_COPY_HOST_PTR : 0),
-                      bytes, host);
+                      bytes, const_cast<void*>(host));  // only read (COPY_HOST_PTR)
     count_made(buffer, bytes);
     return buffer;
   } catch (const cl::Error& e) {
@@ -89,8 +89,9 @@ std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& 
 }
 
 cl::Buffer upload_ints(Context& ctx, const std::vector<int>& values) {
-  std::vector<int> v = values.empty() ? std::vector<int>{0} : values;
-  return make_buffer(ctx, v.size() * sizeof(int), v.data());
+  static const int none = 0;  // an empty upload is a buffer of one element
+  return values.empty() ? make_buffer(ctx, sizeof(int), &none)
+                        : make_buffer(ctx, values.size() * sizeof(int), values.data());
 }
 
 std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count) {

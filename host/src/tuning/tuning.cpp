@@ -210,22 +210,25 @@ WorkloadStats workload_stats(const Scene& scene) {
   const double scale = ortho ? c.half_height : std::tan(c.fov_deg * 3.14159265358979323846 / 360);
   double total = 0;
   size_t counted = 0;
-  for (const Mesh& m : scene.meshes)
+  std::vector<glm::dvec2> p;  // each vertex projected once, not once per face corner
+  std::vector<char> in_front;
+  for (const Mesh& m : scene.meshes) {
+    p.resize(m.vertices.size());
+    in_front.resize(m.vertices.size());
+    for (size_t v = 0; v < m.vertices.size(); ++v) {
+      const glm::dvec3 d = m.vertices[v] - c.eye;
+      const double z = glm::dot(d, f);
+      in_front[v] = !(z < c.near);
+      const double s = (ortho ? 1 / scale : 1 / (z * scale)) * c.height / 2;
+      p[v] = {glm::dot(d, r) * s, glm::dot(d, u) * s};
+    }
     for (const glm::ivec3& F : m.faces) {
-      glm::dvec2 p[3];
-      bool ok = true;
-      for (int k = 0; k < 3; ++k) {
-        const glm::dvec3 d = m.vertices[F[k]] - c.eye;
-        const double z = glm::dot(d, f);
-        if (z < c.near) ok = false;
-        const double s = (ortho ? 1 / scale : 1 / (z * scale)) * c.height / 2;
-        p[k] = {glm::dot(d, r) * s, glm::dot(d, u) * s};
-      }
-      if (!ok) continue;
-      const glm::dvec2 a = p[1] - p[0], b = p[2] - p[0];
+      if (!in_front[F.x] || !in_front[F.y] || !in_front[F.z]) continue;
+      const glm::dvec2 a = p[F.y] - p[F.x], b = p[F.z] - p[F.x];
       total += std::min(0.5 * std::abs(a.x * b.y - a.y * b.x), double(c.width) * c.height);
       ++counted;
     }
+  }
   w.mean_face_pixels = counted ? total / counted : 0;
   return w;
 }
