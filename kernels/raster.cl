@@ -143,7 +143,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
   int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
   if (py0 >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA];
-  const int nl = (int)P[P_NLIGHTS];
+  const int nl = (int)P[P_NLIGHTS], receiver_plane = P[P_RECEIVER_PLANE] > 0;
   realP qy;
   maskP valid;
   const realP qx = block_lanes(px0, py0, W, H, &qy, &valid);
@@ -175,6 +175,8 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     VSTOREP(kept ? (realP)1 : (realP)0, 0, keptj);
     for (int k = 0; k < 3; ++k) VSTOREP(b[k], 0, bs[k]);
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
+    ReceiverFace rf[P_MAX_LIGHTS];  // the face's plane in each light's view, for all its lanes
+    for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
     for (int j = 0; j < PPW; ++j) {
       if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
       int r = first[j] + n[j]++;
@@ -190,7 +192,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
         real3 mu = light_project(l, X, P);
         rec_light[r * nl + l] = (real4)(mu, 1);
         rec_light2[r * nl + l] =
-            (real4)(P[P_RECEIVER_PLANE] > 0 ? receiver_gradient(l, F.V, mu.z, P) : 0, 0, 0);
+            (real4)(receiver_plane ? receiver_gradient(l, &rf[l], mu.z, P) : 0, 0, 0);
       }
     }
   }
