@@ -8,13 +8,16 @@
 //
 // Names: [large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L, then
 // /model:accurate for the cases of the accurate model (at the reference point only).
-// Cases under large/ (1024² images or maps, 200k faces, soft exact at 256² maps, ...) take far
-// longer; they run only when the filter names them (see main.cpp).
+// Counter device_MiB: the most device memory the renderer's buffers held at once during one
+// render() (with backward(): the render and the backward after it), penumbra::device_memory_use.
+// Cases under large/ (1024² and 2048² images, 1024² maps, 200k and 1M faces, soft exact at 256²
+// maps, ...) take far longer; they run only when the filter names them (see main.cpp).
 #include <set>
 #include <tuple>
 
 #include "common.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/renderer.hpp"
 #include "suite.hpp"
 
 namespace penumbra::bench {
@@ -33,6 +36,7 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
     return;
   }
   Renderer& r = renderer(s);
+  reset_device_memory_peak();  // the warm-up call's own buffers, not those of earlier cases
   try {
     out = r.render(s);  // warm-up: builds every program this case needs
     if (backward) {
@@ -43,6 +47,7 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
     state.SkipWithError(e.what());
     return;
   }
+  state.counters["device_MiB"] = double(device_memory_use().peak) / (1 << 20);
   const double fragments = covered_pixels(out);
   const double med = timed_frames(state, [&] {
     if (backward)
@@ -100,11 +105,11 @@ void register_render_benchmarks() {
   }
 
   // Image size (map 256²).
-  for (int img : {128, 512, 1024}) {
+  for (int img : {128, 512, 1024, 2048}) {
     const bool large = img > 512;
     for (const Case& c : {none, hard, soft}) add(false, set(c, &Case::image, img), large);
     for (const Case& c : {none, hard}) add(true, set(c, &Case::image, img), large);
-    add(false, set(hard_exact, &Case::image, img), img > 256);
+    if (img <= 1024) add(false, set(hard_exact, &Case::image, img), img > 256);  // O(W·H·map²)
   }
 
   // Shadow-map size (image 256²).
@@ -116,8 +121,8 @@ void register_render_benchmarks() {
     add(true, set(hard_exact, &Case::map, map), map > 128);
   }
 
-  // Face count: icospheres of 1280 to 200 000 faces (frequency 8 to 100) on the ground plane.
-  for (int freq : {0, 16, 32, 50, 71, 100}) {  // 0: the bundled 1280-face sphere
+  // Face count: icospheres of 1280 to 1 000 000 faces (frequency 8 to 224) on the ground plane.
+  for (int freq : {0, 16, 32, 50, 71, 100, 224}) {  // 0: the bundled 1280-face sphere
     const bool large = freq > 71;
     for (const Case& c : {none, hard, soft}) add(false, set(c, &Case::frequency, freq), large);
     if (freq == 16 || freq >= 71)

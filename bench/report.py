@@ -248,18 +248,25 @@ SERIES = [("fwd", "none", "truncated", "forward, no shadows", "C0", "-"),
           ("bwd", "soft", "truncated", "backward, soft truncated", "C2", "--")]
 
 
-def sweep(res, key, **fixed):
-    """{(pass, shadows, sampling): [(x, ms), ...]} over render cases varying `key`."""
+def sweep(res, key, value=ms, **fixed):
+    """{(pass, shadows, sampling): [(x, value), ...]} over render cases varying `key` (cases
+    without the value left out); the value is the median ms unless `value` says otherwise."""
     out = {}
     for r in res.all("render"):
         if any(r.get(k) != v for k, v in {**REF, **fixed}.items() if k != key):
             continue
-        out.setdefault((r["pass_"], r["shadows"], r["sampling"]), []).append((r[key], ms(r)))
+        if value(r) is not None:
+            out.setdefault((r["pass_"], r["shadows"], r["sampling"]), []).append((r[key], value(r)))
     return {k: sorted(v) for k, v in out.items()}
 
 
-def plot_sweep(plt, res, key, xlabel, path, logx=True, **fixed):
-    data = sweep(res, key, **fixed)
+def device_mib(r):
+    return r.get("device_MiB")
+
+
+def plot_sweep(plt, res, key, xlabel, path, logx=True, value=ms,
+               ylabel="median time per frame (ms)", **fixed):
+    data = sweep(res, key, value, **fixed)
     if not data:
         return False
     if not any(len(data.get((p, sh, sa), [])) >= 2 for p, sh, sa, *_ in SERIES):
@@ -279,7 +286,7 @@ def plot_sweep(plt, res, key, xlabel, path, logx=True, **fixed):
                        rotation=30 if len(xs) > 5 else 0)
     ax.minorticks_off()
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("median time per frame (ms)")
+    ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -474,7 +481,8 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("")
     w("```sh")
     w("scripts/bench.sh            # install, build, run the default suite, regenerate this page")
-    w("scripts/bench.sh --large    # the same plus the large cases (1024² images and maps, 200k faces, ...)")
+    w("scripts/bench.sh --scaling  # the same plus the face and image sweeps' large cases (to 1M faces, 2048²)")
+    w("scripts/bench.sh --large    # the same plus every large case (exact at 1024², 1024² maps, ...)")
     w("```")
     w("")
 
@@ -676,6 +684,9 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
                                   os.path.join(image_dir, "bench_time_vs_map.png"))
         plots["faces"] = plot_sweep(plt, res, "faces", "faces",
                                     os.path.join(image_dir, "bench_time_vs_faces.png"))
+        plots["memory"] = plot_sweep(plt, res, "faces", "faces",
+                                     os.path.join(image_dir, "bench_memory_vs_faces.png"),
+                                     value=device_mib, ylabel="device memory of one call (MiB)")
         plots["sigma_s"] = plot_sweep(plt, res, "sigma_s", "σ_s (texel²)",
                                       os.path.join(image_dir, "bench_time_vs_sigma_s.png"))
         plots["tradeoff"] = plot_tradeoff(plt, res, os.path.join(image_dir, "bench_error_vs_time.png"))
@@ -707,6 +718,8 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
         if plot and plots.get(plot):
             w(f"![time vs {xname}]({rel_images}/bench_time_vs_{ {'res': 'resolution'}.get(plot, plot) }.png)")
             w("")
+        if key == "faces":
+            L.extend(memory_lines(res, plots.get("memory"), rel_images))
 
     # Turnaround.
     w("## The paper's turnaround")
@@ -738,12 +751,16 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("## Large cases")
     w("")
     if large:
-        rows = [(r["name"].replace("/manual_time", ""), fmt(ms(r))) for r in large]
-        w(table(("case", "median ms"), rows))
+        w("The large cases of this run (`scripts/bench.sh --large` runs all of them, `--scaling`")
+        w("those of the face and image sweeps, which the tables above include):")
+        w("")
+        rows = [(r["name"].replace("/manual_time", ""), fmt(ms(r)), fmt(device_mib(r)))
+                for r in large]
+        w(table(("case", "median ms", "device MiB"), rows))
     else:
-        w("The cases named `large/...` (1024² images and maps, 200k faces, soft exact at 256²,")
-        w("exact and gemm at 512² and more) were not part of this run; `scripts/bench.sh --large`")
-        w("runs them too, which takes much longer than the default suite.")
+        w("The cases named `large/...` (1024² and 2048² images, 1024² maps, 200k and 1M faces, soft")
+        w("exact at 256², exact and gemm at 512² and more) were not part of this run;")
+        w("`scripts/bench.sh --large` runs them too, which takes much longer than the default suite.")
     w("")
     if res.errors:
         w("## Cases that failed")
@@ -756,14 +773,44 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     print(f"report: wrote {doc_path}" + (f" and plots in {image_dir}" if plt else ""))
 
 
+def memory_lines(res, plotted, rel_images):
+    """The face sweep's device memory: one call's peak (device_MiB) per face count, and what
+    each face adds between the smallest and the largest mesh."""
+    data = sweep(res, "faces", device_mib)
+    xs = sorted({x for pts in data.values() for x, _ in pts})
+    if len(xs) < 2:
+        return []
+    rows, slopes = [], []
+    for pass_, sh, sa, label, *_ in SERIES:
+        pts = data.get((pass_, sh, sa), [])
+        if len(pts) < 2:
+            continue
+        rows.append([label] + [fmt(dict(pts).get(x)) for x in xs])
+        (x0, m0), (x1, m1) = pts[0], pts[-1]
+        slopes.append(f"{label} {fmt((m1 - m0) * 2 ** 20 / (x1 - x0))}")
+    L = ["Device memory of one call: the most the renderer's buffers held at once during the",
+         "warm-up `render` (and, for backward cases, the `backward` after it), from",
+         "`penumbra::device_memory_use` (counter `device_MiB`). Most of what grows with the face",
+         "count is the kept fragments: the faces whose soft coverage reaches a pixel all keep one",
+         "there, more of them the smaller the faces.",
+         "",
+         table(["device MiB \\ faces"] + [str(x) for x in xs], rows),
+         "",
+         f"Bytes per added face, from {xs[0]} to {xs[-1]} faces: " + "; ".join(slopes) + ".",
+         ""]
+    if plotted:
+        L += [f"![device memory vs faces]({rel_images}/bench_memory_vs_faces.png)", ""]
+    return L
+
+
 def sweep_intro(key):
     return {
         "img": "Image size W = H, everything else at the reference point (256² map, 1312 faces).",
         "map": "Shadow-map size W_s = H_s at a 256² image. Exact and gemm hard shadows cost "
                "O(N·W_s·H_s); truncated ones O(N·R²) plus the light pass, O(W_s·H_s).",
         "faces": "Face count: the bundled 1280-face sphere, then icospheres of geodesic frequency "
-                 "16, 32, 50, 71 (100) — 20·n² faces — on the 32-face ground plane, 256² image "
-                 "and map.",
+                 "16, 32, 50, 71 (100 and 224 in the large cases) — 20·n² faces — on the 32-face "
+                 "ground plane, 256² image and map.",
         "sigma_s": "σ_s (texel²) at the reference point: the truncated window has radius "
                    "R = sqrt(2σ_s·ln(1/ε_λ)), so its area grows linearly with σ_s.",
         "lights": "Lights: one shadow map (and penumbra map) per light; lights 2 and 3 are light 0 "

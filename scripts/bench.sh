@@ -12,6 +12,8 @@
 #
 #   scripts/bench.sh                 the default suite
 #   scripts/bench.sh --large         also the large/ cases (much longer)
+#   scripts/bench.sh --scaling       also the large/ cases of the face and image sweeps (to 1M
+#                                    faces and 2048² images, truncated sampling: minutes more)
 #   scripts/bench.sh --smoke         two tiny cases, report into out/bench/smoke/ (seconds)
 #   scripts/bench.sh --accuracy      only the accuracy group; rewrites only the accuracy section
 #                                    of docs/benchmarks.md and its pictures (no profiles)
@@ -21,11 +23,12 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-large=0 smoke=0 report=1 run=1 accuracy=0
+large=0 smoke=0 report=1 run=1 accuracy=0 scaling=0
 extra=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --large) large=1 ;;
+    --scaling) scaling=1 ;;
     --smoke) smoke=1 ;;
     --accuracy) accuracy=1 ;;
     --no-report) report=0 ;;
@@ -80,6 +83,10 @@ if [[ $run -eq 1 ]]; then
   mkdir -p out/bench/images
   args=(--benchmark_out=out/bench/bench.json --benchmark_out_format=json)
   [[ $large -eq 1 ]] && args+=("--benchmark_filter=.")
+  # The default suite (main.cpp) and the sweeps' large cases: every face count at 256², every
+  # image size at 1312 faces.
+  sweep='^large/(fwd|bwd)/[a-z]+/truncated/img:(256/map:256/faces:[0-9]+|[0-9]+/map:256/faces:1312)/sigma_s:2/lights:1/'
+  [[ $scaling -eq 1 ]] && args+=("--benchmark_filter=^(ceiling|fwd|bwd|turnaround|accuracy)/|$sweep")
   [[ $accuracy -eq 1 ]] && args+=("--benchmark_filter=^accuracy/")
   args+=("${extra[@]}")
 

@@ -96,3 +96,20 @@ def test_accuracy_ratio_cases_are_their_own_kind():
     res = report.Results([own, rec])
     assert report.acc_ratio(res, "knot_h0.3", "soft")["time_ratio"] == 1.2
     assert report.acc_ratio(res, "knot_h0.3", "soft", default_maps=True)["time_ratio"] == 1.4
+
+
+def test_memory_per_face_is_the_slope_between_the_ends_of_the_sweep():
+    recs = []
+    for faces, mib in ((1312, 10.0), (5152, 11.0), (100852, 60.0)):
+        r = report.parse_name(f"fwd/none/truncated/img:256/map:256/faces:{faces}/sigma_s:2/"
+                              "lights:1/manual_time")
+        r.update(name="", error=None, ms_median=1.0, device_MiB=mib)
+        recs.append(r)
+    text = "\n".join(report.memory_lines(report.Results(recs), False, "images"))
+    assert "| forward, no shadows | 10.0 | 11.0 | 60.0 |" in text
+    per_face = 50.0 * 2 ** 20 / (100852 - 1312)
+    assert f"forward, no shadows {report.fmt(per_face)}" in text
+    # Cases without the counter (an older run) give no section rather than a table of gaps.
+    for r in recs:
+        del r["device_MiB"]
+    assert report.memory_lines(report.Results(recs), False, "images") == []
