@@ -1,8 +1,9 @@
 // penumbra_bench: Google Benchmark suite of the renderer. Usual Google Benchmark flags apply
 // (--benchmark_filter, --benchmark_min_time, --benchmark_format=json, --benchmark_out=FILE,
 // --benchmark_repetitions, --benchmark_list_tests). Without --benchmark_filter the default
-// suite runs: every case whose name does not start with large/. To run those too, pass
-// --benchmark_filter=. (everything) or --benchmark_filter=large/ (only them).
+// suite runs: every case whose name does not start with large/; --scaling adds to it the large
+// cases of the face and image sweeps (to 1M faces and 2048² images). To run every large case
+// too, pass --benchmark_filter=. (everything) or --benchmark_filter=large/ (only them).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -17,6 +18,11 @@
 namespace {
 
 constexpr const char* kDefaultFilter = "--benchmark_filter=^(ceiling|fwd|bwd|turnaround|accuracy)/";
+// The sweeps' large cases (bench_render.cpp): every face count at 256², every image size at the
+// bundled scene, truncated sampling.
+constexpr const char* kScalingCases =
+    "|^large/(fwd|bwd)/[a-z]+/truncated/"
+    "img:(256/map:256/faces:[0-9]+|[0-9]+/map:256/faces:1312)/sigma_s:2/lights:1/";
 
 std::string first_line_with(const char* path, const char* prefix) {
   std::ifstream f(path);
@@ -34,10 +40,17 @@ std::string first_line_with(const char* path, const char* prefix) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<char*> args(argv, argv + argc);
-  bool has_filter = false;
-  for (int i = 1; i < argc; ++i) has_filter |= std::strncmp(argv[i], "--benchmark_filter", 18) == 0;
-  std::string filter = kDefaultFilter;
+  std::vector<char*> args{argv[0]};
+  bool has_filter = false, scaling = false;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--scaling") == 0) {
+      scaling = true;
+      continue;
+    }
+    has_filter |= std::strncmp(argv[i], "--benchmark_filter", 18) == 0;
+    args.push_back(argv[i]);
+  }
+  std::string filter = std::string(kDefaultFilter) + (scaling ? kScalingCases : "");
   if (!has_filter) args.insert(args.begin() + 1, filter.data());
   int n = int(args.size());
   benchmark::Initialize(&n, args.data());

@@ -83,10 +83,7 @@ if [[ $run -eq 1 ]]; then
   mkdir -p out/bench/images
   args=(--benchmark_out=out/bench/bench.json --benchmark_out_format=json)
   [[ $large -eq 1 ]] && args+=("--benchmark_filter=.")
-  # The default suite (main.cpp) and the sweeps' large cases: every face count at 256², every
-  # image size at 1312 faces.
-  sweep='^large/(fwd|bwd)/[a-z]+/truncated/img:(256/map:256/faces:[0-9]+|[0-9]+/map:256/faces:1312)/sigma_s:2/lights:1/'
-  [[ $scaling -eq 1 ]] && args+=("--benchmark_filter=^(ceiling|fwd|bwd|turnaround|accuracy)/|$sweep")
+  [[ $scaling -eq 1 ]] && args+=("--scaling")
   [[ $accuracy -eq 1 ]] && args+=("--benchmark_filter=^accuracy/")
   args+=("${extra[@]}")
 
