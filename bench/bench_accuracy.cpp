@@ -92,20 +92,12 @@ void run_ratio(benchmark::State& state, const AccuracyCase& accurate, const Accu
     Renderer ra(context(), Precision::Float), rp(context(), Precision::Float);
     ra.render(a);  // warm-up: programs and buffers
     rp.render(p);
-    std::vector<double> ta, tp;
-    for (auto _ : state) {
-      auto t0 = Clock::now();
-      benchmark::DoNotOptimize(ra.render(a));
-      ta.push_back(seconds_since(t0));
-      t0 = Clock::now();
-      benchmark::DoNotOptimize(rp.render(p));
-      tp.push_back(seconds_since(t0));
-      state.SetIterationTime(ta.back() + tp.back());
-    }
-    state.counters["ms_accurate"] = median(ta) * 1e3;
-    state.counters["ms_paper"] = median(tp) * 1e3;
-    state.counters["time_ratio"] = median(ta) / median(tp);
-    state.counters["loadavg_1min"] = load_average();
+    const InTurn t = timed_in_turn(
+        state, [&] { benchmark::DoNotOptimize(ra.render(a)); },
+        [&] { benchmark::DoNotOptimize(rp.render(p)); });
+    state.counters["ms_accurate"] = t.first * 1e3;
+    state.counters["ms_paper"] = t.second * 1e3;
+    state.counters["time_ratio"] = t.first / t.second;
   } catch (const std::exception& e) {
     state.SkipWithError(e.what());
   }

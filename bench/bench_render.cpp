@@ -8,6 +8,7 @@
 //
 // Names: [large/]<fwd|bwd>/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:L, then
 // /model:accurate for the cases of the accurate model (at the reference point only).
+// Cases step/<shadows>/<sampling>/... time a render and its backward in turn (run_step).
 // Counter device_MiB: the most device memory the renderer's buffers held at once during one
 // render() (with backward(): the render and the backward after it), penumbra::device_memory_use.
 // Cases under large/ (1024² and 2048² images, 1024² maps, 200k and 1M faces, soft exact at 256²
@@ -57,6 +58,35 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
   });
   throughput_counters(state, s, fragments, med, backward);
   memory_counter(state);
+}
+
+// A render then the backward of it, in turn, as each step of an optimisation takes them: the
+// backward/forward quotient and the step's time with both calls meeting the same machine.
+// Counters ms_fwd, ms_bwd (medians), ms_median (of the steps) and bwd_ratio = ms_bwd / ms_fwd.
+void run_step(benchmark::State& state, const Case& c) {
+  try {
+    const Scene s = make_scene(c);
+    Renderer& r = renderer(s);
+    const std::vector<OutputGrads> grads = unit_grads(s);
+    r.render(s);  // warm-up: every program of both calls
+    r.backward(s, grads);
+    const InTurn t = timed_in_turn(
+        state, [&] { benchmark::DoNotOptimize(r.render(s)); },
+        [&] { benchmark::DoNotOptimize(r.backward(s, grads)); });
+    state.counters["ms_fwd"] = t.first * 1e3;
+    state.counters["ms_bwd"] = t.second * 1e3;
+    state.counters["ms_median"] = t.both * 1e3;
+    state.counters["bwd_ratio"] = t.second / t.first;
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+  }
+}
+
+void add_step(const Case& c) {
+  const std::string name = "step" + case_name("", false, c).substr(4);  // less "/fwd"
+  benchmark::RegisterBenchmark(name.c_str(), [c](benchmark::State& st) { run_step(st, c); })
+      ->UseManualTime()
+      ->Unit(benchmark::kMillisecond);
 }
 
 using Key = std::tuple<bool, int, int, int, int, int, int, double, int, int>;
@@ -143,6 +173,10 @@ void register_render_benchmarks() {
   for (int nl : {2, 3})
     for (bool bwd : {false, true})
       for (const Case& c : {none, hard, soft}) add(bwd, set(c, &Case::lights, nl));
+
+  // Steps (render, then backward) of the targets' quotients and of the 100k-face sum.
+  for (const Case& c : {none, hard, soft, hard_exact, hard_gemm}) add_step(c);
+  add_step(set(hard, &Case::frequency, 71));
 }
 
 }  // namespace penumbra::bench

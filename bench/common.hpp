@@ -124,6 +124,30 @@ double timed_frames(benchmark::State& state, F&& frame) {
   return med;
 }
 
+// Runs `first` then `second` once per benchmark iteration, timing each (the iteration's manual
+// time is their sum), so that both meet the same machine: a quotient of their times is then not
+// at the mercy of what the machine did in between, as it is between separate cases run minutes
+// apart. Sets loadavg_1min; returns the medians of first, of second and of their sums, seconds.
+struct InTurn {
+  double first, second, both;
+};
+template <class F, class G>
+InTurn timed_in_turn(benchmark::State& state, F&& first, G&& second) {
+  std::vector<double> ta, tb, both;
+  for (auto _ : state) {
+    auto t0 = Clock::now();
+    first();
+    ta.push_back(seconds_since(t0));
+    t0 = Clock::now();
+    second();
+    tb.push_back(seconds_since(t0));
+    both.push_back(ta.back() + tb.back());
+    state.SetIterationTime(both.back());
+  }
+  state.counters["loadavg_1min"] = load_average();
+  return {median(ta), median(tb), median(both)};
+}
+
 // Throughput counters of one render or backward frame of `s` taking `seconds` (the median):
 //   pixel_face_pairs_per_s  (W·H + lights·W_s·H_s when shadows are on) · faces / s — the
 //                           brute-force pair count, a size-normalised speed (tiling visits far

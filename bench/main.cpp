@@ -17,7 +17,8 @@
 
 namespace {
 
-constexpr const char* kDefaultFilter = "--benchmark_filter=^(ceiling|fwd|bwd|turnaround|accuracy)/";
+constexpr const char* kDefaultFilter =
+    "--benchmark_filter=^(ceiling|fwd|bwd|step|turnaround|accuracy)/";
 // The sweeps' large cases (bench_render.cpp): every face count at 256², every image size at the
 // bundled scene, truncated sampling.
 constexpr const char* kScalingCases =

@@ -113,3 +113,20 @@ def test_memory_per_face_is_the_slope_between_the_ends_of_the_sweep():
     for r in recs:
         del r["device_MiB"]
     assert report.memory_lines(report.Results(recs), False, "images") == []
+
+
+def test_backward_quotients_come_from_the_step_cases_where_run():
+    name = "{}/hard/truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/manual_time"
+    recs = [report.parse_name(name.format(k)) for k in ("fwd", "bwd", "step")]
+    for r, extra in zip(recs, ({"ms_median": 10.0}, {"ms_median": 40.0},
+                               {"ms_fwd": 11.0, "ms_bwd": 22.0, "bwd_ratio": 2.0,
+                                "ms_median": 33.5})):
+        r.update(name="", error=None, **extra)
+    assert recs[2]["kind"] == "step" and recs[2]["shadows"] == "hard"
+    res = report.Results(recs)
+    assert report.bwd_over_fwd(res, "hard", "truncated") == (22.0, 2.0)
+    assert report.fwd_plus_bwd(res) == 33.5
+    # Without the step case, the separate cases' medians.
+    res = report.Results(recs[:2])
+    assert report.bwd_over_fwd(res, "hard", "truncated") == (40.0, 4.0)
+    assert report.fwd_plus_bwd(res) == 50.0
