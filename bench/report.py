@@ -77,13 +77,13 @@ MISS_REASONS = [
      "rest per pixel), are loops per work-item that PoCL runs one work-item at a time."),
     ("backward ≤ 3× forward (soft", "the compare's two sigmoids and their derivatives are "
      "evaluated again for every fragment at every texel of its window twice: per texel in the "
-     "gather (`soft_gather`, about 25 ms per backward, on 16×4-texel blocks) and per fragment "
-     "(`soft_sample_bwd`, about 11 ms), against one lookup (`soft_sample`, about 11 ms) in the "
-     "forward; the per-face raster backward of both views takes about 12 ms and the penumbra "
-     "map's backward under 2 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^bwd/soft/"
-     "truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/manual_time`, 2026-11-25). Shrinking the penumbra map's "
-     "face boxes (`penumbra_boxes`) sped the forward up more than the backward, which had met "
-     "this target at 2.76×."),
+     "gather (`soft_gather`, 22.5-24.5 ms per backward, on 16×4-texel blocks) and per fragment "
+     "(`soft_sample_bwd`, 13.6-18.1 ms), against one lookup (`soft_sample`, 9.2-12.6 ms) in the "
+     "forward; the per-face raster backward of both views takes 10.5-11.6 ms and the penumbra "
+     "map's backward about 2 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/"
+     "soft/truncated/img:256/map:256/faces:1312/`, two runs, 2026-11-26). The quotient has "
+     "measured 2.4-3.1× in runs of the suite on the same code; shrinking the penumbra map's face "
+     "boxes (`penumbra_boxes`) had sped the forward up more than the backward."),
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
      "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
      "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels), "
