@@ -111,6 +111,22 @@ Case with(Shadows sh, Sampling sa, ExactBackend backend = ExactBackend::Kernels)
   return c;
 }
 
+// `c` with one setting changed.
+template <class T, class V>
+Case set(Case c, T Case::*member, V value) {
+  c.*member = value;
+  return c;
+}
+
+// Steps (render, then backward) of the targets' quotients and of the 100k-face sum.
+void add_steps() {
+  for (Shadows sh : {Shadows::None, Shadows::Hard, Shadows::Soft})
+    add_step(with(sh, Sampling::Truncated));
+  add_step(with(Shadows::Hard, Sampling::Exact));
+  add_step(with(Shadows::Hard, Sampling::Exact, ExactBackend::CLBlast));
+  add_step(set(with(Shadows::Hard, Sampling::Truncated), &Case::frequency, 71));
+}
+
 }  // namespace
 
 void register_render_benchmarks() {
@@ -120,11 +136,6 @@ void register_render_benchmarks() {
              hard_gemm = with(Shadows::Hard, Sampling::Exact, ExactBackend::CLBlast),
              soft = with(Shadows::Soft, Sampling::Truncated),
              soft_exact = with(Shadows::Soft, Sampling::Exact);
-  auto set = [](Case c, auto member, auto value) {
-    c.*member = value;
-    return c;
-  };
-
   // The shadows × sampling matrix at the reference point (soft shadows have no gemm).
   for (bool bwd : {false, true}) {
     for (const Case& c : {none, hard, hard_exact, hard_gemm, soft}) add(bwd, c);
@@ -174,9 +185,7 @@ void register_render_benchmarks() {
     for (bool bwd : {false, true})
       for (const Case& c : {none, hard, soft}) add(bwd, set(c, &Case::lights, nl));
 
-  // Steps (render, then backward) of the targets' quotients and of the 100k-face sum.
-  for (const Case& c : {none, hard, soft, hard_exact, hard_gemm}) add_step(c);
-  add_step(set(hard, &Case::frequency, 71));
+  add_steps();
 }
 
 }  // namespace penumbra::bench
