@@ -13,7 +13,8 @@
 #   scripts/bench.sh                 the default suite
 #   scripts/bench.sh --large         also the large/ cases (much longer)
 #   scripts/bench.sh --scaling       also the large/ cases of the face and image sweeps (to 1M
-#                                    faces and 2048² images, truncated sampling: minutes more)
+#                                    faces and 2048² images, truncated sampling: 37 s more on
+#                                    the 2-core machine of docs/benchmarks.md)
 #   scripts/bench.sh --smoke         two tiny cases, report into out/bench/smoke/ (seconds)
 #   scripts/bench.sh --accuracy      only the accuracy group; rewrites only the accuracy section
 #                                    of docs/benchmarks.md and its pictures (no profiles)
