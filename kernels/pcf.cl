@@ -29,8 +29,10 @@
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
 //   Sb, Ab      Wb·Hb × real: the search map
+//   bucket_radius  W_s·H_s × real: per texel bucket, how far pcf_gather looks for its fragments
 // Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of
-// GATHER_ROWS rows (pcf_gather), one per texel of the search map (pcf_search_map).
+// GATHER_ROWS rows (pcf_gather), one per texel of the search map (pcf_search_map) or of the
+// map (pcf_bucket_radius).
 #include "common/window.clh"
 
 #define PCF_KAPPA RL(1e-3)
@@ -331,6 +333,32 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
 }
 
+// pcf_gather's reach of each texel bucket: the radius (texels) of the widest window a fragment
+// of the bucket adds through (its filter's where dL/ds ≠ 0; soft shadows: the search's where
+// dL/dz_b ≠ 0), squared radii widened by GATHER_MARGIN as pcf_gather widens them, plus one
+// texel (a fragment lies within half a texel of its bucket's); −1 where none adds anything.
+// The gather skips a bucket beyond it before reading any of its fragments.
+BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int light, int nl,
+                                       int Wm, int Hm, __global const real4* rec_light2,
+                                       __global const real4* rec_lgrad,
+                                       __global const real4* rec_lgrad2,
+                                       __global const int* bucket_offsets,
+                                       __global const int* bucket_counts,
+                                       __global const int* bucket_recs,
+                                       __global real* bucket_radius) {
+  int t = get_global_id(0);
+  if (t >= Wm * Hm) return;
+  const real leps = log(1 / window_eps(P, 0)), sigma_b = light_disc(P, light).sigma_b;
+  const real r2s = soft_mode(P) ? 2 * sigma_b * log(1 / window_eps(P, 1)) * GATHER_MARGIN : -1;
+  real r2 = -1;
+  for (int k = 0; k < bucket_counts[t]; ++k) {
+    int at = bucket_recs[bucket_offsets[t] + k] * nl + light;
+    if (rec_lgrad[at].x != 0) r2 = max(r2, 2 * rec_light2[at].z * leps * GATHER_MARGIN);
+    if (rec_lgrad2[at].z != 0) r2 = max(r2, r2s);
+  }
+  bucket_radius[t] = r2 < 0 ? -1 : sqrt(r2) + 1;
+}
+
 // dL/dS and dL/dA per texel, gathered in a fixed order (no atomics) from the fragments whose
 // filter or search window holds it (from the nearby texel buckets when truncated; every
 // fragment when exact), with o = 1 − c and `step` the compare's smooth step:
@@ -342,7 +370,8 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
                                 __global const int* bucket_offsets,
                                 __global const int* bucket_counts, __global const int* bucket_recs,
-                                __global real* gS, __global real* gA) {
+                                __global const real* bucket_radius, __global real* gS,
+                                __global real* gA) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0), soft = soft_mode(P);
@@ -363,7 +392,7 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
   // adds exactly 0 (each weight max(0, g − ε) is 0), as does one without a gradient (dL/ds or
   // dL/dz_b 0): the gather skips both.
   const real r2s = soft ? 2 * sigma_b * leps_b : 0;
-  FOR_EACH_GATHER_FRAGMENT(r, reach) {
+  FOR_EACH_NEAR_GATHER_FRAGMENT(r, reach, bucket_radius) {
     int at = r * nl + light;
     real2 mu = rec_light[at].xy;
     real sigma = rec_light2[at].z, a = rec_lgrad[at].x, b = rec_lgrad2[at].z;

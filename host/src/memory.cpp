@@ -85,6 +85,8 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
     else if (p.shadows == Shadows::Soft)
       bytes += texels / 2 * z.rs;  // the search map: S and A at a stride of 2 or more (pcf.cpp)
     if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
+    if (backward && p.shadow_model == ShadowModel::Accurate)
+      bytes += texels * z.rs;  // pcf_gather's bucket radii (pcf.cpp)
     if (!sampling_method(p.sampling).windowed && p.shadows == Shadows::Hard &&
         p.shadow_model == ShadowModel::Paper) {
       const bool clblast = tuning ? exact_backend_in_force(p, *tuning) == ExactBackend::CLBlast

@@ -60,10 +60,22 @@ struct PcfGatherArgs {
   cl_int reach;
   const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   BinLists buckets;
-  const cl::Buffer &gS, &gA;
+  const cl::Buffer &bucket_radius, &gS, &gA;
   auto fields() const {
-    return std::tie(at, reach, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets, gS, gA);
+    return std::tie(at, reach, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets,
+                    bucket_radius, gS, gA);
   }
+};
+
+struct PcfBucketRadiusArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_bucket_radius";
+  static constexpr KernelPart part = KernelPart::Backward;
+  MapLookup at;
+  const cl::Buffer &rec_light2, &rec_lgrad, &rec_lgrad2;
+  BinLists buckets;
+  const cl::Buffer& radius;
+  auto fields() const { return std::tie(at, rec_light2, rec_lgrad, rec_lgrad2, buckets, radius); }
 };
 
 // Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
@@ -81,6 +93,32 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
   }
   r2 = std::max(r2, 2 * sigma * std::log(1 / p.lambda_eps));
   return int(std::ceil(std::sqrt(r2))) + 1;
+}
+
+// pcf_gather's texel buckets and each bucket's radius (pcf_bucket_radius); placeholders for the
+// exact gather, which visits every fragment.
+struct GatherBuckets {
+  Bins bins;
+  cl::Buffer radius;
+};
+
+GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
+                             const FragmentGrads& fgr, const MapLookup& at) {
+  Context& ctx = k.ctx();
+  GatherBuckets b;
+  if (!sampling_method(sampling).windowed) {
+    b.bins.offsets = b.bins.counts = b.bins.items = alloc_ints(ctx, 1);
+    b.radius = alloc_reals(ctx, k.precision(), 1);
+    return b;
+  }
+  const size_t texels = size_t(at.Wm) * at.Hm;
+  b.bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+  b.radius = alloc_reals(ctx, k.precision(), texels);
+  auto& radius = bind_args(
+      k, PcfBucketRadiusArgs{at, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2, b.bins, b.radius},
+      sampling_define(sampling));
+  launch_1d(ctx, radius, texels);
+  return b;
 }
 
 SearchMap search_map(Kernels& k, const RenderParams& p, double search_sigma, const LightMaps& lm) {
@@ -126,15 +164,12 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
                                         fgr.rec_lgrad, fgr.rec_lgrad2},
                        variant);
   launch_1d(ctx, sb, n);
-  Bins bins;  // the exact gather visits every fragment and needs no buckets
-  if (sampling_method(p.sampling).windowed)
-    bins = texel_buckets(k, v, f, light, Wm, Hm);
-  else
-    bins.offsets = bins.counts = bins.items = alloc_ints(ctx, 1);
+  const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at);
   const int reach = gather_reach(k, p, search_sigma, v, f, light);
   auto& ga = bind_args(k,
                        PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2,
-                                     fgr.rec_lgrad, fgr.rec_lgrad2, bins, g.S, g.A},
+                                     fgr.rec_lgrad, fgr.rec_lgrad2, buckets.bins, buckets.radius, g.S,
+                                     g.A},
                        variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
