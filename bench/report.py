@@ -60,7 +60,10 @@ MISS_REASONS = [
      "`raster_fragments` computes them again for the faces `raster_count` marked (a bit per "
      "block and list entry) to write the kept fragments, because which fragments are kept "
      "depends on the largest weight, which is known only after all faces. Writing each kept "
-     "fragment's shading and light coordinates is scalar."),
+     "fragment's shading and light coordinates is scalar: about half of `raster_fragments` "
+     "(with only the face index of each record written it took 1.7-2.0 ms per launch against "
+     "3.5-4.6 ms, and without the shading and light-map arithmetic 2.5-2.9 against 3.7-3.8; "
+     "kernels modified for the measurement only, two alternated runs each, 2026-11-26)."),
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
      "texels per fragment."),
@@ -87,7 +90,12 @@ MISS_REASONS = [
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
      "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
      "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels), "
-     "`raster_fragments` the ~22 per block that may keep a fragment."),
+     "`raster_fragments` the ~22 per block that may keep a fragment. On PoCL each render's "
+     "buffers are new host memory, whose pages fault in as the kernels first write them: with "
+     "glibc keeping freed memory for reuse (`MALLOC_MMAP_THRESHOLD_=33554432 "
+     "MALLOC_TRIM_THRESHOLD_=4294967296`, README) `raster_fragments` took 47.2-50.6 ms per "
+     "launch against 53.6-62.9 ms, and the case 94-104 ms against 105-128 ms (four alternated "
+     "pairs of runs, 2026-11-26)."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers."),
 ]
