@@ -166,11 +166,11 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
   launch_1d(ctx, sb, n);
   const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at);
   const int reach = gather_reach(k, p, search_sigma, v, f, light);
-  auto& ga = bind_args(k,
-                       PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2,
-                                     fgr.rec_lgrad, fgr.rec_lgrad2, buckets.bins, buckets.radius, g.S,
-                                     g.A},
-                       variant);
+  auto& ga =
+      bind_args(k,
+                PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2, fgr.rec_lgrad,
+                              fgr.rec_lgrad2, buckets.bins, buckets.radius, g.S, g.A},
+                variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
     read_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4, [&](const auto* g2) {
