@@ -95,12 +95,12 @@ MISS_REASONS = [
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
      "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
      "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels), "
-     "`raster_fragments` the ~22 per block that may keep a fragment. On PoCL each render's "
-     "buffers are new host memory, whose pages fault in as the kernels first write them: with "
-     "glibc keeping freed memory for reuse (`MALLOC_MMAP_THRESHOLD_=33554432 "
-     "MALLOC_TRIM_THRESHOLD_=4294967296`, README) `raster_fragments` took 47.2-50.6 ms per "
-     "launch against 53.6-62.9 ms, and the case 94-104 ms against 105-128 ms (four alternated "
-     "pairs of runs, 2026-11-26)."),
+     "`raster_fragments` the ~22 per block that may keep a fragment. On PoCL a new buffer "
+     "is new host memory whose pages fault in as the kernels first write it; a renderer now "
+     "rasters into its last render's fragment buffers where they fit, which took "
+     "`raster_fragments` from 49.2-60.7 ms per launch to 43.5-44.7 (three alternated runs, "
+     "2026-11-26). Since then, glibc keeping all freed memory (`MALLOC_MMAP_THRESHOLD_=33554432 "
+     "MALLOC_TRIM_THRESHOLD_=4294967296`) moves the case by less than its run-to-run spread."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers."),
 ]

@@ -508,6 +508,32 @@ TEST(RasterDeterminism, RepeatedRendersIdentical) {
   }
 }
 
+// A renderer rasters into its last render's fragment buffers where they fit (reuse_or_alloc):
+// after scenes of other sizes, with shadows, it renders and differentiates as a fresh one does.
+TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
+  REQUIRE_CONTEXT(ctx);
+  Scene base = tuning_scene();
+  base.params.shadows = Shadows::Hard;
+  Scene shrunk = base;  // fewer fragments
+  for (Mesh& m : shrunk.meshes)
+    for (dvec3& v : m.vertices) v *= 0.8;
+  Scene small = base;  // far fewer
+  for (Camera& c : small.cameras) c.width = c.height = 9;
+  Renderer reused(*ctx, Precision::Float);
+  int step = 0;
+  for (const Scene* s : {&base, &shrunk, &small, &base, &shrunk}) {
+    const std::string what = "scene " + std::to_string(step++);
+    const auto weights = random_loss_weights(*s, 5);
+    std::vector<RenderOutput> a, b;
+    ASSERT_NO_THROW(a = reused.render(*s)) << what;
+    const SceneGrads ga = reused.backward(*s, weights);
+    Renderer fresh(*ctx, Precision::Float);
+    ASSERT_NO_THROW(b = fresh.render(*s)) << what;
+    expect_identical(a, b, what);
+    penumbra_tests::expect_identical(ga, fresh.backward(*s, weights), what);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // bin_sort puts each tile's list into face order whatever order bin_fill wrote it in (a CPU
 // writes nearly sorted lists, a GPU any order): lists given here reversed, shuffled, as

@@ -100,12 +100,36 @@ void Renderer::Impl::upload_geometry() {
   geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
 }
 
+namespace {
+// The fragments of each pass, moved out; the passes cleared (their other buffers released).
+template <class Pass>
+std::vector<detail::Fragments> take_fragments(std::vector<Pass>& passes) {
+  std::vector<detail::Fragments> fragments;
+  for (Pass& p : passes) fragments.push_back(std::move(p.fragments));
+  passes.clear();
+  return fragments;
+}
+size_t buffer_bytes(const cl::Buffer& b) { return b() ? b.getInfo<CL_MEM_SIZE>() : 0; }
+size_t fragment_bytes(const std::vector<detail::Fragments>& fragments) {
+  size_t bytes = 0;
+  for (const detail::Fragments& f : fragments)
+    for (const cl::Buffer* b : {&f.aux, &f.pix_offset, &f.pix_n, &f.rec_face, &f.rec_frag,
+                                &f.rec_shade, &f.rec_light, &f.rec_light2})
+      bytes += buffer_bytes(*b);
+  return bytes;
+}
+// View i's spare fragments, moved out (none when the last render had no view i).
+detail::Fragments take_spare(std::vector<detail::Fragments>& spares, int i) {
+  return size_t(i) < spares.size() ? std::move(spares[size_t(i)]) : detail::Fragments{};
+}
+}  // namespace
+
 // transform → raster → resolve: the shadow map S (and coverage A), then the penumbra map.
-void Renderer::Impl::shadow_map_pass(int light) {
+void Renderer::Impl::shadow_map_pass(int light, detail::Fragments spare) {
   LightPass& lp = light_passes[light];
   const int size = shadow_map_side(scene.params);
   stage("shadow map");
-  rasterise(lp, size, size, 0, detail::light_view_params(scene, light));
+  rasterise(lp, size, size, 0, detail::light_view_params(scene, light), std::move(spare));
   lp.resolved = detail::raster_resolve(kernels, lp.view, lp.fragments);
   if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
     stage("penumbra map");
@@ -115,12 +139,12 @@ void Renderer::Impl::shadow_map_pass(int light) {
 }
 
 // transform → raster → the shadow lookups of every light → resolve.
-RenderOutput Renderer::Impl::camera_pass(int camera) {
+RenderOutput Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
   const Camera& cam = scene.cameras[camera];
   ViewPass& cp = camera_passes[camera];
   stage("raster");
   view_P.push_back(detail::view_params(scene, cam));
-  rasterise(cp, cam.width, cam.height, int(scene.lights.size()), view_P.back());
+  rasterise(cp, cam.width, cam.height, int(scene.lights.size()), view_P.back(), std::move(spare));
   for (size_t l = 0; l < light_passes.size(); ++l) {
     stage("shadow lookups");
     const detail::LightMaps maps = light_passes[l].maps();
@@ -138,10 +162,10 @@ RenderOutput Renderer::Impl::camera_pass(int camera) {
 
 // The view with parameters P, then transform → raster passes 1–2: its kept fragments.
 void Renderer::Impl::rasterise(ViewPass& vp, int W, int H, int nlights,
-                               const std::vector<double>& P) {
+                               const std::vector<double>& P, detail::Fragments spare) {
   vp.view = {W, H, nlights, detail::upload_reals(ctx, precision, P)};
   vp.screen = detail::transform_forward(kernels, geometry, vp.view);
-  vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen);
+  vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen, std::move(spare));
 }
 
 // The outputs read in place from the mapped buffers, each image allocated once: a copy of the
@@ -207,18 +231,28 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   m.prepare(scene);
   m.upload_geometry();
   const int nl = int(m.scene.lights.size()), nc = int(m.scene.cameras.size());
+  std::vector<detail::Fragments> spare_lights = take_fragments(m.light_passes),
+                                 spare_cameras = take_fragments(m.camera_passes);
+  // Held beside this render's buffers only where both fit in the memory it was checked against.
+  if (fragment_bytes(spare_lights) + fragment_bytes(spare_cameras) +
+          estimate_device_memory(m.scene, m.precision, false, &m.kernels.tuning()) >
+      m.ctx.memory_limit()) {
+    spare_lights.clear();
+    spare_cameras.clear();
+  }
   m.light_passes.assign(m.scene.params.shadows != Shadows::None ? nl : 0, LightPass{});
   const int lights = int(m.light_passes.size()), passes = lights + nc;
   for (int l = 0; l < lights; ++l) {
     m.begin_pass("render", "light", l, nl, l, passes);
-    m.shadow_map_pass(l);
+    m.shadow_map_pass(l, take_spare(spare_lights, l));
   }
+  spare_lights.clear();  // those no light pass took, before the cameras need memory
   m.camera_passes.assign(nc, ViewPass{});
   m.view_P.clear();
   std::vector<RenderOutput> out;
   for (int c = 0; c < nc; ++c) {
     m.begin_pass("render", "view", c, nc, lights + c, passes);
-    out.push_back(m.camera_pass(c));
+    out.push_back(m.camera_pass(c, take_spare(spare_cameras, c)));
   }
   return out;
 }

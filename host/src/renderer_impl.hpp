@@ -76,9 +76,12 @@ struct Renderer::Impl {
   // Forward (renderer.cpp), in order.
   void prepare(const Scene& scene);  // checked, frusta fitted, normalised, tuned, packed
   void upload_geometry();
-  void shadow_map_pass(int light);       // the light's shadow map (and penumbra map)
-  RenderOutput camera_pass(int camera);  // the camera's image, shadows looked up
-  void rasterise(ViewPass& vp, int W, int H, int nlights, const std::vector<double>& P);
+  // Each pass is given its view's fragments from the last render (`spare`), whose buffers its
+  // raster reuses where they fit (reuse_or_alloc).
+  void shadow_map_pass(int light, detail::Fragments spare);  // the shadow map (and penumbra map)
+  RenderOutput camera_pass(int camera, detail::Fragments spare);  // the image, shadows looked up
+  void rasterise(ViewPass& vp, int W, int H, int nlights, const std::vector<double>& P,
+                 detail::Fragments spare);
   RenderOutput download(const ViewPass& cp);
 
   // Backward (backward.cpp), in order.

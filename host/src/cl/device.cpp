@@ -108,6 +108,16 @@ cl::Buffer alloc_ints(Context& ctx, size_t count) {
   return make_buffer(ctx, std::max<size_t>(count, 1) * sizeof(int), nullptr);
 }
 
+cl::Buffer reuse_or_alloc(Context& ctx, cl::Buffer&& spare, size_t count, size_t size) {
+  const size_t bytes = std::max<size_t>(count, 1) * size;
+  if (spare()) {
+    const size_t held = spare.getInfo<CL_MEM_SIZE>();
+    if (held >= bytes && held / 2 <= bytes) return std::move(spare);
+    spare = cl::Buffer();
+  }
+  return make_buffer(ctx, bytes, nullptr);
+}
+
 std::string gib(size_t bytes) {
   char text[32];
   std::snprintf(text, sizeof text, "%.2f GiB", double(bytes) / double(size_t(1) << 30));

@@ -59,6 +59,11 @@ std::vector<int> download_ints(Context& ctx, const cl::Buffer& buf, size_t count
 // Uninitialised device buffer of `count` reals (at least one element).
 cl::Buffer alloc_reals(Context& ctx, Precision p, size_t count);
 cl::Buffer alloc_ints(Context& ctx, size_t count);
+// Uninitialised buffer of `count` elements of `size` bytes (at least one element): `spare`
+// itself where it holds at least that and at most twice as much, else a new one (`spare`
+// released first). On a CPU device a new buffer is new host memory whose pages fault in as the
+// kernels first write them; a renderer hands its last render's buffers back here.
+cl::Buffer reuse_or_alloc(Context& ctx, cl::Buffer&& spare, size_t count, size_t size);
 // Throws penumbra::Error "<what> needs N GiB of device memory, more than ..." when `bytes`
 // exceeds the context's memory limit (Context::memory_limit: the device's memory unless set);
 // checked before allocating.

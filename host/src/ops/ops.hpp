@@ -198,9 +198,10 @@ Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int til
 // order it is in (bin_sort; the program of `b.tile`).
 void sort_lists(Kernels& k, const Bins& b);
 
-// Passes 1–2 of the raster: the kept fragments of the view, with shadow terms s = 1.
+// Passes 1–2 of the raster: the kept fragments of the view, with shadow terms s = 1, in the
+// buffers of `spare` (the same view's fragments from an earlier render) where they fit.
 Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
-                           const ScreenGeometry& sg);
+                           const ScreenGeometry& sg, Fragments spare = {});
 // Pass 3: colour, silhouette, depth and coverage from the fragments and their shadow terms
 // (and I_z, Z into f.aux).
 Resolved raster_resolve(Kernels& k, const View& v, Fragments& f);

@@ -139,13 +139,12 @@ std::vector<int> fragment_offsets(Kernels& k, const View& v, const cl::Buffer& p
 }  // namespace
 
 Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
-                           const ScreenGeometry& sg) {
+                           const ScreenGeometry& sg, Fragments spare) {
   Context& ctx = k.ctx();
-  const Precision p = k.precision();
-  const size_t npix = size_t(v.W) * v.H;
+  const size_t npix = size_t(v.W) * v.H, rs = real_size(k.precision());
   const Bins bins = raster_bins(k, g, v, sg);
   Fragments f;
-  f.aux = alloc_reals(ctx, p, npix * 4);
+  f.aux = reuse_or_alloc(ctx, std::move(spare.aux), npix * 4, rs);
   const cl::Buffer pix_count = alloc_ints(ctx, npix);
   const cl::Buffer block_hits = alloc_ints(ctx, block_hit_words(k, v, bins) * 2);  // ulong
   auto& count =
@@ -153,14 +152,15 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
                                    bins.tiles_x, bins, f.aux, pix_count, block_hits});
   launch_tiled(k, count, v);
 
-  // Fragment storage of exactly the counted size.
+  // Fragment storage of the counted size (the spare's where it fits: see reuse_or_alloc).
   f.pix_offset = upload_ints(ctx, fragment_offsets(k, v, pix_count, f.nrec));
-  f.pix_n = alloc_ints(ctx, npix);
-  f.rec_face = alloc_ints(ctx, f.nrec);
-  f.rec_frag = alloc_reals(ctx, p, f.nrec * 4);
-  f.rec_shade = alloc_reals(ctx, p, f.nrec * 4 * (1 + v.nlights));
-  f.rec_light = alloc_reals(ctx, p, f.nrec * 4 * v.nlights);
-  f.rec_light2 = alloc_reals(ctx, p, f.nrec * 4 * v.nlights);
+  const size_t i = sizeof(cl_int);
+  f.pix_n = reuse_or_alloc(ctx, std::move(spare.pix_n), npix, i);
+  f.rec_face = reuse_or_alloc(ctx, std::move(spare.rec_face), f.nrec, i);
+  f.rec_frag = reuse_or_alloc(ctx, std::move(spare.rec_frag), f.nrec * 4, rs);
+  f.rec_shade = reuse_or_alloc(ctx, std::move(spare.rec_shade), f.nrec * 4 * (1 + v.nlights), rs);
+  f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), f.nrec * 4 * v.nlights, rs);
+  f.rec_light2 = reuse_or_alloc(ctx, std::move(spare.rec_light2), f.nrec * 4 * v.nlights, rs);
   auto& frag =
       bind_args(k, RasterFragmentsArgs{
                        sg.vscreen, g.vworld,    g.faces,     sg.fbbox,     sg.fnormal,   g.albedo,
