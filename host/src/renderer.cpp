@@ -105,6 +105,7 @@ namespace {
 template <class Pass>
 std::vector<detail::Fragments> take_fragments(std::vector<Pass>& passes) {
   std::vector<detail::Fragments> fragments;
+  fragments.reserve(passes.size());
   for (Pass& p : passes) fragments.push_back(std::move(p.fragments));
   passes.clear();
   return fragments;
