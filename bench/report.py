@@ -63,7 +63,10 @@ MISS_REASONS = [
      "fragment's shading and light coordinates is scalar: about half of `raster_fragments` "
      "(with only the face index of each record written it took 1.7-2.0 ms per launch against "
      "3.5-4.6 ms, and without the shading and light-map arithmetic 2.5-2.9 against 3.7-3.8; "
-     "kernels modified for the measurement only, two alternated runs each, 2026-11-26)."),
+     "kernels modified for the measurement only, each build alternated twice with the "
+     "unmodified one: `PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter='^fwd/none/"
+     "truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/' --benchmark_min_time=2`, "
+     "2026-11-26)."),
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
      "texels per fragment."),
@@ -78,7 +81,8 @@ MISS_REASONS = [
      "backward computes three matrix products of the forward's size (Gy·S and Gyd·S, summed "
      "against Gx and Gxd, and (a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one (Gy·S), so "
      "its arithmetic alone is three times the forward's; the step case's quotient measured "
-     "2.57-3.04× in five runs of it alone and 3.49× in the suite (same code, 2026-11-26)."),
+     "2.57-3.04× in five runs of it alone (`penumbra_bench --benchmark_filter=^step/hard/exact`, "
+     "two of them with glibc's MALLOC_MMAP_THRESHOLD_ and MALLOC_TRIM_THRESHOLD_ set) and 3.49× in the suite (same code, 2026-11-26)."),
     ("backward ≤ 3× forward (hard, truncated", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
@@ -98,8 +102,9 @@ MISS_REASONS = [
      "`raster_fragments` the ~22 per block that may keep a fragment. On PoCL a new buffer "
      "is new host memory whose pages fault in as the kernels first write it; a renderer now "
      "rasters into its last render's fragment buffers where they fit, which took "
-     "`raster_fragments` from 49.2-60.7 ms per launch to 43.5-44.7 (three alternated runs, "
-     "2026-11-26). Since then, glibc keeping all freed memory (`MALLOC_MMAP_THRESHOLD_=33554432 "
+     "`raster_fragments` from 49.2-60.7 ms per launch to 43.5-44.7 (three runs alternated with "
+     "the build before it: `PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=fwd/none/"
+     "truncated/img:512/map:256/faces:100852 --benchmark_min_time=2`, 2026-11-26). Since then, glibc keeping all freed memory (`MALLOC_MMAP_THRESHOLD_=33554432 "
      "MALLOC_TRIM_THRESHOLD_=4294967296`) moves the case by less than its run-to-run spread."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers."),

@@ -98,6 +98,9 @@ inline real window_eps(__global const real* P, int search) {
   return sampling_eps(search ? PCF_SEARCH_EPS : P[P_LAMBDA_EPS]);
 }
 
+// The squared radius of the window of the Gaussian of variance `sigma` cut where its weight is
+// e^{−leps} (leps = log(1/ε)): pcf_gather's and pcf_bucket_radius's, which must agree.
+inline real window_r2(real sigma, real leps) { return 2 * sigma * leps; }
 // The radius of the window of the Gaussian of variance `sigma` cut at `eps`.
 inline real window_radius(real sigma, real eps) { return sqrt(2 * sigma * log(1 / eps)); }
 
@@ -349,11 +352,12 @@ BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int lig
   int t = get_global_id(0);
   if (t >= Wm * Hm) return;
   const real leps = log(1 / window_eps(P, 0)), sigma_b = light_disc(P, light).sigma_b;
-  const real r2s = soft_mode(P) ? 2 * sigma_b * log(1 / window_eps(P, 1)) * GATHER_MARGIN : -1;
+  const real leps_b = log(1 / window_eps(P, 1));
+  const real r2s = soft_mode(P) ? window_r2(sigma_b, leps_b) * GATHER_MARGIN : -1;
   real r2 = -1;
   for (int k = 0; k < bucket_counts[t]; ++k) {
     int at = bucket_recs[bucket_offsets[t] + k] * nl + light;
-    if (rec_lgrad[at].x != 0) r2 = max(r2, 2 * rec_light2[at].z * leps * GATHER_MARGIN);
+    if (rec_lgrad[at].x != 0) r2 = max(r2, window_r2(rec_light2[at].z, leps) * GATHER_MARGIN);
     if (rec_lgrad2[at].z != 0) r2 = max(r2, r2s);
   }
   bucket_radius[t] = r2 < 0 ? -1 : sqrt(r2) + 1;
@@ -391,12 +395,12 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
   // Of those, a part whose own window, its squared radius widened by GATHER_MARGIN, misses them
   // adds exactly 0 (each weight max(0, g − ε) is 0), as does one without a gradient (dL/ds or
   // dL/dz_b 0): the gather skips both.
-  const real r2s = soft ? 2 * sigma_b * leps_b : 0;
+  const real r2s = soft ? window_r2(sigma_b, leps_b) : 0;
   FOR_EACH_NEAR_GATHER_FRAGMENT(r, reach, bucket_radius) {
     int at = r * nl + light;
     real2 mu = rec_light[at].xy;
     real sigma = rec_light2[at].z, a = rec_lgrad[at].x, b = rec_lgrad2[at].z;
-    const real r2f = 2 * sigma * leps, r2 = sampling_r2(max(r2f, r2s));
+    const real r2f = window_r2(sigma, leps), r2 = sampling_r2(max(r2f, r2s));
     if (!window_reaches(mu, i0, j0, rows, r2)) continue;
     const real r2f_m = sampling_r2(r2f * GATHER_MARGIN), r2s_m = sampling_r2(r2s * GATHER_MARGIN);
     const int filter = a != 0 && window_reaches(mu, i0, j0, rows, r2f_m);

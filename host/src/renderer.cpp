@@ -74,7 +74,7 @@ void Renderer::Impl::stage(const char* name) {
   report(0);
 }
 
-void Renderer::Impl::prepare(const Scene& given) {
+size_t Renderer::Impl::prepare(const Scene& given) {
   validate(given);
   if (given.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(given.lights.size()) + " lights; at most " +
@@ -88,8 +88,10 @@ void Renderer::Impl::prepare(const Scene& given) {
   scene = detail::normalised(scene, norm);
   if (automatic) kernels.set_tuning(database.lookup(ctx.info(), workload_stats(given)));
   pack(scene, packed);
-  detail::check_memory(ctx, estimate_device_memory(scene, precision, false, &kernels.tuning()),
+  const size_t estimate = estimate_device_memory(scene, precision, false, &kernels.tuning());
+  detail::check_memory(ctx, estimate,
                        "rendering the scene (" + std::to_string(packed.nf) + " faces)");
+  return estimate;
 }
 
 void Renderer::Impl::upload_geometry() {
@@ -106,7 +108,10 @@ template <class Pass>
 std::vector<detail::Fragments> take_fragments(std::vector<Pass>& passes) {
   std::vector<detail::Fragments> fragments;
   fragments.reserve(passes.size());
-  for (Pass& p : passes) fragments.push_back(std::move(p.fragments));
+  for (Pass& p : passes) {
+    fragments.push_back(std::move(p.fragments));
+    fragments.back().pix_offset = cl::Buffer();  // an upload, made anew each time
+  }
   passes.clear();
   return fragments;
 }
@@ -114,8 +119,8 @@ size_t buffer_bytes(const cl::Buffer& b) { return b() ? b.getInfo<CL_MEM_SIZE>()
 size_t fragment_bytes(const std::vector<detail::Fragments>& fragments) {
   size_t bytes = 0;
   for (const detail::Fragments& f : fragments)
-    for (const cl::Buffer* b : {&f.aux, &f.pix_offset, &f.pix_n, &f.rec_face, &f.rec_frag,
-                                &f.rec_shade, &f.rec_light, &f.rec_light2})
+    for (const cl::Buffer* b :
+         {&f.aux, &f.pix_n, &f.rec_face, &f.rec_frag, &f.rec_shade, &f.rec_light, &f.rec_light2})
       bytes += buffer_bytes(*b);
   return bytes;
 }
@@ -229,14 +234,13 @@ const Tuning& Renderer::tuning() const { return impl_->kernels.tuning(); }
 // Every light's shadow map first (when shadows are on), then every camera's image.
 std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   Impl& m = *impl_;
-  m.prepare(scene);
+  const size_t estimate = m.prepare(scene);
   m.upload_geometry();
   const int nl = int(m.scene.lights.size()), nc = int(m.scene.cameras.size());
   std::vector<detail::Fragments> spare_lights = take_fragments(m.light_passes),
                                  spare_cameras = take_fragments(m.camera_passes);
   // Held beside this render's buffers only where both fit in the memory it was checked against.
-  if (fragment_bytes(spare_lights) + fragment_bytes(spare_cameras) +
-          estimate_device_memory(m.scene, m.precision, false, &m.kernels.tuning()) >
+  if (fragment_bytes(spare_lights) + fragment_bytes(spare_cameras) + estimate >
       m.ctx.memory_limit()) {
     spare_lights.clear();
     spare_cameras.clear();

@@ -74,7 +74,8 @@ struct Renderer::Impl {
   void stage(const char* name);
 
   // Forward (renderer.cpp), in order.
-  void prepare(const Scene& scene);  // checked, frusta fitted, normalised, tuned, packed
+  // Checked, frusta fitted, normalised, tuned, packed; returns its device memory estimate.
+  size_t prepare(const Scene& scene);
   void upload_geometry();
   // Each pass is given its view's fragments from the last render (`spare`), whose buffers its
   // raster reuses where they fit (reuse_or_alloc).
