@@ -129,6 +129,42 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
   }
 }
 
+// The shading and light-map terms of a face's fragments on every lane (lane j's at index j):
+// shade_terms, light_project and receiver_gradient of each lane's point, computed once for
+// all lanes of the face instead of once per kept fragment.
+typedef struct {
+  real ambient[3][PPW];
+  real direct[P_MAX_LIGHTS][3][PPW];
+  real mu[P_MAX_LIGHTS][3][PPW];     // light_project: texel coordinates, depth
+  real slope[P_MAX_LIGHTS][2][PPW];  // receiver_gradient (0 without the receiver plane)
+} FragmentTerms;
+
+inline void store_lanes3(realP3 v, real out[3][PPW]) {
+  VSTOREP(v.x, 0, out[0]);
+  VSTOREP(v.y, 0, out[1]);
+  VSTOREP(v.z, 0, out[2]);
+}
+
+INLINE void fragment_terms(const realP* b, const Face* F, int receiver_plane,
+                           __global const real* P, FragmentTerms* t) {
+  const int nl = (int)P[P_NLIGHTS];
+  realP3 X = lanes_blend(b, F->V), direct[P_MAX_LIGHTS];
+  realP3 n = lanes_facing_normal(F->n, X, P);
+  store_lanes3(lanes_shade_terms(X, n, lanes_blend(b, F->a), P, direct), t->ambient);
+  for (int l = 0; l < nl; ++l) {
+    store_lanes3(direct[l], t->direct[l]);
+    realP3 mu = lanes_light_project(l, X, P);
+    store_lanes3(mu, t->mu[l]);
+    realP gx = 0, gy = 0;
+    if (receiver_plane) {
+      ReceiverFace rf = receiver_face(l, F->V, P);
+      lanes_receiver_gradient(l, &rf, mu.z, P, &gx, &gy);
+    }
+    VSTOREP(gx, 0, t->slope[l][0]);
+    VSTOREP(gy, 0, t->slope[l][1]);
+  }
+}
+
 FORWARD_KERNEL TILE_GROUP
 void raster_fragments(__global const real4* vscreen, __global const real4* vworld,
                       __global const int4* faces, __global const int4* fbbox,
@@ -168,31 +204,24 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     realP lw = log_D + (zt - m) / gamma;
     maskP kept = in_range && lw >= keep;
     if (!ANY(kept)) continue;
-    // The kept lanes, one at a time: their records.
-    real lws[PPW], zs[PPW], keptj[PPW], bs[3][PPW];
+    real lws[PPW], zs[PPW], keptj[PPW];
     VSTOREP(lw, 0, lws);
     VSTOREP(zq, 0, zs);
     VSTOREP(kept ? (realP)1 : (realP)0, 0, keptj);
-    for (int k = 0; k < 3; ++k) VSTOREP(b[k], 0, bs[k]);
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
-    ReceiverFace rf[P_MAX_LIGHTS];  // the face's plane in each light's view, for all its lanes
-    for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
-    for (int j = 0; j < PPW; ++j) {
+    FragmentTerms t;
+    fragment_terms(b, &F, receiver_plane, P, &t);
+    for (int j = 0; j < PPW; ++j) {  // the kept lanes, one at a time: their records
       if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
       int r = first[j] + n[j]++;
       rec_face[r] = f;
       rec_frag[r] = (real4)(exp(lws[j]), zs[j], 0, 0);
-      real3 X = bs[0][j] * F.V[0] + bs[1][j] * F.V[1] + bs[2][j] * F.V[2];
-      real3 a = bs[0][j] * F.a[0] + bs[1][j] * F.a[1] + bs[2][j] * F.a[2];
-      real3 direct[P_MAX_LIGHTS];
-      rec_shade[r * (1 + nl)] =
-          (real4)(shade_terms(X, facing_sign(F.n, X, P) * F.n, a, P, direct), 0);
+      rec_shade[r * (1 + nl)] = (real4)(t.ambient[0][j], t.ambient[1][j], t.ambient[2][j], 0);
       for (int l = 0; l < nl; ++l) {
-        rec_shade[r * (1 + nl) + 1 + l] = (real4)(direct[l], 0);
-        real3 mu = light_project(l, X, P);
-        rec_light[r * nl + l] = (real4)(mu, 1);
-        rec_light2[r * nl + l] =
-            (real4)(receiver_plane ? receiver_gradient(l, &rf[l], mu.z, P) : 0, 0, 0);
+        rec_shade[r * (1 + nl) + 1 + l] =
+            (real4)(t.direct[l][0][j], t.direct[l][1][j], t.direct[l][2][j], 0);
+        rec_light[r * nl + l] = (real4)(t.mu[l][0][j], t.mu[l][1][j], t.mu[l][2][j], 1);
+        rec_light2[r * nl + l] = (real4)(t.slope[l][0][j], t.slope[l][1][j], 0, 0);
       }
     }
   }
