@@ -12,12 +12,16 @@ the kernel cache) with its time. Four states:
   PoCL cache only  PENUMBRA_CACHE_DIR=off, PoCL's cache filled (how a new process started
                    before penumbra had its own cache)
 
+Then PoCL's floor: programs of trivial kernels, as many programs and kernels as the cold render
+compiled (counted in its PoCL cache), built by `penumbra_bench --build-floor` in new processes
+with an empty PoCL cache.
+
 Writes JSON (every run) to --out and prints a Markdown table; with --doc, also writes the
 section "First call in a new process" of that page (bench/report.py writes the same section
 when given --first-call JSON). scripts/bench.sh runs it before the report.
 
     python3 bench/first_call.py --cli build/penumbra --runs 5 --out out/bench/first_call.json \
-        [--doc docs/benchmarks.md]
+        [--bench build/penumbra_bench] [--doc docs/benchmarks.md]
 """
 import argparse
 import json
@@ -61,11 +65,35 @@ def measure(cli, runs, scratch):
     results = {s: [] for s in STATES}
     for i in range(runs):
         fresh = lambda name: tempfile.mkdtemp(prefix=f"{name}{i}_", dir=scratch)
-        results["cold"].append(run_once(cli, fresh("k"), fresh("p"), out_png))
+        cold_pocl = fresh("p")
+        results["cold"].append(run_once(cli, fresh("k"), cold_pocl, out_png))
         results["kernel cache"].append(run_once(cli, filled_kernels, fresh("p"), out_png))
         results["both warm"].append(run_once(cli, filled_kernels, filled_pocl, out_png))
         results["PoCL cache only"].append(run_once(cli, "off", filled_pocl, out_png))
-    return results
+    return results, program_kernels(cold_pocl)
+
+
+def program_kernels(pocl_cache):
+    """Kernels per program that PoCL compiled into `pocl_cache` (its layout: XX/HASH/KERNEL/),
+    largest first; empty for another driver."""
+    subdirs = lambda path: [os.path.join(path, d) for d in sorted(os.listdir(path))
+                            if os.path.isdir(os.path.join(path, d))]
+    counts = [len(subdirs(prog)) for top in subdirs(pocl_cache) for prog in subdirs(top)]
+    return sorted((c for c in counts if c > 0), reverse=True)
+
+
+def measure_floor(bench, counts, runs, scratch):
+    """penumbra_bench --build-floor: programs of trivial kernels, `counts` of them, each run a
+    new process with an empty PoCL cache; the milliseconds of each program, per run."""
+    arg = ",".join(map(str, counts))
+    per_run = []
+    for i in range(runs):
+        env = dict(os.environ, POCL_CACHE_DIR=tempfile.mkdtemp(prefix=f"floor{i}_", dir=scratch))
+        p = subprocess.run([bench, "--build-floor", arg], env=env, capture_output=True, text=True)
+        if p.returncode != 0:
+            sys.exit(f"first_call: {bench} --build-floor {arg} failed ({p.returncode}):\n{p.stderr}")
+        per_run.append(json.loads(p.stdout)["programs_ms"])
+    return {"kernels": counts, "command": f"{bench} --build-floor {arg}", "programs_ms": per_run}
 
 
 def median(rows, key):
@@ -124,6 +152,26 @@ def section(doc):
         "runs each, empty POCL_CACHE_DIR, user time equal to wall time, 2026-11-26), so the",
         "second core cannot shorten the cold call.",
         "",
+    ] + floor_paragraph(doc.get("floor"))
+
+
+def floor_paragraph(floor):
+    """What PoCL spends on programs of trivial kernels shaped like a first render's."""
+    if not floor:
+        return []
+    totals = [sum(run) for run in floor["programs_ms"]]
+    first = statistics.median(run[0] for run in floor["programs_ms"])
+    k = floor["kernels"]
+    return [
+        f"PoCL's floor: {len(k)} programs of {', '.join(map(str, k))} trivial kernels (each",
+        "stores a constant), as many as the cold first render compiled, each built and asked",
+        "for its binary as penumbra builds a stage, in a new process with an empty PoCL cache",
+        f"(`{floor['command']}`), took {statistics.median(totals):,.0f} ms (median of",
+        f"{len(totals)} runs, {min(totals):,.0f}–{max(totals):,.0f}; the first program",
+        f"{first:,.0f} ms of it, as it loads PoCL's kernel library). A cold first call spends",
+        "that before any of its kernels' own code, so on this machine and PoCL version it",
+        "cannot take under a second whatever its kernels compute.",
+        "",
     ]
 
 
@@ -133,12 +181,16 @@ def main():
     ap.add_argument("--cli", default="build/penumbra")
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--out", default="out/bench/first_call.json")
+    ap.add_argument("--bench", help="penumbra_bench, for its --build-floor (default: next to "
+                    "--cli)")
     ap.add_argument("--doc", help="also write the section into this page")
     a = ap.parse_args()
+    bench = a.bench or os.path.join(os.path.dirname(a.cli), "penumbra_bench")
     scratch = tempfile.mkdtemp(prefix="penumbra_first_call_")
     try:
         load_before = open("/proc/loadavg").read().split()[:3]
-        results = measure(a.cli, a.runs, scratch)
+        results, kernels = measure(a.cli, a.runs, scratch)
+        floor = measure_floor(bench, kernels, a.runs, scratch) if kernels else None
         load_after = open("/proc/loadavg").read().split()[:3]
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
@@ -146,9 +198,10 @@ def main():
     doc = {"runs": a.runs, "command": f"{a.cli} render -o PNG (PENUMBRA_PROFILE=1)",
            "loadavg_before": " ".join(load_before), "loadavg_after": " ".join(load_after),
            "date": time.strftime("%Y-%m-%dT%H:%M:%S+00:00", time.gmtime()),
-           "states": results}
+           "states": results, "floor": floor}
     docfile.write_text(a.out, json.dumps(doc, indent=1))
     print(table(results))
+    print("\n".join(floor_paragraph(floor)))
     print(f"load average before {doc['loadavg_before']}, after {doc['loadavg_after']}")
     if a.doc:
         docfile.replace_section(a.doc, section(doc), before="## Large cases")

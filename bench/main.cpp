@@ -4,6 +4,8 @@
 // suite runs: every case whose name does not start with large/; --scaling adds to it the large
 // cases of the face and image sweeps (to 1M faces and 2048² images). To run every large case
 // too, pass --benchmark_filter=. (everything) or --benchmark_filter=large/ (only them).
+// --build-floor N,N,... builds programs of trivial kernels and runs no benchmark
+// (bench_build_floor.cpp).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -44,6 +46,8 @@ int main(int argc, char** argv) {
   std::vector<char*> args{argv[0]};
   bool has_filter = false, scaling = false;
   for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--build-floor") == 0)
+      return penumbra::bench::run_build_floor(i + 1 < argc ? argv[i + 1] : "");
     if (std::strcmp(argv[i], "--scaling") == 0) {
       scaling = true;
       continue;

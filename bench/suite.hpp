@@ -1,4 +1,6 @@
 #pragma once
+#include <string>
+
 // The benchmark groups; main.cpp registers them in this order.
 namespace penumbra::bench {
 
@@ -6,6 +8,9 @@ void register_ceiling_benchmarks();     // bench_ceiling.cpp: peak FMA and exp t
 void register_render_benchmarks();      // bench_render.cpp: forward and backward cases
 void register_turnaround_benchmarks();  // bench_turnaround.cpp: the paper's 90-frame orbit
 void register_accuracy_benchmarks();    // bench_accuracy.cpp: error against ray tracing
+// --build-floor N,N,...: builds programs of N trivial kernels instead of benchmarking
+// (bench_build_floor.cpp); returns the exit status.
+int run_build_floor(const std::string& counts);
 // After the run: the turnaround ratios beside the paper's (no-op if they did not run).
 void print_turnaround_summary();
 

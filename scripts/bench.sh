@@ -6,8 +6,9 @@
 #   3. runs the default suite (a few minutes on two cores) with JSON output in out/bench/,
 #   4. profiles the forward case of each shadow mode (PENUMBRA_PROFILE=1: device time per
 #      kernel, per frame) into out/bench/profile_*.txt,
-#   5. times the first render of new processes with the kernel caches cold and warm
-#      (bench/first_call.py) into out/bench/first_call.json,
+#   5. times the first render of new processes with the kernel caches cold and warm, and
+#      PoCL's floor for as many programs of trivial kernels (bench/first_call.py, which runs
+#      penumbra_bench --build-floor) into out/bench/first_call.json,
 #   6. runs bench/report.py, which writes docs/benchmarks.md and docs/images/bench_*.png.
 #
 #   scripts/bench.sh                 the default suite
@@ -146,7 +147,8 @@ MODES
 
 # --- first call in a new process ------------------------------------------------------------
 if [[ $run -eq 1 ]]; then
-  "$PYTHON" bench/first_call.py --cli "$BUILD/penumbra" --runs 5 --out out/bench/first_call.json
+  "$PYTHON" bench/first_call.py --cli "$BUILD/penumbra" --bench "$BUILD/penumbra_bench" --runs 5 \
+    --out out/bench/first_call.json
 fi
 
 # --- report --------------------------------------------------------------------------------

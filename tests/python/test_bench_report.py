@@ -130,3 +130,29 @@ def test_backward_quotients_come_from_the_step_cases_where_run():
     res = report.Results(recs[:2])
     assert report.bwd_over_fwd(res, "hard", "truncated") == (40.0, 4.0)
     assert report.fwd_plus_bwd(res) == 50.0
+
+
+first_call_spec = importlib.util.spec_from_file_location("first_call",
+                                                         ROOT / "bench" / "first_call.py")
+first_call = importlib.util.module_from_spec(first_call_spec)
+first_call_spec.loader.exec_module(first_call)
+
+
+def test_the_floor_counts_the_kernels_pocl_compiled_per_program(tmp_path):
+    for prog, kernels in (("AB/P1", ["raster_count", "raster_fragments", "raster_resolve"]),
+                          ("CD/P2", ["transform_fwd", "face_setup"]), ("CD/P3", [])):
+        for k in kernels:
+            (tmp_path / prog / k).mkdir(parents=True)
+        (tmp_path / prog).mkdir(parents=True, exist_ok=True)
+        (tmp_path / prog / "program.bc").write_text("")
+    (tmp_path / "tempfile_x").write_text("")
+    assert first_call.program_kernels(str(tmp_path)) == [3, 2]
+
+
+def test_the_floor_paragraph_quotes_the_median_run_and_its_first_program():
+    floor = {"kernels": [3, 2], "command": "penumbra_bench --build-floor 3,2",
+             "programs_ms": [[700.0, 200.0], [650.0, 150.0], [900.0, 300.0]]}
+    text = " ".join(first_call.floor_paragraph(floor))
+    assert "took 900 ms (median of 3 runs, 800–1,200; the first program 700 ms" in text
+    assert "`penumbra_bench --build-floor 3,2`" in text
+    assert first_call.floor_paragraph(None) == []
