@@ -9,7 +9,7 @@
 //   NumericsDeterminism.*  the same inputs give bit-identical images, maps and gradients, run
 //       twice on one renderer, on a fresh renderer, and across raster tunings (tile, pixels per
 //       work-item, brute force) and penumbra-map tiles — which keep the summation order — with
-//       hard and soft shadows.
+//       hard and soft shadows; and the raster's lane softplus on 16 lanes and on 1.
 //   NumericsReference.*  double-precision kernels against the CPU reference for the extreme
 //       cases where the reference is cheap (shadows none and hard).
 //
@@ -517,6 +517,48 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
             << " differs from tile 16, 8 px/item, penumbra tile 16";
       }
     }
+}
+
+// The raster's softplus part log1p(e^{−|u|}) (lanes_log1p_exp_neg_abs, common/lanes.clh) on 16
+// lanes and on 1, for |u| where e^{−|u|} is subnormal (float 87-104, double 708-745) and
+// around: every pixels-per-item gives the same bits. (PoCL's ldexp on vectors rounded
+// subnormal results otherwise than on scalars.)
+TEST(NumericsDeterminism, LaneSoftplusIsTheSameAtEveryPixelsPerItem) {
+  const std::string kernel = R"(
+__kernel void softplus(real u0, real du, __global real* out) {
+  int i = get_global_id(0);
+  real us[PPW];
+  for (int j = 0; j < PPW; ++j) us[j] = u0 + du * (real)(i * PPW + j);
+  VSTOREP(lanes_log1p_exp_neg_abs(VLOADP(0, us)), 0, out + i * PPW);
+})";
+  const std::string source = Context::kernel_source("common/lanes.clh") + kernel;
+  for (Precision p : {Precision::Float, Precision::Double}) {
+    const bool dbl = p == Precision::Double;
+    const double u0 = dbl ? 700 : 80, u1 = dbl ? 750 : 110;
+    const int n = 1 << 18;
+    std::vector<std::vector<char>> bits;
+    for (int ppw : {1, 16}) {
+      cl::Program program(context().cl_context(), source);
+      program.build(
+          Context::build_options("-DPPW=" + std::to_string(ppw) + (dbl ? " -DPENUMBRA_DOUBLE" : ""))
+              .c_str());
+      cl::Kernel k(program, "softplus");
+      const size_t size = dbl ? sizeof(double) : sizeof(float);
+      cl::Buffer out(context().cl_context(), CL_MEM_WRITE_ONLY, n * size);
+      if (dbl) {
+        k.setArg(0, u0);
+        k.setArg(1, (u1 - u0) / n);
+      } else {
+        k.setArg(0, float(u0));
+        k.setArg(1, float((u1 - u0) / n));
+      }
+      k.setArg(2, out);
+      context().queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n / ppw));
+      bits.emplace_back(n * size);
+      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, n * size, bits.back().data());
+    }
+    EXPECT_TRUE(bits[0] == bits[1]) << (dbl ? "double" : "float");
+  }
 }
 
 // With more than one work-item per face (RasterTuning::face_lanes; 32 on GPUs) the raster
