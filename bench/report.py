@@ -59,14 +59,14 @@ MISS_REASONS = [
      "to the three edges and a softplus (on float16 vectors: blocks of 4×4 pixels), and "
      "`raster_fragments` computes them again for the faces `raster_count` marked (a bit per "
      "block and list entry) to write the kept fragments, because which fragments are kept "
-     "depends on the largest weight, which is known only after all faces. Writing each kept "
-     "fragment's shading and light coordinates is scalar: about half of `raster_fragments` "
-     "(with only the face index of each record written it took 1.7-2.0 ms per launch against "
-     "3.5-4.6 ms, and without the shading and light-map arithmetic 2.5-2.9 against 3.7-3.8; "
-     "kernels modified for the measurement only, each build alternated twice with the "
-     "unmodified one: `PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter='^fwd/none/"
-     "truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/' --benchmark_min_time=2`, "
-     "2026-11-26)."),
+     "depends on the largest weight, which is known only after all faces. The kept fragments' "
+     "records (their shading and light-map terms computed for a face's 16 lanes at once, then "
+     "each weight's exp and the stores lane by lane) are about half of `raster_fragments` (with "
+     "only the face index of each record written it took 1.05-1.22 ms per launch against "
+     "2.06-2.65 ms; kernels modified for the measurement only, alternated three times with the "
+     "unmodified ones: `PENUMBRA_KERNEL_DIR=DIR PENUMBRA_PROFILE=1 penumbra_bench "
+     "--benchmark_filter='^fwd/none/truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/' "
+     "--benchmark_min_time=2`, 2026-11-26)."),
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
      "texels per fragment."),
@@ -98,14 +98,15 @@ MISS_REASONS = [
      "boxes (`penumbra_boxes`) had sped the forward up more than the backward."),
     ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
      "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
-     "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels), "
-     "`raster_fragments` the ~22 per block that may keep a fragment. On PoCL a new buffer "
-     "is new host memory whose pages fault in as the kernels first write it; a renderer now "
-     "rasters into its last render's fragment buffers where they fit, which took "
-     "`raster_fragments` from 49.2-60.7 ms per launch to 43.5-44.7 (three runs alternated with "
-     "the build before it: `PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=fwd/none/"
-     "truncated/img:512/map:256/faces:100852 --benchmark_min_time=2`, 2026-11-26). Since then, glibc keeping all freed memory (`MALLOC_MMAP_THRESHOLD_=33554432 "
-     "MALLOC_TRIM_THRESHOLD_=4294967296`) moves the case by less than its run-to-run spread."),
+     "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels: the "
+     "coverage, depth and softplus of 16 pixels each, some 670 000 such evaluations per frame), "
+     "`raster_fragments` the ~22 per block that may keep a fragment, and writes the kept ones' "
+     "records. The two took 32.9-34.3 and 42.0-44.6 ms per launch (kernels alone alternated "
+     "three times with the previous ones: `PENUMBRA_KERNEL_DIR=DIR PENUMBRA_PROFILE=1 "
+     "penumbra_bench --benchmark_filter=fwd/none/truncated/img:512/map:256/faces:100852 "
+     "--benchmark_min_time=2`, 2026-11-26): the raster passes alone take more than twice the "
+     "target. A renderer rasters into its last render's fragment buffers where they fit, "
+     "so that PoCL's host memory does not fault their pages in anew every frame."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers."),
 ]
