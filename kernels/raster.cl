@@ -130,13 +130,13 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
 }
 
 // The shading and light-map terms of a face's fragments on every lane (lane j's at index j):
-// shade_terms, light_project and receiver_gradient of each lane's point, computed once for
-// all lanes of the face instead of once per kept fragment.
+// lanes_shade_terms, lanes_light_project and lanes_receiver_gradient (lanes.clh), computed
+// once for all lanes of the face instead of once per kept fragment.
 typedef struct {
   real ambient[3][PPW];
   real direct[P_MAX_LIGHTS][3][PPW];
-  real mu[P_MAX_LIGHTS][3][PPW];     // light_project: texel coordinates, depth
-  real slope[P_MAX_LIGHTS][2][PPW];  // receiver_gradient (0 without the receiver plane)
+  real mu[P_MAX_LIGHTS][3][PPW];     // texel coordinates, light-view depth
+  real slope[P_MAX_LIGHTS][2][PPW];  // ∇_μ d (0 without the receiver plane)
 } FragmentTerms;
 
 inline void store_lanes3(realP3 v, real out[3][PPW]) {
