@@ -149,10 +149,14 @@ def test_the_floor_counts_the_kernels_pocl_compiled_per_program(tmp_path):
     assert first_call.program_kernels(str(tmp_path)) == [3, 2]
 
 
-def test_the_floor_paragraph_quotes_the_median_run_and_its_first_program():
+def test_the_floor_paragraph_quotes_the_median_run_and_judges_it_against_a_second():
     floor = {"kernels": [3, 2], "command": "penumbra_bench --build-floor 3,2",
              "programs_ms": [[700.0, 200.0], [650.0, 150.0], [900.0, 300.0]]}
     text = " ".join(first_call.floor_paragraph(floor))
     assert "took 900 ms (median of 3 runs, 800–1,200; the first program 700 ms" in text
     assert "`penumbra_bench --build-floor 3,2`" in text
+    assert "leaves 100 ms of a second" in text and "cannot take" not in text
+    slow = dict(floor, programs_ms=[[800.0, 400.0]])
+    text = " ".join(first_call.floor_paragraph(slow))
+    assert "cannot take under a second" in text and "leaves" not in text
     assert first_call.floor_paragraph(None) == []
