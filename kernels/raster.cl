@@ -51,34 +51,8 @@
 #define BRUTE_FORCE 0  // 1: every pixel visits every face (reference path for tests)
 #endif
 
-typedef struct {
-  real2 p[3];   // screen positions
-  real z[3];    // view depths
-  real3 V[3];   // world positions
-  real3 a[3];   // albedo at the corners
-  real3 n;      // unit world normal (not yet turned to the camera)
-  real area;    // signed screen area
-} Face;
-
-inline Face load_face(int f, __global const real4* vscreen, __global const real4* vworld,
-                      __global const int4* faces, __global const real4* fnormal,
-                      __global const real4* albedo) {
-  Face F;
-  int4 idx = faces[f];
-  int id[3] = {idx.x, idx.y, idx.z};
-  for (int k = 0; k < 3; ++k) {
-    real4 s = vscreen[id[k]];
-    F.p[k] = s.xy;
-    F.z[k] = s.z;
-    F.V[k] = vworld[id[k]].xyz;
-    F.a[k] = albedo[3 * f + k].xyz;
-  }
-  F.n = fnormal[f].xyz;
-  F.area = fnormal[f].w;
-  return F;
-}
-
 #include "common/lanes.clh"
+#include "common/raster_face.clh"
 #include "common/raster_tiles.clh"
 
 FORWARD_KERNEL TILE_GROUP
@@ -126,42 +100,6 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
     if (!block_lane_inside(px0, py0, j, W, H)) continue;
     aux[block_pixel(px0, py0, j, W, H)] = (real4)(Ms[j], ms[j], 0, slogs[j]);
     pix_count[block_pixel(px0, py0, j, W, H)] = (int)counts[j];
-  }
-}
-
-// The shading and light-map terms of a face's fragments on every lane (lane j's at index j):
-// lanes_shade_terms, lanes_light_project and lanes_receiver_gradient (lanes.clh), computed
-// once for all lanes of the face instead of once per kept fragment.
-typedef struct {
-  real ambient[3][PPW];
-  real direct[P_MAX_LIGHTS][3][PPW];
-  real mu[P_MAX_LIGHTS][3][PPW];     // texel coordinates, light-view depth
-  real slope[P_MAX_LIGHTS][2][PPW];  // ∇_μ d (0 without the receiver plane)
-} FragmentTerms;
-
-inline void store_lanes3(realP3 v, real out[3][PPW]) {
-  VSTOREP(v.x, 0, out[0]);
-  VSTOREP(v.y, 0, out[1]);
-  VSTOREP(v.z, 0, out[2]);
-}
-
-INLINE void fragment_terms(const realP* b, const Face* F, int receiver_plane,
-                           __global const real* P, FragmentTerms* t) {
-  const int nl = (int)P[P_NLIGHTS];
-  realP3 X = lanes_blend(b, F->V), direct[P_MAX_LIGHTS];
-  realP3 n = lanes_facing_normal(F->n, X, P);
-  store_lanes3(lanes_shade_terms(X, n, lanes_blend(b, F->a), P, direct), t->ambient);
-  for (int l = 0; l < nl; ++l) {
-    store_lanes3(direct[l], t->direct[l]);
-    realP3 mu = lanes_light_project(l, X, P);
-    store_lanes3(mu, t->mu[l]);
-    realP gx = 0, gy = 0;
-    if (receiver_plane) {
-      ReceiverFace rf = receiver_face(l, F->V, P);
-      lanes_receiver_gradient(l, &rf, mu.z, P, &gx, &gy);
-    }
-    VSTOREP(gx, 0, t->slope[l][0]);
-    VSTOREP(gy, 0, t->slope[l][1]);
   }
 }
 
@@ -321,37 +259,6 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
     else hi = mid;
   }
   return lo < pix_offset[pix] + pix_n[pix] && rec_face[lo] == f ? lo : -1;
-}
-
-// Face F at pixels px0 .. px0 + PPW − 1 of row py, computed on PPW lanes at once (which round
-// as fragment_shape does): which of them its cut-off leaves in (reach: 1, else 0), so that the
-// scalar work of raster_bwd runs only there, and the shape fragment_shape would compute there.
-typedef struct {
-  real reach[PPW], w[3][PPW], d2[PPW], inside[PPW], edge[PPW], t[PPW];
-} RowLanes;
-
-INLINE void lanes_row(int px0, int py, int W, int H, const Face* F, __global const real* P,
-                      RowLanes* row) {
-  realP w[3], d2, closest[2];
-  maskP inside;
-  lanes_shape(lanes_x(px0, W, H), (realP)((real)(H - 2 * py - 1) / H), F->p, F->area, P, w, &d2,
-              &inside, closest);
-  VSTOREP(inside || !(d2 >= P[P_CUTOFF_D2]) ? (realP)1 : (realP)0, 0, row->reach);
-  for (int k = 0; k < 3; ++k) VSTOREP(w[k], 0, row->w[k]);
-  VSTOREP(d2, 0, row->d2);
-  VSTOREP(inside ? (realP)1 : (realP)0, 0, row->inside);
-  VSTOREP(closest[0], 0, row->edge);
-  VSTOREP(closest[1], 0, row->t);
-}
-
-// The fragment at lane j of a row: fragment_shape's values there and the coverage logit u.
-inline void lane_fragment(const RowLanes* row, int j, __global const real* P, Fragment* f) {
-  for (int k = 0; k < 3; ++k) f->w[k] = row->w[k][j];
-  f->inside = row->inside[j] != 0;
-  f->d2 = row->d2[j];
-  f->edge = (int)row->edge[j];
-  f->t = row->t[j];
-  f->u = (f->inside ? f->d2 : -f->d2) / P[P_SIGMA];
 }
 
 // Backward of count/fragments/resolve and of the shading, per face. Inputs: gcover, gimage (its
