@@ -22,6 +22,8 @@
 //   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
 //   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
+//                    Both only for a view with shadows (P_SHADOWS): without, s is 1 and
+//                    neither is written nor read.
 //   image N × real4 (R, G, B, silhouette A); aux N × real4 (I_z, m, Z, Σ log(1 − D));
 //   depth N × real (I_z again, densely, as the shadow map S when rendering from a light)
 //   cover N × real (A again, densely, as the map's caster coverage when rendering from a light)
@@ -117,7 +119,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
   int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
   if (py0 >= H || px0 >= W) return;
   const real gamma = P[P_GAMMA];
-  const int nl = (int)P[P_NLIGHTS], receiver_plane = P[P_RECEIVER_PLANE] > 0;
+  const int nl = (int)P[P_NLIGHTS], shadowed = P[P_SHADOWS] > 0;
   realP qy;
   maskP valid;
   const realP qx = block_lanes(px0, py0, W, H, &qy, &valid);
@@ -148,16 +150,17 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     VSTOREP(kept ? (realP)1 : (realP)0, 0, keptj);
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
     FragmentTerms t;
-    fragment_terms(b, &F, receiver_plane, P, &t);
+    fragment_terms(b, &F, shadowed, P, &t);
     for (int j = 0; j < PPW; ++j) {  // the kept lanes, one at a time: their records
       if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
       int r = first[j] + n[j]++;
       rec_face[r] = f;
       rec_frag[r] = (real4)(exp(lws[j]), zs[j], 0, 0);
       rec_shade[r * (1 + nl)] = (real4)(t.ambient[0][j], t.ambient[1][j], t.ambient[2][j], 0);
-      for (int l = 0; l < nl; ++l) {
+      for (int l = 0; l < nl; ++l)
         rec_shade[r * (1 + nl) + 1 + l] =
             (real4)(t.direct[l][0][j], t.direct[l][1][j], t.direct[l][2][j], 0);
+      for (int l = 0; shadowed && l < nl; ++l) {
         rec_light[r * nl + l] = (real4)(t.mu[l][0][j], t.mu[l][1][j], t.mu[l][2][j], 1);
         rec_light2[r * nl + l] = (real4)(t.slope[l][0][j], t.slope[l][1][j], 0, 0);
       }
@@ -172,7 +175,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     for (int r = first[j] + n[j]; r < first[j] + bound[j]; ++r) {
       rec_face[r] = -1;
       rec_frag[r] = 0;
-      for (int l = 0; l < nl; ++l) {
+      for (int l = 0; shadowed && l < nl; ++l) {
         rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
         rec_light2[r * nl + l] = 0;
       }
@@ -180,10 +183,17 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
   }
 }
 
-inline real3 fragment_colour(int r, int nl, __global const real4* rec_shade,
-                             __global const real4* rec_light) {
+// The shadow term s of fragment r for light l: 1 in a view without shadows.
+inline real shadow_term(int r, int l, int nl, __global const real* P,
+                        __global const real4* rec_light) {
+  return P[P_SHADOWS] > 0 ? rec_light[r * nl + l].w : 1;
+}
+
+inline real3 fragment_colour(int r, int nl, __global const real* P,
+                             __global const real4* rec_shade, __global const real4* rec_light) {
   real3 c = rec_shade[r * (1 + nl)].xyz;
-  for (int l = 0; l < nl; ++l) c += rec_light[r * nl + l].w * rec_shade[r * (1 + nl) + 1 + l].xyz;
+  for (int l = 0; l < nl; ++l)
+    c += shadow_term(r, l, nl, P, rec_light) * rec_shade[r * (1 + nl) + 1 + l].xyz;
   return c;
 }
 
@@ -207,7 +217,7 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
   for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
     real4 fr = rec_frag[r];
     Z += fr.x;
-    acc += fr.x * fragment_colour(r, nl, rec_shade, rec_light);
+    acc += fr.x * fragment_colour(r, nl, P, rec_shade, rec_light);
     accz += fr.x * fr.y;
   }
   real A = 1 - exp_or_ends(ax.w);
@@ -219,10 +229,10 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
 
 // Backward of raster_resolve. gimage N × real4 (dL/dR, dL/dG, dL/dB, dL/dA), gdepth N × real
 // (dL/dI_z). Writes rec_wg K × real4 (w, G, 0, 0): the fragment's normalised weight w and
-// G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; rec_lgrad K·nl × real4
-// (dL/ds, 0, 0, 0), which the shadow backward completes; and gcover N × real, dL/dA·(1 − A)
-// with 1 − A = exp(Σ log(1 − D)), which raster_bwd would otherwise recompute for every face
-// of the pixel.
+// G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; with shadows, rec_lgrad
+// K·nl × real4 (dL/ds, 0, 0, 0), which the shadow backward completes; and gcover N × real,
+// dL/dA·(1 − A) with 1 − A = exp(Σ log(1 − D)), which raster_bwd would otherwise recompute for
+// every face of the pixel.
 BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
                                         __global const int* pix_offset, __global const int* pix_n,
                                         __global const real4* rec_frag,
@@ -241,9 +251,9 @@ BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
   for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
     real4 fr = rec_frag[r];
     real w = fr.x / Z;
-    real3 C = fragment_colour(r, nl, rec_shade, rec_light);
+    real3 C = fragment_colour(r, nl, P, rec_shade, rec_light);
     rec_wg[r] = (real4)(w, dot(gI, C - I) + gz * (fr.y - Iz), 0, 0);
-    for (int l = 0; l < nl; ++l)
+    for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l)
       rec_lgrad[r * nl + l] = (real4)(w * dot(gI, rec_shade[r * (1 + nl) + 1 + l].xyz), 0, 0, 0);
   }
 }
@@ -357,7 +367,7 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
         real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
         real sign = facing_sign(F.n, X, P);
         real s[P_MAX_LIGHTS];
-        for (int l = 0; l < nl; ++l) s[l] = rec_light[r * nl + l].w;
+        for (int l = 0; l < nl; ++l) s[l] = shadow_term(r, l, nl, P, rec_light);
         real3 gX = 0, gnf = 0, gaf = 0;
         shade_bwd(X, sign * F.n, a, s, P, gimg.xyz * w, &gX, &gnf, &gaf, &gl);
         for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {

@@ -28,18 +28,20 @@ constexpr double kFragmentsPerPixel = 1.25, kFragmentsPerTexel = 1.5, kCasterFra
 
 size_t fragments(size_t pixels, double per_pixel) { return size_t(double(pixels) * per_pixel); }
 
-// One view of W×H pixels with `lights` lights in its shading (raster.cpp's buffers).
+// One view of W×H pixels with `lights` lights in its shading, of which `shadowed` have shadow
+// records (all with shadows on, none without: View::shadow_lights) (raster.cpp's buffers).
 // `per_pixel`: fragments per pixel (kFragmentsPerPixel or a map's per texel).
-size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, bool backward, double per_pixel) {
+size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed, bool backward,
+                  double per_pixel) {
   // counts, offsets, kept; a fourth int for raster_count's list bits, which follow the tile
   // lists and are checked against the device when allocated (raster.cpp); aux, image, depth,
   // cover
   const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1 + 1);
-  // face, fragment, shading (1 + lights), two light records (lights)
-  size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + 3 * lights);
+  // face, fragment, shading (1 + lights), two light records (shadowed)
+  size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + lights + 2 * shadowed);
   size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
   if (backward) {
-    per_fragment += z.rs * 4 * (1 + 2 * lights);
+    per_fragment += z.rs * 4 * (1 + 2 * shadowed);
     per_face += z.rs * (36 + (6 * lights + 1) * 4);
   }
   return z.nv * 4 * z.rs + z.nf * per_face + pixels * per_pixel_bytes +
@@ -70,15 +72,16 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   if (backward) bytes += z.nv * 20 * z.rs;                       // vertex and frame gradients
   const RenderParams& p = scene.params;
   const size_t lights = scene.lights.size();
+  const size_t shadowed = p.shadows == Shadows::None ? 0 : lights;
   for (const Camera& c : scene.cameras)
-    bytes += view_bytes(z, size_t(c.width) * size_t(c.height), lights, backward,
+    bytes += view_bytes(z, size_t(c.width) * size_t(c.height), lights, shadowed, backward,
                         kFragmentsPerPixel) +
              (backward ? size_t(c.width) * size_t(c.height) * 6 * z.rs : 0);  // dL/d(image, depth)
   if (p.shadows == Shadows::None) return bytes;
   const size_t texels = size_t(shadow_map_side(p)) * size_t(shadow_map_side(p));
   for (size_t l = 0; l < lights; ++l) {
     bytes += view_bytes(
-        z, texels, 0, backward,
+        z, texels, 0, 0, backward,
         p.shadow_model == ShadowModel::Accurate ? kCasterFragmentsPerTexel : kFragmentsPerTexel);
     if (p.shadows == Shadows::Soft && p.shadow_model == ShadowModel::Paper)
       bytes += z.nf * 16 + texels * 3 * z.rs;  // the penumbra map P and its sums

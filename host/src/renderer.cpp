@@ -169,7 +169,7 @@ RenderOutput Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
 // The view with parameters P, then transform → raster passes 1–2: its kept fragments.
 void Renderer::Impl::rasterise(ViewPass& vp, int W, int H, int nlights,
                                const std::vector<double>& P, detail::Fragments spare) {
-  vp.view = {W, H, nlights, detail::upload_reals(ctx, precision, P)};
+  vp.view = {W, H, nlights, P[P_SHADOWS] > 0, detail::upload_reals(ctx, precision, P)};
   vp.screen = detail::transform_forward(kernels, geometry, vp.view);
   vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen, std::move(spare));
 }

@@ -126,11 +126,16 @@ void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm);
 // transform → raster fragments → [shadow lookups] → resolve; each stage returns its own
 // struct and takes the structs it reads.
 
-// A view: its size, the lights it shades (0 for a light's own view) and its parameter block
-// P (kernels/common/layout.h).
+// A view: its size, the lights it shades (0 for a light's own view), whether shadow lookups
+// fill its fragments' shadow terms (a camera's, with shadows on: P_SHADOWS) and its parameter
+// block P (kernels/common/layout.h).
 struct View {
   int W = 0, H = 0, nlights = 0;
+  bool shadows = false;
   cl::Buffer P;
+  // Lights with per-fragment shadow records (rec_light, rec_light2 and their gradients): none
+  // without shadows, where every s is 1.
+  int shadow_lights() const { return shadows ? nlights : 0; }
 };
 
 // transform: the vertices on the view's screen, each face's pixel box and normal.
@@ -140,8 +145,9 @@ struct ScreenGeometry {
 };
 
 // Raster passes 1–2: the kept fragments of every pixel (kernels/raster.cl). rec_light and
-// rec_light2 hold each fragment's shadow terms per light: s = 1 from the raster, written by
-// the shadow lookups. aux holds per-pixel sums of pass 1, completed by resolve.
+// rec_light2 hold each fragment's shadow terms per light of View::shadow_lights(): s = 1 from
+// the raster, written by the shadow lookups. aux holds per-pixel sums of pass 1, completed by
+// resolve.
 struct Fragments {
   size_t nrec = 0;  // Σ over the pixels of their kept fragments
   cl::Buffer aux, pix_offset, pix_n;

@@ -128,8 +128,8 @@ std::vector<int> fragment_offsets(Kernels& k, const View& v, const cl::Buffer& p
   if (total > size_t(INT32_MAX))
     throw Error("the view keeps " + std::to_string(total) + " fragments, more than 2^31");
   // Fragment storage, forward and backward: face, weight, shading terms, light terms.
-  const size_t per_fragment =
-      sizeof(int) + real_size(k.precision()) * 4 * (1 + (1 + v.nlights) + 4 * v.nlights + 1);
+  const size_t per_fragment = sizeof(int) + real_size(k.precision()) * 4 *
+                                                (1 + (1 + v.nlights) + 4 * v.shadow_lights() + 1);
   check_memory(k.ctx(), total * per_fragment + npix * 13 * real_size(k.precision()),
                "a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view keeping " +
                    std::to_string(total) + " fragments");
@@ -159,8 +159,9 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   f.rec_face = reuse_or_alloc(ctx, std::move(spare.rec_face), f.nrec, i);
   f.rec_frag = reuse_or_alloc(ctx, std::move(spare.rec_frag), f.nrec * 4, rs);
   f.rec_shade = reuse_or_alloc(ctx, std::move(spare.rec_shade), f.nrec * 4 * (1 + v.nlights), rs);
-  f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), f.nrec * 4 * v.nlights, rs);
-  f.rec_light2 = reuse_or_alloc(ctx, std::move(spare.rec_light2), f.nrec * 4 * v.nlights, rs);
+  const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
+  f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), light_reals, rs);
+  f.rec_light2 = reuse_or_alloc(ctx, std::move(spare.rec_light2), light_reals, rs);
   auto& frag =
       bind_args(k, RasterFragmentsArgs{
                        sg.vscreen, g.vworld,    g.faces,     sg.fbbox,     sg.fnormal,   g.albedo,
@@ -189,8 +190,9 @@ FragmentGrads raster_resolve_backward(Kernels& k, const View& v, const Fragments
                                       const cl::Buffer& gdepth) {
   FragmentGrads fgr;
   fgr.rec_wg = alloc_reals(k.ctx(), k.precision(), f.nrec * 4);
-  fgr.rec_lgrad = alloc_reals(k.ctx(), k.precision(), f.nrec * 4 * v.nlights);
-  fgr.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), f.nrec * 4 * v.nlights);
+  const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
+  fgr.rec_lgrad = alloc_reals(k.ctx(), k.precision(), light_reals);
+  fgr.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), light_reals);
   fgr.gcover = alloc_reals(k.ctx(), k.precision(), size_t(v.W) * v.H);
   auto& rb = bind_args(k, RasterResolveBwdArgs{v.P, v.W, v.H, f.pix_offset, f.pix_n, f.rec_frag,
                                                f.rec_shade, f.rec_light, r.image, f.aux, gimage,
