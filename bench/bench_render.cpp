@@ -36,7 +36,7 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
     state.SkipWithError(e.what());
     return;
   }
-  Renderer& r = renderer(s);
+  Renderer& r = fresh_renderer(s);
   reset_device_memory_peak();  // the warm-up call's own buffers, not those of earlier cases
   try {
     out = r.render(s);  // warm-up: builds every program this case needs

@@ -167,6 +167,11 @@ Renderer& renderer(const Scene&) {
   return *g_renderer;
 }
 
+Renderer& fresh_renderer(const Scene& scene) {
+  g_renderer.reset();
+  return renderer(scene);
+}
+
 void release_device() {
   g_renderer.reset();
   g_context.reset();

@@ -67,6 +67,11 @@ Context& context();
 // `exact`, clblast for `gemm`), so that the two exact-sum paths stay apart whatever the tuning
 // picks for `auto`.
 Renderer& renderer(const Scene& scene);
+// That renderer made anew (its programs from the kernel cache): a renderer rasters into its last
+// render's fragment buffers where they fit, so the first render of a fresh one makes every
+// buffer a render holds, and the device memory it counts is all of it, not what it added to an
+// earlier case's buffers.
+Renderer& fresh_renderer(const Scene& scene);
 // Releases the renderer and the device before exit (PoCL's own exit handlers then find no live
 // objects).
 void release_device();
