@@ -118,7 +118,11 @@ MISS_REASONS = [
      "fragment buffers where they fit, so that PoCL's host memory does not fault their pages in "
      "anew every frame."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
-     "forward and (per face, over its pixel box) backward, plus the lookups and gathers."),
+     "forward and (per face, over its pixel box) backward, plus the lookups and gathers. The "
+     "step sits near the limit on this machine: 172-200 ms in ten runs of the case alone "
+     "(`penumbra_bench --benchmark_filter=^step/hard/truncated/img:256/map:256/faces:100852 "
+     "--benchmark_min_time=2`, 2026-11-26 21:50 UTC, alternating the current build and the "
+     "one before its last raster change, whose kernel times were the same within 5 %)."),
 ]
 
 
