@@ -829,18 +829,24 @@ void wait_for_deferred_frees() {
 
 // The estimate against what the renderer allocates (penumbra::device_memory_use: every buffer
 // the renderer makes, counted until the OpenCL implementation frees it): render() alone and
-// render() + backward(), hard and soft shadows, the accurate and the paper model, truncated and
-// exact sampling, the bundled scene at 64² and 512² pixels (exact at 512²: the paper model's hard
-// shadows only). The estimate, with the tuning the renderer used, must cover the peak and stay
+// render() + backward(), no shadows, and hard and soft shadows in the accurate and the paper
+// model with truncated and exact sampling, the bundled scene at 64² and 512² pixels (exact at
+// 512²: the paper model's hard shadows only). The estimate, with the tuning the renderer used, must cover the peak and stay
 // within 25 % above it. Prints one line per configuration.
 TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
   penumbra::Scene base =
       penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
   for (const int size : {64, 512})
     for (const auto model : {penumbra::ShadowModel::Accurate, penumbra::ShadowModel::Paper})
-      for (const auto shadows : {penumbra::Shadows::Hard, penumbra::Shadows::Soft})
+      for (const auto shadows :
+           {penumbra::Shadows::None, penumbra::Shadows::Hard, penumbra::Shadows::Soft})
         for (const auto sampling : {penumbra::Sampling::Truncated, penumbra::Sampling::Exact})
           for (const bool backward : {false, true}) {
+            // Without shadows neither the model nor the sampling is used: once.
+            if (shadows == penumbra::Shadows::None &&
+                (model != penumbra::ShadowModel::Accurate ||
+                 sampling != penumbra::Sampling::Truncated))
+              continue;
             // Exact soft shadows and the accurate model's exact filter visit every texel per
             // fragment: at 64² only (the paper model's exact hard shadows run in batches).
             if (size > 64 && sampling == penumbra::Sampling::Exact &&
