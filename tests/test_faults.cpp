@@ -831,8 +831,8 @@ void wait_for_deferred_frees() {
 // the renderer makes, counted until the OpenCL implementation frees it): render() alone and
 // render() + backward(), no shadows, and hard and soft shadows in the accurate and the paper
 // model with truncated and exact sampling, the bundled scene at 64² and 512² pixels (exact at
-// 512²: the paper model's hard shadows only). The estimate, with the tuning the renderer used, must cover the peak and stay
-// within 25 % above it. Prints one line per configuration.
+// 512²: the paper model's hard shadows only). The estimate, with the tuning the renderer used, must
+// cover the peak and stay within 25 % above it. Prints one line per configuration.
 TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
   penumbra::Scene base =
       penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
@@ -843,9 +843,8 @@ TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
         for (const auto sampling : {penumbra::Sampling::Truncated, penumbra::Sampling::Exact})
           for (const bool backward : {false, true}) {
             // Without shadows neither the model nor the sampling is used: once.
-            if (shadows == penumbra::Shadows::None &&
-                (model != penumbra::ShadowModel::Accurate ||
-                 sampling != penumbra::Sampling::Truncated))
+            if (shadows == penumbra::Shadows::None && (model != penumbra::ShadowModel::Accurate ||
+                                                       sampling != penumbra::Sampling::Truncated))
               continue;
             // Exact soft shadows and the accurate model's exact filter visit every texel per
             // fragment: at 64² only (the paper model's exact hard shadows run in batches).
