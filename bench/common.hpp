@@ -62,10 +62,10 @@ const char* word(Sampling s, ExactBackend backend);
 // ---- device and renderer -------------------------------------------------------------------
 
 Context& context();
-// One float renderer for the whole process, so programs are built once, with the tuning the
-// library picks for the device and workload. The cases name their exact backend (kernels for
-// `exact`, clblast for `gemm`), so that the two exact-sum paths stay apart whatever the tuning
-// picks for `auto`.
+// The process's float renderer, made on first use with the tuning the library picks for the
+// device and workload, so that the cases that share it build their programs once. The cases
+// name their exact backend (kernels for `exact`, clblast for `gemm`), so that the two exact-sum
+// paths stay apart whatever the tuning picks for `auto`.
 Renderer& renderer(const Scene& scene);
 // That renderer made anew (its programs from the kernel cache): a renderer rasters into its last
 // render's fragment buffers where they fit, so the first render of a fresh one makes every
