@@ -141,7 +141,7 @@ FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const
   for (int round = 0; round < 2 && box.x <= box.z && box.y <= box.w; ++round) {
     real factor = fmax(1 - zmin / cells_max(box, cell_max, cell, cells_x), R(0));
     int4 smaller = widened_box(&F, radius * factor, W, H);
-    if (all(smaller == box)) break;
+    if (mask_all(smaller == box)) break;
     box = smaller;
   }
   if (box.x <= box.z && box.y <= box.w) boxes[f] = box;
