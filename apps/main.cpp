@@ -1,7 +1,10 @@
 // `penumbra`: the command-line tool. One file per subcommand; shared options in common.cpp.
 // Every failure prints one line `penumbra: error: <message>` to stderr and exits with 1
 // (2 for usage errors).
+#include <cerrno>
 #include <csignal>
+#include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -14,6 +17,18 @@ namespace {
 int fail(const std::string& message, int code = 1) {
   std::cerr << "penumbra: error: " << penumbra::cli::one_line(message) << std::endl;
   return code;
+}
+
+// What a command printed is written out only when standard output is flushed: a full disk or a
+// closed pipe shows up there, and must not end in exit status 0.
+int flushed(int code) {
+  errno = 0;
+  std::cout.flush();
+  if (std::fflush(stdout) == 0 && !std::ferror(stdout) && std::cout.good()) return code;
+  const int error = errno;
+  return code != 0 ? code
+                   : fail(std::string("cannot write to standard output") +
+                          (error ? std::string(": ") + std::strerror(error) : std::string()));
 }
 
 }  // namespace
@@ -70,12 +85,12 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
+    return code == 0 ? flushed(0) : 2;
   }
 
   try {
     for (const Command& command : commands) {
-      if (command.app->parsed()) return command.run();
+      if (command.app->parsed()) return flushed(command.run());
     }
     return fail("no subcommand given", 2);
   } catch (const penumbra::Error& e) {

@@ -67,7 +67,8 @@ int run_build_floor(const std::string& counts_text) {
       json += (p ? ", " : "") + std::to_string(counts[p]);
       times += (p ? ", " : "") + std::to_string(ms.count());
     }
-    std::printf("%s%s]}\n", json.c_str(), times.c_str());
+    if (std::printf("%s%s]}\n", json.c_str(), times.c_str()) < 0 || std::fflush(stdout) != 0)
+      throw std::runtime_error("cannot write to standard output");
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra_bench: %s\n", e.what());

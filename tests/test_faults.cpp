@@ -266,6 +266,22 @@ TEST(FaultsCli, RenderToDevFullFails) {
   EXPECT_EQ(r.exit_code, 1);
 }
 
+// What a command prints goes to a full disk: the tool says so and fails. (Not run_cli_to, which
+// reads its stdout file back: /dev/full reads as endless zeros.)
+TEST(FaultsCli, StandardOutputThatCannotBeWrittenFails) {
+  const std::string err = ::testing::TempDir() + "penumbra_faults_stdout_full.stderr";
+  for (const std::string args : {"devices", "--help"}) {
+    RunResult r;
+    r.command = quote(PENUMBRA_CLI) + " " + args + " >/dev/full";
+    const int status = std::system((r.command + " 2>" + quote(err)).c_str());
+    r.signaled = status == -1 || !WIFEXITED(status);
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.err = read_text(err);
+    expect_clean_error(r, "cannot write to standard output: No space left on device");
+    EXPECT_EQ(r.exit_code, 1) << show(r);
+  }
+}
+
 TEST(FaultsCli, RenderWritesNoPngWhenTheRawArraysCannotBeWritten) {
   const std::string dir = fresh_dir("raw_fails");
   write_text(dir + "/file", "x");
