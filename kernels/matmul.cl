@@ -5,6 +5,11 @@
 //                     (B is K × N) without storing A·B or Ad·B: with U = Gy·S, the exact sums
 //                     Σ_i U_ri·Gx_ri and the backward's Σ_i U_ri·Gxd_ri, Σ_i (Gyd·S)_ri·Gx_ri;
 //                     matmul_nn_rowdot the first alone (.y, .z 0); row_dot(s) of stored products
+// support: per fragment r (a row of A, D in nn; of A, B in tn), int4: the first and last
+// nonzero column of its row of Gx, Gxd (.xy: D, Dd in nn, B in tn) and of Gy, Gyd (.zw: A,
+// Ad); first > last where the row is all 0 (exact_weights, shadow.cl). The products skip the
+// zeros outside: the terms they would add are exact zeros (every matrix is finite), and adding
+// ±0 to a sum that starts at +0 changes no bit of it.
 // The products run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs
 // (PoCL): a work-item computes 2·MM_RB rows × 2·MM_VW columns (tn), or MM_RB rows of A·B in
 // blocks of 2·MM_VW columns (nn_rowdot(s)). Launch: tn global (ceil(N/(2·MM_VW)),
@@ -80,28 +85,34 @@ inline void nn_step(realV acc[MM_RB][2], realV accd[MM_RB][2], __global const re
 INLINE void nn_rowdots(int m0, int M, int N, int K, __global const real* A,
                        __global const real* Ad, int lda, __global const real* B, int ldb,
                        __global const real* D, __global const real* Dd, int ldd,
-                       const int derivatives, realV dot[3][MM_RB]) {
+                       __global const int4* support, const int derivatives,
+                       realV dot[3][MM_RB]) {
   __global const real *a[MM_RB], *ad[MM_RB], *d[MM_RB], *dd[MM_RB];
+  int4 on = (int4)(N, -1, K, -1);  // the rows' supports together
   for (int r = 0; r < MM_RB; ++r) {  // rows past the edge repeat the last row (not stored)
     size_t row = (size_t)min(m0 + r, M - 1);
     a[r] = A + row * lda;
     d[r] = D + row * ldd;
     ad[r] = derivatives ? Ad + row * lda : a[r];
     dd[r] = derivatives ? Dd + row * ldd : d[r];
+    int4 s = support[row];
+    on = (int4)(min(on.x, s.x), max(on.y, s.y), min(on.z, s.z), max(on.w, s.w));
   }
 #pragma unroll
   for (int i = 0; i < MM_RB; ++i) dot[0][i] = dot[1][i] = dot[2][i] = 0;
-  for (int c = 0; c < N; c += NB) {
+  // Column blocks where D and Dd are zero add nothing to dot, steps along k where A and Ad are
+  // zero nothing to acc: both skipped (the blocks keep their places on the grid of NB).
+  for (int c = on.x / NB * NB; c <= on.y; c += NB) {
     realV acc[MM_RB][2], accd[MM_RB][2];
 #pragma unroll
     for (int i = 0; i < MM_RB; ++i) acc[i][0] = acc[i][1] = accd[i][0] = accd[i][1] = 0;
     if (c + NB <= N) {
-      for (int k = 0; k < K; ++k) {
+      for (int k = on.z; k <= on.w; ++k) {
         __global const real* b = B + (size_t)k * ldb + c;
         nn_step(acc, accd, a, ad, k, VLOAD(0, b), VLOAD(1, b), derivatives);
       }
     } else {  // the ragged right edge
-      for (int k = 0; k < K; ++k) {
+      for (int k = on.z; k <= on.w; ++k) {
         __global const real* b = B + (size_t)k * ldb;
         nn_step(acc, accd, a, ad, k, load_cols(b, c, N), load_cols(b, c + MM_VW, N),
                 derivatives);
@@ -124,11 +135,12 @@ INLINE void nn_rowdots(int m0, int M, int N, int K, __global const real* A,
 inline void nn_rowdots_kernel(int M, int N, int K, __global const real* A,
                               __global const real* Ad, int lda, __global const real* B, int ldb,
                               __global const real* D, __global const real* Dd, int ldd,
-                              __global real4* out, const int derivatives) {
+                              __global const int4* support, __global real4* out,
+                              const int derivatives) {
   int m0 = get_global_id(0) * MM_RB;
   if (m0 >= M) return;
   realV dot[3][MM_RB];
-  nn_rowdots(m0, M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, derivatives, dot);
+  nn_rowdots(m0, M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, support, derivatives, dot);
   for (int i = 0; i < MM_RB && m0 + i < M; ++i)
     out[m0 + i] = (real4)(HSUM(dot[0][i]), HSUM(dot[1][i]), HSUM(dot[2][i]), 0);
 }
@@ -136,15 +148,15 @@ inline void nn_rowdots_kernel(int M, int N, int K, __global const real* A,
 __kernel void matmul_nn_rowdot(int M, int N, int K, __global const real* A,
                                __global const real* Ad, int lda, __global const real* B, int ldb,
                                __global const real* D, __global const real* Dd, int ldd,
-                               __global real4* out) {
-  nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out, 0);
+                               __global const int4* support, __global real4* out) {
+  nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, support, out, 0);
 }
 
 __kernel void matmul_nn_rowdots(int M, int N, int K, __global const real* A,
                                 __global const real* Ad, int lda, __global const real* B,
                                 int ldb, __global const real* D, __global const real* Dd,
-                                int ldd, __global real4* out) {
-  nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out, 1);
+                                int ldd, __global const int4* support, __global real4* out) {
+  nn_rowdots_kernel(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, support, out, 1);
 }
 
 // out_r = (Σ C·D, Σ C·Dd, Σ Cd·D, 0) of stored products (CLBlast's GEMM); row_dot the first
@@ -181,18 +193,27 @@ __kernel void row_dots(int M, int N, __global const real* C, __global const real
 // matmul_tn's rows per work-item: its K (fragments) is long, so each row block streams all of
 // A and B; twice nt's rows halve that traffic.
 #define TN_RB (2 * MM_RB)
+// Whether row k of A and B can be nonzero in columns m0 .. m1 of A and n0 .. n1 of B.
+inline int tn_reaches(__global const int4* support, int k, int m0, int m1, int n0, int n1) {
+  int4 s = support[k];
+  return s.z <= m1 && s.w >= m0 && s.x <= n1 && s.y >= n0;
+}
+
 __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
-                        __global const real* B, int ldb, real beta, __global real* C, int ldc) {
+                        __global const real* B, int ldb, __global const int4* support, real beta,
+                        __global real* C, int ldc) {
   int n0 = get_global_id(0) * 2 * MM_VW, m0 = get_global_id(1) * TN_RB;
   if (m0 >= M || n0 >= N) return;
   // Two vectors of columns (one where only one fits: the second then repeats the first and is
   // not stored), so that 2·TN_RB independent sums hide the FMA latency.
   int vectors = min((N - n0) / MM_VW, 2), n1 = vectors == 2 ? n0 + MM_VW : n0;
+  const int m_last = min(m0 + TN_RB, M) - 1;
   if (vectors > 0) {
     realV acc[TN_RB][2];
 #pragma unroll
     for (int i = 0; i < TN_RB; ++i) acc[i][0] = acc[i][1] = 0;
     for (int k = 0; k < K; ++k) {
+      if (!tn_reaches(support, k, m0, m_last, n0, n1 + MM_VW - 1)) continue;
       realV b0 = VLOAD(0, B + (size_t)k * ldb + n0), b1 = VLOAD(0, B + (size_t)k * ldb + n1);
       __global const real* a = A + (size_t)k * lda;
 #pragma unroll
@@ -212,7 +233,9 @@ __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
   for (int i = 0; i < TN_RB && m0 + i < M; ++i)  // the ragged right edge, column by column
     for (int j = n0 + vectors * MM_VW; j < min(n0 + 2 * MM_VW, N); ++j) {
       real s = 0;
-      for (int k = 0; k < K; ++k) s += A[(size_t)k * lda + m0 + i] * B[(size_t)k * ldb + j];
+      for (int k = 0; k < K; ++k)
+        if (tn_reaches(support, k, m0 + i, m0 + i, j, j))
+          s += A[(size_t)k * lda + m0 + i] * B[(size_t)k * ldb + j];
       store(C, ldc, m0 + i, j, s, beta);
     }
 }

@@ -4,7 +4,8 @@
 //   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ)),
 //              one work-item per fragment (shadow_sample*), per texel (shadow_gather)
 //   exact      g over the whole map; since g_ij = gx_i·gy_j the sums are matrix products
-//              (exact_* kernels here, the products by matmul.cl or by CLBlast's GEMM)
+//              (exact_* kernels here, the products by matmul.cl, which skips the weights
+//              that are exactly 0, or by CLBlast's GEMM)
 // Buffers (K fragments, nl lights, this light l, map W_s × H_s row-major, row 0 at the top):
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2 K·nl × real4: truncated hard shadows write (·, ·, v, Σg') to .zw, the filtered
@@ -141,16 +142,36 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
 // U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------
 // Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
-// norm n × real4 (Σgx, Σgy, inside?, 0); dsum (backward only) n × real2 (Σgxd, Σgyd).
+// norm n × real4 (Σgx, Σgy, inside?, 0); dsum (backward only) n × real2 (Σgxd, Σgyd);
+// support n × int4: the first and last nonzero entry of the fragment's row of Gx (.xy) and of
+// Gy (.zw), empty (first > last) outside the map. Far from μ the weights are exactly 0
+// (exp_or_zero; float: beyond ~19 texels at σ_s = 2), and the products (matmul.cl) skip them.
+// The least and the greatest lane of v.
+inline real min8(real8 v) {
+  real4 a = fmin(v.lo, v.hi);
+  return fmin(fmin(a.s0, a.s1), fmin(a.s2, a.s3));
+}
+inline real max8(real8 v) {
+  real4 a = fmax(v.lo, v.hi);
+  return fmax(fmax(a.s0, a.s1), fmax(a.s2, a.s3));
+}
+
 // One axis of the weights, eight entries at a time: out[i] = g_i (and dout[i] = g_i·(i − c)/σ_s),
-// i < n, g_i = exp(−(i − c)²/(2σ_s)); returns (Σ g_i, Σ dout_i).
+// i < n, g_i = exp(−(i − c)²/(2σ_s)); returns (Σ g_i, Σ dout_i) and in *support the first and
+// last i whose g_i is nonzero (dout_i is 0 where g_i is).
 INLINE real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
-                           __global real* dout) {
+                           __global real* dout, int2* support) {
   real8 sum = 0, dsum = 0;
+  *support = (int2)(n, -1);
   for (int i0 = 0; i0 < n; i0 += 8) {
-    real8 d = (real)i0 + LANE8 - c;
+    real8 i = (real)i0 + LANE8, d = i - c;
     real8 g = on ? exp_or_zero(gaussian_arg(d, ss)) : (real8)0;
     real8 dg = dout ? g * d / ss : 0;  // the forward needs no derivative weights
+    if (mask_any(g != 0)) {
+      real8 first = select((real8)n, i, (g != 0) & (i < (real)n));
+      real8 last = select((real8)-1, i, (g != 0) & (i < (real)n));
+      *support = (int2)(min(support->x, (int)min8(first)), max(support->y, (int)max8(last)));
+    }
     if (i0 + 8 <= n) {
       vstore8(g, 0, out + i0);
       if (dout) vstore8(dg, 0, dout + i0);
@@ -175,17 +196,19 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
                                   int Wm, int Hm, __global const real4* rec_light,
                                   __global real* Gx, __global real* Gxd, int with_derivative,
                                   __global real* Gy, __global real* Gyd, __global real4* norm,
-                                  __global real2* dsum) {
+                                  __global real2* dsum, __global int4* support) {
   int k = get_global_id(0);
   if (k >= n) return;
   real4 x = rec_light[(r0 + k) * nl + light];
   real ss = P[P_SIGMA_S];
   int inside = inside_map(x.xy, Wm, Hm);
+  int2 nx, ny;
   real2 sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
-                           with_derivative ? Gxd + (size_t)k * Wm : 0);
+                           with_derivative ? Gxd + (size_t)k * Wm : 0, &nx);
   real2 sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm,
-                           with_derivative ? Gyd + (size_t)k * Hm : 0);
+                           with_derivative ? Gyd + (size_t)k * Hm : 0, &ny);
   norm[k] = (real4)(sx.x, sy.x, inside, 0);
+  support[k] = (int4)(nx, ny);
   if (with_derivative) dsum[k] = (real2)(sx.y, sy.y);
 }
 

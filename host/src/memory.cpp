@@ -50,14 +50,16 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
 
 // The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
 // exact_backward): batches of at most ~96 MiB of weights and products, or fewer fragments.
-// The forward holds Gx, Gy, dots and norm, the backward also Gxd, Gyd and dsum; with CLBlast the
-// products Gy·S (and Gyd·S) too (the direct kernels store none).
+// The forward holds Gx, Gy, dots, norm and the weights' supports (int4), the backward also Gxd,
+// Gyd and dsum; with CLBlast the products Gy·S (and Gyd·S) too (the direct kernels store none).
 size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward,
                          bool clblast) {
   const size_t cap = std::max<size_t>(1, (size_t(96) << 20) / (texels_side * 6 * z.rs));
-  const size_t fwd = std::min(cap, fragments) * ((clblast ? 3 : 2) * texels_side + 8) * z.rs;
+  const size_t support = 4 * sizeof(int);
+  const size_t fwd =
+      std::min(cap, fragments) * (((clblast ? 3 : 2) * texels_side + 8) * z.rs + support);
   const size_t bwd = std::min(std::max<size_t>(cap / 2, 1), fragments) *
-                     ((clblast ? 6 : 4) * texels_side + 10) * z.rs;
+                     (((clblast ? 6 : 4) * texels_side + 10) * z.rs + support);
   return backward ? std::max(fwd, bwd) : fwd;
 }
 

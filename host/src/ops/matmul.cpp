@@ -116,10 +116,11 @@ struct MatmulTnArgs {
   cl_int lda;
   const cl::Buffer& B;
   cl_int ldb;
+  const cl::Buffer& support;
   Real beta;
   const cl::Buffer& C;
   cl_int ldc;
-  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, beta, C, ldc); }
+  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, support, beta, C, ldc); }
 };
 
 // matmul_nn_rowdot and matmul_nn_rowdots take the same arguments; `kernel` says which.
@@ -133,8 +134,8 @@ struct MatmulRowdotsArgs {
   cl_int ldb;
   const cl::Buffer &D, &Dd;
   cl_int ldd;
-  const cl::Buffer& out;
-  auto fields() const { return std::tie(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, out); }
+  const cl::Buffer &support, &out;
+  auto fields() const { return std::tie(M, N, K, A, Ad, lda, B, ldb, D, Dd, ldd, support, out); }
 };
 
 // row_dot and row_dots take the same arguments; `kernel` says which.
@@ -154,7 +155,8 @@ struct RowDotsArgs {
 
 void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                        const cl::Buffer* Ad, size_t lda, const cl::Buffer& B, size_t ldb,
-                       const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd, cl::Buffer& out) {
+                       const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd,
+                       const cl::Buffer& support, cl::Buffer& out) {
   const bool derivatives = Ad && Dd;
   const cl::Buffer &ad = derivatives ? *Ad : A, &dd = derivatives ? *Dd : D;
   if (clblast) {
@@ -171,17 +173,17 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
   }
   auto& mm = bind_args(
       k, MatmulRowdotsArgs{derivatives ? "matmul_nn_rowdots" : "matmul_nn_rowdot", int(m), int(n),
-                           int(kk), A, ad, int(lda), B, int(ldb), D, dd, int(ldd), out});
+                           int(kk), A, ad, int(lda), B, int(ldb), D, dd, int(ldd), support, out});
   const size_t rows_per_item = size_t(k.tuning().exact.row_block);  // MM_RB
   launch_1d(k.ctx(), mm, (m + rows_per_item - 1) / rows_per_item, 8);
 }
 
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-               size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
-               size_t ldc) {
+               size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support, double beta,
+               cl::Buffer& C, size_t ldc) {
   if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
-  auto& mm = bind_args(
-      k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), beta, C, int(ldc)});
+  auto& mm = bind_args(k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), support,
+                                       beta, C, int(ldc)});
   const ExactSumTuning& t = k.tuning().exact;  // 2·MM_RB rows, 2·MM_VW columns per work-item
   const size_t rows = 2 * size_t(t.row_block), cols = 2 * size_t(t.vector_width);
   launch(k.ctx(), mm, cl::NDRange((n + cols - 1) / cols, (m + rows - 1) / rows),

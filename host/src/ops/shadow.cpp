@@ -87,10 +87,10 @@ struct ExactWeightsArgs {
   cl_int r0, m, light, nl, Wm, Hm;
   const cl::Buffer &rec_light, &Gx, &Gxd;
   cl_int with_derivative;
-  const cl::Buffer &Gy, &Gyd, &norm, &dsum;
+  const cl::Buffer &Gy, &Gyd, &norm, &dsum, &support;
   auto fields() const {
     return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, Gyd, norm,
-                    dsum);
+                    dsum, support);
   }
 };
 
@@ -129,16 +129,18 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
   const Precision p = k.precision();
   // every entry of a batch is written before it is read
   cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gy = alloc_reals(ctx, p, batch * Hm),
-             dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4);
+             dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
+             support = alloc_ints(ctx, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(
         k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, Gy, norm,
-                            norm});  // no derivatives: Gxd, Gyd and dsum are not written
+                            norm, support});  // no derivatives: Gxd, Gyd and dsum are not written
     launch_1d(ctx, wts, m);
     // dot_r = Σ_i U_ri·Gx_ri, U = Gy·S
-    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, nullptr, Hm, lm.S, Wm, Gx, nullptr, Wm, dot);
+    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, nullptr, Hm, lm.S, Wm, Gx, nullptr, Wm, support,
+                      dot);
     auto& fin = bind_args(k, ExactFinishArgs{at.P, r0, m, light, nl, dot, norm, f.rec_light});
     launch_1d(ctx, fin, m);
   }
@@ -187,19 +189,19 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
   cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gxd = alloc_reals(ctx, p, batch * Wm),
              Gy = alloc_reals(ctx, p, batch * Hm), Gyd = alloc_reals(ctx, p, batch * Hm),
              dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
-             dsum = alloc_reals(ctx, p, batch * 2);
+             dsum = alloc_reals(ctx, p, batch * 2), support = alloc_ints(ctx, batch * 4);
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
     auto& wts = bind_args(k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gxd,
-                                              1, Gy, Gyd, norm, dsum});
+                                              1, Gy, Gyd, norm, dsum, support});
     launch_1d(ctx, wts, m);
     // dots_r = Σ_i (U_ri·Gx_ri, U_ri·Gxd_ri, Ud_ri·Gx_ri), U = Gy·S, Ud = Gyd·S
-    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, dots);
+    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, support, dots);
     auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Hm, dots, Gy, norm, dsum,
                                                 f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
-    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
+    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, support, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
   }
   return g;
 }
