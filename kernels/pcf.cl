@@ -118,6 +118,7 @@ inline real4 window_sums(Window w, Receiver x, real sigma, __global const real* 
   realR sw = 0, swc = 0, sws = 0, swcs = 0, dc, step;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
+  w = nonzero_part(w, x.mu, sigma);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.mu.y, sigma);
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -249,6 +250,7 @@ inline Moments window_moments(Window w, Receiver x, real sigma, int search, real
   realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc, step;
   Columns c;
   columns_init(&c, w, x.mu, sigma);
+  w = nonzero_part(w, x.mu, sigma);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.mu.y, sigma), offy = j - x.mu.y;
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -400,9 +402,11 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
     int at = r * nl + light;
     real2 mu = rec_light[at].xy;
     real sigma = rec_light2[at].z, a = rec_lgrad[at].x, b = rec_lgrad2[at].z;
-    const real r2f = window_r2(sigma, leps), r2 = sampling_r2(max(r2f, r2s));
+    const real r2f = window_r2(sigma, leps);
+    const real r2 = sampling_r2(max(r2f, r2s), soft ? max(sigma, sigma_b) : sigma);
     if (!window_reaches(mu, i0, j0, rows, r2)) continue;
-    const real r2f_m = sampling_r2(r2f * GATHER_MARGIN), r2s_m = sampling_r2(r2s * GATHER_MARGIN);
+    const real r2f_m = sampling_r2(r2f * GATHER_MARGIN, sigma);
+    const real r2s_m = sampling_r2(r2s * GATHER_MARGIN, sigma_b);
     const int filter = a != 0 && window_reaches(mu, i0, j0, rows, r2f_m);
     const int search = soft && b != 0 && window_reaches(mu, i0, j0, rows, r2s_m);
     if (!filter && !search) continue;

@@ -25,6 +25,7 @@ INLINE real filter_depth(real2 mu, Window w, __global const real* P, __global co
   realR sum = 0, acc = 0;
   Columns c;
   columns_init(&c, w, mu, ss);
+  w = nonzero_part(w, mu, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, mu.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -77,6 +78,7 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
   Window w = sample_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
+  w = nonzero_part(w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -296,6 +298,7 @@ FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int
   const SoftCompare cmp = soft_compare(P);
   Columns c;
   columns_init(&c, w, x.xy, ss);
+  w = nonzero_part(w, x.xy, ss);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.y, ss);
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -330,6 +333,7 @@ BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light
   Window w = sample_window(x.xy, P, Wm, Hm);
   Columns c;
   columns_init(&c, w, x.xy, ss);
+  w = nonzero_part(w, x.xy, ss);
   // s = Σ g'·term / Σ g': through the weights (∂g'/∂μ = g·((i, j) − μ)/σ_s where g' > 0) and
   // through d_ij (∂d_ij/∂μ = −∇d, ∂d_ij/∂d = 1, ∂d_ij/∂∇d = (i, j) − μ). The sums are scaled
   // by dL/ds / Σg' at the end.
@@ -384,7 +388,7 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
     Pv[t] = loadR(Pmap, (j0 + t) * Wm + i0, n);
     accS[t] = accP[t] = 0;
   }
-  const real eps = sampling_eps(P[P_LAMBDA_EPS]), r2 = sampling_r2(P[P_WINDOW_R2]);
+  const real eps = sampling_eps(P[P_LAMBDA_EPS]), r2 = sampling_r2(P[P_WINDOW_R2], ss);
   const SoftCompare cmp = soft_compare(P);
   FOR_EACH_GATHER_FRAGMENT(r, bucket_reach(P)) {
     if (!window_reaches(rec_light[r * nl + light].xy, i0, j0, rows, r2)) continue;

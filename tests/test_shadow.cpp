@@ -9,8 +9,8 @@
 //                      Shadow/ShadowKernels.*/<sampling>)
 //   ShadowDouble.*     the shadows show: hard differs from none in every comparison scene
 //   ShadowSampling.*   exact on penumbra's kernels and on CLBlast (gemm) compute the same number
-//                      (and gradient); truncated → exact
-//                      as ε_λ → 0
+//                      (and gradient); truncated → exact as ε_λ → 0; the exact sums leave out
+//                      only weights that are exactly 0
 //   ShadowGradCheck.*  backward vs finite differences for every sampling method, with entries on
 //                      occluder vertices, receiver vertices and light positions; and with a loss
 //                      on the shadowed ground only (occluder vertices act through S alone)
@@ -427,6 +427,75 @@ TEST(ShadowSampling, TruncatedApproachesExact) {
     for (size_t i = 1; i < diffs.size(); ++i)
       EXPECT_LT(diffs[i], diffs[i - 1]) << name << " step " << i << line.str();
     EXPECT_LT(diffs.back(), 1e-5) << name << line.str();
+  }
+}
+
+// The exact sums visit only nonzero_part of the whole map (common/window.clh), on the ground
+// that its weights are exactly 0 beyond it, which is what keeps them bit for bit the whole map's
+// sums. Checked for the axis weights as the kernels form them (scalar, and on ROW lanes), in
+// float and double, for σ from 0.25 to 400 texel² and μ anywhere in a 256² map (200 centres
+// each): every nonzero weight lies inside, and for σ ≤ 8 the part is narrower than the map.
+TEST(ShadowSampling, ExactSumsLeaveOutOnlyZeroWeights) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string kernel = R"(
+__kernel void outside(int Wm, int Hm, real sigma, __global const real* mus, __global int* out) {
+  int k = get_global_id(0);
+  real2 mu = (real2)(mus[2 * k], mus[2 * k + 1]);
+  Window w = nonzero_part(sampling_window(mu, 0, 0, Wm, Hm), mu, sigma);
+  int bad = 0;
+  for (int i0 = 0; i0 < max(Wm, Hm); i0 += ROW) {
+    real t[ROW];
+    vstoreR(axis_weight((real)i0 + LANER - mu.x, sigma), 0, t);
+    for (int l = 0; l < ROW && i0 + l < Wm; ++l)
+      bad += (t[l] != 0 || axis_weight((real)(i0 + l) - mu.x, sigma) != 0) &&
+             (i0 + l < w.x0 || i0 + l > w.x1);
+    vstoreR(axis_weight((real)i0 + LANER - mu.y, sigma), 0, t);
+    for (int l = 0; l < ROW && i0 + l < Hm; ++l)
+      bad += (t[l] != 0 || axis_weight((real)(i0 + l) - mu.y, sigma) != 0) &&
+             (i0 + l < w.y0 || i0 + l > w.y1);
+  }
+  out[2 * k] = bad;
+  out[2 * k + 1] = max(w.x1 - w.x0, w.y1 - w.y0) + 1;
+})";
+  const std::string source = Context::kernel_source("common/window.clh") + kernel;
+  const int side = 256, n = 200;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> at(-0.5, side - 0.5);
+  std::vector<double> mus(2 * n);
+  for (double& m : mus) m = at(rng);
+  for (Precision p : {Precision::Float, Precision::Double}) {
+    const bool dbl = p == Precision::Double;
+    cl::Program program(ctx->cl_context(), source);
+    program.build(Context::build_options(std::string("-DSAMPLING_EXACT -DROW=16") +
+                                         (dbl ? " -DPENUMBRA_DOUBLE" : ""))
+                      .c_str());
+    cl::Kernel k(program, "outside");
+    const size_t size = dbl ? sizeof(double) : sizeof(float);
+    std::vector<float> musf(mus.begin(), mus.end());
+    cl::Buffer in(ctx->cl_context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 2 * n * size,
+                  dbl ? static_cast<void*>(mus.data()) : static_cast<void*>(musf.data()));
+    cl::Buffer out(ctx->cl_context(), CL_MEM_WRITE_ONLY, 2 * n * sizeof(int));
+    for (double sigma : {0.25, 2.0, 8.0, 400.0}) {
+      const std::string label =
+          std::string(dbl ? "double" : "float") + ", σ " + std::to_string(sigma);
+      k.setArg(0, side);
+      k.setArg(1, side);
+      if (dbl)
+        k.setArg(2, sigma);
+      else
+        k.setArg(2, float(sigma));
+      k.setArg(3, in);
+      k.setArg(4, out);
+      ctx->queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n));
+      std::vector<int> got(2 * n);
+      ctx->queue().enqueueReadBuffer(out, CL_TRUE, 0, got.size() * sizeof(int), got.data());
+      int bad = 0, widest = 0;
+      for (int i = 0; i < n; ++i) bad += got[2 * i], widest = std::max(widest, got[2 * i + 1]);
+      EXPECT_EQ(bad, 0) << label << ": nonzero weights outside the part the sums visit";
+      if (sigma <= 8) {
+        EXPECT_LT(widest, side) << label << ": the part is the whole map";
+      }
+    }
   }
 }
 
