@@ -71,19 +71,16 @@ MISS_REASONS = [
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
      "texels per fragment."),
-    ("hard shadows, exact", "every fragment weighs every texel: 2·N·W_s·H_s flops, computed "
-     "by `matmul_nn_rowdot` (Gy·S, each row summed against Gx as it is formed; its device time "
-     "per frame is in the profile below). Besides the product the frame computes the Gaussian "
-     "weight matrices (`exact_weights`: written to memory and read back by the product; the "
-     "exps below the smallest normal number are skipped) and the two raster passes; the FMA "
-     "share above counts the whole frame. CLBlast (sampling `gemm`) is slower here and stores "
+    ("hard shadows, exact", "every fragment's Gaussian weights span the map: `exact_weights` "
+     "writes N·(W_s + H_s) of them, and `matmul_nn_rowdot` forms Gy·S, each row summed against "
+     "Gx as it is formed, over the weights that are not exactly 0 (within about 18.7 texels of "
+     "μ at σ_s = 2 in float); their device times per frame are in the profile below. The two "
+     "raster passes come on top. CLBlast (sampling `gemm`) multiplies every weight and stores "
      "the product."),
     (("backward ≤ 3× forward (hard, exact", "backward ≤ 3× forward (hard, gemm"), "the exact "
-     "backward computes three matrix products of the forward's size (Gy·S and Gyd·S, summed "
-     "against Gx and Gxd, and (a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one (Gy·S), so "
-     "its arithmetic alone is three times the forward's; the step case's quotient measured "
-     "2.57-3.04× in five runs of it alone (`penumbra_bench --benchmark_filter=^step/hard/exact`, "
-     "two of them with glibc's MALLOC_MMAP_THRESHOLD_ and MALLOC_TRIM_THRESHOLD_ set) and 3.49× in the suite (same code, 2026-11-26)."),
+     "backward computes three matrix products (Gy·S and Gyd·S, summed against Gx and Gxd, and "
+     "(a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one (Gy·S), and twice the weight "
+     "matrices (Gx, Gy and the derivative weights Gxd, Gyd) in batches half as large."),
     ("backward ≤ 3× forward (hard, truncated", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
@@ -410,8 +407,9 @@ def copy_comparisons(folder, image_dir):
 
 # ---- per-kernel profiles ------------------------------------------------------------------
 
+# exact-dense: the hard exact case at σ_s = DENSE_SIGMA_S, where the products skip nothing.
 PROFILE_MODES = [("none", "truncated"), ("hard", "truncated"), ("hard", "exact"),
-                 ("hard", "gemm"), ("soft", "truncated")]
+                 ("hard", "exact-dense"), ("hard", "gemm"), ("soft", "truncated")]
 # A row of the PENUMBRA_PROFILE=1 table: kernel, device ms, launches.
 KERNEL_LINE = re.compile(r"^\s+([A-Za-z_]\w*)\s+(\d+(?:\.\d+)?)\s+(\d+)\s*$")
 
@@ -472,7 +470,9 @@ def profile_section(res, profiles):
          " the warm-up included) and divided by them; CLBlast's GEMM is",
          "one row, the time of the last kernel of each call, the event CLBlast returns.",
          "The raster kernels serve both the light pass and the camera pass; the exact case runs",
-         "penumbra's direct product kernels, the gemm case CLBlast's GEMM.", ""]
+         "penumbra's direct product kernels, the gemm case CLBlast's GEMM; exact-dense is the",
+         "exact case at σ_s = 400 (`sigma_s:400` in the filter), where no weight is 0 and the",
+         "products skip nothing.", ""]
     rows = []
     for (sh, sa), p in profiles.items():
         if not p["kernels"]:
@@ -503,10 +503,23 @@ def profile_section(res, profiles):
     return "\n".join(L)
 
 
-def matmul_rate(res, profiles):
-    """GFLOP/s of the exact path's product kernels alone, from the profile."""
-    p = profiles.get(("hard", "exact"))
-    r = res.render("fwd", shadows="hard", sampling="exact")
+# The σ_s of the dense exact cases: no Gaussian weight of a 256² map is 0 there (float).
+DENSE_SIGMA_S = 400.0
+
+
+def dense_products(r):
+    """Whether a hard exact or gemm case's GFLOP/s counts the flops its products execute:
+    CLBlast's GEMM multiplies every weight, penumbra's kernels skip those that are exactly 0
+    (exp's argument −d²/(2σ_s) below −87 in float), which none is where σ_s ≥ (W_s − 1)²/174."""
+    return r.get("sampling") == "gemm" or r.get("sigma_s", 0) >= (r["map"] - 1) ** 2 / 174
+
+
+def matmul_rate(res, profiles, dense=False):
+    """GFLOP/s of the exact path's product kernels alone, from the profile (dense-equivalent
+    but at σ_s = DENSE_SIGMA_S), their ms, exact_weights' ms and the frame's kernel ms."""
+    p = profiles.get(("hard", "exact-dense" if dense else "exact"))
+    r = res.render("fwd", shadows="hard", sampling="exact",
+                   **({"sigma_s": DENSE_SIGMA_S} if dense else {}))
     if not p or not p["kernels"] or not r or not r.get("fragments"):
         return None
     ns = sum(t for n, _, t in p["kernels"] if stage_of(n) == "matmul")
@@ -629,9 +642,16 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     def against(r):
         if not r:
             return "–"
-        if r.get("gflops") and peak:
+        if r.get("gflops") and peak and dense_products(r):
             return f"{fmt(r['gflops'])} GFLOP/s = {fmt(r['gflops'] / peak * 100, 2)} % of FMA peak"
-        if r.get("samples_per_s") and exp_rate:
+        if r.get("gflops") and peak:
+            dense = res.render(r["pass_"], shadows="hard", sampling="exact", sigma_s=DENSE_SIGMA_S)
+            out = f"{fmt(r['gflops'])} GFLOP/s dense-equivalent"
+            if dense and dense.get("gflops"):
+                out += (f"; dense at σ_s = {DENSE_SIGMA_S:g}: {fmt(dense['gflops'])} GFLOP/s = "
+                        f"{fmt(dense['gflops'] / peak * 100, 2)} % of FMA peak")
+            return out
+        if r.get("samples_per_s") and exp_rate and r.get("sampling") != "exact":
             return (f"{si(r['samples_per_s'])} samples/s = "
                     f"{fmt(r['samples_per_s'] / exp_rate * 100, 2)} % of exp rate")
         if r.get("pixel_face_pairs_per_s"):
@@ -715,13 +735,15 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
                 continue
             g = r.get("gflops")
             sps = r.get("samples_per_s")
-            exp_sps = sps if not g else None  # products are compared with the FMA peak
+            # Products are compared with the FMA peak; exact sums skip the texels of weight 0.
+            exp_sps = sps if not g and sa != "exact" else None
             rows.append(("forward" if pass_ == "fwd" else "backward", f"{sh} / {sa}", f"{mp}²",
                          fmt(ms(r)), fmt(r.get("ms_min")), fmt(r.get("frames_per_s")),
                          si(r.get("pixel_face_pairs_per_s")), si(sps),
                          f"{fmt(exp_sps / exp_rate * 100, 2)} %" if exp_sps and exp_rate else "–",
-                         fmt(g) if g else "–",
-                         f"{fmt(g / peak * 100, 2)} %" if g and peak else "–",
+                         (fmt(g) if dense_products(r) else f"{fmt(g)} (dense-eq.)") if g else "–",
+                         f"{fmt(g / peak * 100, 2)} %" if g and peak and dense_products(r)
+                         else "–",
                          f"{fmt(r.get('peak_rss_MiB'))} ({fmt(r.get('rss_at_start_MiB'))})"
                          if r.get("rss_at_start_MiB") else fmt(r.get("peak_rss_MiB"))))
     w(table(("pass", "shadows / sampling", "map", "median ms", "best ms", "frames/s",
@@ -731,8 +753,12 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("*pixel·face pairs/s* counts the brute-force pairs, (W·H + lights·W_s·H_s when shadows are")
     w("on)·faces, per second: a size-normalised speed (tiling visits far fewer pairs). *samples/s*")
     w("counts texels weighed per second: N·(2R)² per light truncated, R = sqrt(2σ_s·ln(1/ε_λ)),")
-    w("N·W_s·H_s exact and gemm. *GFLOP/s* (hard exact and gemm): products·2·N·W_s·H_s per light")
-    w("per frame (one product forward, three backward) over the whole-frame time. *Peak RSS*")
+    w("N·W_s·H_s exact and gemm (exact: every texel counted, though the kernels skip those whose")
+    w("weight is exactly 0; no % of exp). *GFLOP/s* (hard exact and gemm): products·2·N·W_s·H_s per light")
+    w("per frame (one product forward, three backward) over the whole-frame time; for exact on")
+    w("penumbra's kernels a dense-equivalent figure (*dense-eq.*, no % of peak): they skip the")
+    w("weights that are exactly 0 and execute far fewer flops (the σ_s sweep's dense cases, σ_s =")
+    w(f"{DENSE_SIGMA_S:g}, run them on every weight). *Peak RSS*")
     w("is the process's resident-memory high-water mark during the case (device buffers of PoCL's")
     w("CPU device are host memory); in brackets, the resident size when the case began, which")
     w("still holds what earlier cases left allocated, so only the difference is the case's own.")
@@ -869,13 +895,18 @@ def memory_lines(res, plotted, rel_images):
 def sweep_intro(key):
     return {
         "img": "Image size W = H, everything else at the reference point (256² map, 1312 faces).",
-        "map": "Shadow-map size W_s = H_s at a 256² image. Exact and gemm hard shadows cost "
-               "O(N·W_s·H_s); truncated ones O(N·R²) plus the light pass, O(W_s·H_s).",
+        "map": "Shadow-map size W_s = H_s at a 256² image. Gemm hard shadows cost O(N·W_s·H_s) "
+               "(CLBlast multiplies every weight); exact ones O(N·(W_s + H_s)) for the weights "
+               "plus products over those not exactly 0 (about 37 texels a side at σ_s = 2); "
+               "truncated ones O(N·R²); all plus the light pass, O(W_s·H_s).",
         "faces": "Face count: the bundled 1280-face sphere, then icospheres of geodesic frequency "
                  "16, 32, 50, 71 (100 and 224 in the large cases) — 20·n² faces — on the 32-face "
                  "ground plane, 256² image and map.",
         "sigma_s": "σ_s (texel²) at the reference point: the truncated window has radius "
-                   "R = sqrt(2σ_s·ln(1/ε_λ)), so its area grows linearly with σ_s.",
+                   "R = sqrt(2σ_s·ln(1/ε_λ)), so its area grows linearly with σ_s; the exact "
+                   "sums leave out the weights beyond sqrt(174·σ_s) texels (exactly 0 in "
+                   f"float), which grows the same way. At σ_s = {DENSE_SIGMA_S:g} (hard exact "
+                   "only) no weight of the 256² map is 0: the products run dense.",
         "lights": "Lights: one shadow map (and penumbra map) per light; lights 2 and 3 are light 0 "
                   "turned about +y by 120° and 240°.",
     }[key]
@@ -939,17 +970,30 @@ def stage_notes(res, peak, exp_rate, profiles):
         r = res.render("fwd", shadows="hard", sampling="exact")
         flops = r["gflops"] * ex * 1e-3 if r.get("gflops") else None
         s = (f"- **Hard exact** ({fmt(ex)} ms) spends {fmt(ex - none)} ms beyond the camera "
-             f"pass on the light pass and the O(N·W_s·H_s) exact sum (N ≈ {fmt(r.get('fragments'))}")
+             f"pass on the light pass and the exact sum (N ≈ {fmt(r.get('fragments'))}")
         if flops:
-            s += f", {fmt(flops)} GFLOP per frame"
+            s += f", {fmt(flops)} GFLOP per frame if every weight were multiplied"
         s += ")."
         mm = matmul_rate(res, profiles)
         if mm and mm[0]:
             rate, mm_ms, w_ms, total_ms = mm
             s += (f" Per profiled frame the product kernels took {fmt(mm_ms)} ms "
-                  f"({fmt(rate)} GFLOP/s, {fmt(rate / peak * 100, 2) if peak else '–'} % of the FMA "
-                  f"ceiling) and the Gaussian weight matrices Gx, Gy (`exact_weights`) "
-                  f"{fmt(w_ms)} ms, of {fmt(total_ms)} ms of kernel time.")
+                  f"({fmt(rate)} GFLOP/s dense-equivalent: they skip the weights that are "
+                  f"exactly 0, beyond about 18.7 texels of μ) and the Gaussian weight matrices "
+                  f"Gx, Gy (`exact_weights`) {fmt(w_ms)} ms, of {fmt(total_ms)} ms of kernel "
+                  f"time.")
+            dense = res.render("fwd", shadows="hard", sampling="exact", sigma_s=DENSE_SIGMA_S)
+            if dense and dense.get("gflops") and peak:
+                s += (f" Where no weight is 0 (σ_s = {DENSE_SIGMA_S:g}) the products run dense: "
+                      f"{fmt(ms(dense))} ms a frame, {fmt(dense['gflops'])} GFLOP/s over the "
+                      f"whole frame = {fmt(dense['gflops'] / peak * 100, 2)} % of the FMA "
+                      f"ceiling")
+                dm = matmul_rate(res, profiles, dense=True)
+                if dm and dm[0]:
+                    s += (f"; the product kernels alone took {fmt(dm[1])} ms of it, "
+                          f"{fmt(dm[0])} GFLOP/s = {fmt(dm[0] / peak * 100, 2)} % of the "
+                          f"ceiling")
+                s += "."
             if exp_rate and r.get("fragments"):
                 exps = r["fragments"] * 2 * r["map"]
                 s += (f" Those weights are N·(W_s + H_s) = {si(exps)} exps at most, "
@@ -957,7 +1001,7 @@ def stage_notes(res, peak, exp_rate, profiles):
                       f"below the smallest normal number are skipped).")
         elif flops:
             s += (f" Counting the whole difference as product time gives ≥ "
-                  f"{fmt(flops / ((ex - none) * 1e-3))} GFLOP/s.")
+                  f"{fmt(flops / ((ex - none) * 1e-3))} GFLOP/s dense-equivalent.")
         if gm:
             s += f" CLBlast's GEMM (gemm, {fmt(gm)} ms) takes {fmt(gm / ex)}× the direct kernels' time."
         out.append(s)

@@ -128,21 +128,24 @@ fi
 # included), is printed at exit; the report divides by the frames (PoCL's own POCL_TRACING=cq
 # profiler corrupts memory in PoCL 3.1: docs/faults.md). A failed run's exit status is recorded
 # and the report says the profile is unavailable.
+# exact-dense is the exact case at σ_s = 400, where no Gaussian weight is 0 (the products run
+# on every weight).
 rm -f out/bench/profile_*.txt
-while read -r shadows sampling; do
+while read -r shadows sampling sigma; do
   f="out/bench/profile_fwd_${shadows}_${sampling}.txt"
   status=0
   PENUMBRA_PROFILE=1 timeout 600 "$BENCH" --benchmark_min_time=0.5 \
-    --benchmark_filter="^fwd/$shadows/$sampling/img:256/map:256/faces:1312/sigma_s:2/lights:1/manual_time" \
+    --benchmark_filter="^fwd/$shadows/${sampling%-dense}/img:256/map:256/faces:1312/sigma_s:$sigma/lights:1/manual_time" \
     > "$f" 2>&1 || status=$?
   echo "exit status $status" >> "$f"
   echo "bench: profile $shadows/$sampling: exit status $status"
 done <<'MODES'
-none truncated
-hard truncated
-hard exact
-hard gemm
-soft truncated
+none truncated 2
+hard truncated 2
+hard exact 2
+hard exact-dense 400
+hard gemm 2
+soft truncated 2
 MODES
 
 # --- first call in a new process ------------------------------------------------------------
