@@ -376,8 +376,8 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
                                 __global const int* bucket_offsets,
                                 __global const int* bucket_counts, __global const int* bucket_recs,
-                                __global const real* bucket_radius, __global real* gS,
-                                __global real* gA) {
+                                __global const real* bucket_radius, __global const int4* chunks,
+                                __global real* gS, __global real* gA) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0), soft = soft_mode(P);
@@ -440,4 +440,26 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
   }
   store_rows(acc, rows, n, i0, j0, Wm, gS);
   store_rows(accA, rows, n, i0, j0, Wm, gA);
+}
+
+// pcf_gather's chunks (window.clh): the texels within the exact weights' zero_radius of each
+// fragment inside the map, its filter's where dL/ds ≠ 0 and (soft shadows) its search's where
+// dL/dz_b ≠ 0 (pcf_gather skips a fragment with neither).
+BACKWARD_KERNEL void pcf_gather_chunks(__global const real* P, int nrec, int light, int nl, int Wm,
+                                       int Hm, __global const real4* rec_light,
+                                       __global const real4* rec_light2,
+                                       __global const real4* rec_lgrad,
+                                       __global const real4* rec_lgrad2, __global int4* chunks) {
+  int c = get_global_id(0);
+  if (c * GATHER_CHUNK >= nrec) return;
+  const real sigma_b = light_disc(P, light).sigma_b;
+  int4 box = empty_box();
+  for (int r = c * GATHER_CHUNK; r < min(nrec, (c + 1) * GATHER_CHUNK); ++r) {
+    int at = r * nl + light;
+    if (!inside_map(rec_light[at].xy, Wm, Hm)) continue;
+    if (rec_lgrad[at].x != 0) box = grow_box(box, rec_light[at].xy, zero_radius(rec_light2[at].z));
+    if (soft_mode(P) && rec_lgrad2[at].z != 0)
+      box = grow_box(box, rec_light[at].xy, zero_radius(sigma_b));
+  }
+  chunks[c] = box;
 }

@@ -119,7 +119,8 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
                                    __global const real4* rec_lgrad,
                                    __global const int* bucket_offsets,
                                    __global const int* bucket_counts,
-                                   __global const int* bucket_recs, __global real* gS) {
+                                   __global const int* bucket_recs, __global const int4* chunks,
+                                   __global real* gS) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
@@ -377,7 +378,8 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
                                  __global const real4* rec_lgrad,
                                  __global const int* bucket_offsets,
                                  __global const int* bucket_counts, __global const int* bucket_recs,
-                                 __global real* gS, __global real* gPmap) {
+                                 __global const int4* chunks, __global real* gS,
+                                 __global real* gPmap) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S];
@@ -412,4 +414,18 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
   }
   store_rows(accS, rows, n, i0, j0, Wm, gS);
   store_rows(accP, rows, n, i0, j0, Wm, gPmap);
+}
+
+// soft_gather's chunks (window.clh): the texels within the exact weights' zero_radius of each
+// fragment inside the map with a gradient (soft_gather skips the others).
+BACKWARD_KERNEL void soft_gather_chunks(__global const real* P, int nrec, int light, int nl, int Wm,
+                                        int Hm, __global const real4* rec_light,
+                                        __global const real4* rec_lgrad, __global int4* chunks) {
+  int c = get_global_id(0);
+  if (c * GATHER_CHUNK >= nrec) return;
+  int4 box = empty_box();
+  for (int r = c * GATHER_CHUNK; r < min(nrec, (c + 1) * GATHER_CHUNK); ++r)
+    if (rec_lgrad[r * nl + light].x != 0 && inside_map(rec_light[r * nl + light].xy, Wm, Hm))
+      box = grow_box(box, rec_light[r * nl + light].xy, zero_radius(P[P_SIGMA_S]));
+  chunks[c] = box;
 }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstddef>
 
+#include "ops/ops.hpp"
 #include "penumbra/renderer.hpp"
 
 namespace penumbra {
@@ -91,7 +92,13 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
       bytes += texels / 2 * z.rs;  // the search map: S and A at a stride of 2 or more (pcf.cpp)
     if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
     if (backward && p.shadow_model == ShadowModel::Accurate)
-      bytes += texels * z.rs;  // pcf_gather's bucket radii (pcf.cpp)
+      bytes += texels * z.rs;                               // pcf_gather's bucket radii (pcf.cpp)
+    if (backward && !sampling_method(p.sampling).windowed)  // the exact gathers' chunk boxes
+      for (const Camera& c : scene.cameras)
+        bytes += (fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel) /
+                      detail::kGatherChunk +
+                  1) *
+                 4 * sizeof(int);
     if (!sampling_method(p.sampling).windowed && p.shadows == Shadows::Hard &&
         p.shadow_model == ShadowModel::Paper) {
       const bool clblast = tuning ? exact_backend_in_force(p, *tuning) == ExactBackend::CLBlast

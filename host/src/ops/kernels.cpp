@@ -36,7 +36,8 @@ std::string program_options(const std::string& file, Precision precision, const 
          " -DFACE_LANES=" + std::to_string(r.face_lanes);
   if (file == "shadow.cl" || file == "pcf.cl")
     o += " -DROW=" + std::to_string(device_defaults(device).shadow_row) +
-         " -DGATHER_ROWS=" + std::to_string(device_defaults(device).gather_rows);
+         " -DGATHER_ROWS=" + std::to_string(device_defaults(device).gather_rows) +
+         " -DGATHER_CHUNK=" + std::to_string(kGatherChunk);
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +

@@ -121,6 +121,12 @@ inline bool exact_on_clblast(const RenderParams& p, const Tuning& t) {
 
 // Launches a gather (shadow_gather, soft_gather, pcf_gather) over a W_s × H_s map.
 void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm);
+// Fragments per chunk of the exact gathers (window.clh's GATHER_CHUNK, set from here).
+constexpr int kGatherChunk = 16;
+// The exact gathers' chunk boxes (int4 per kGatherChunk of `nrec` fragments), written by the
+// kernel that `bind` binds to the buffer it is given (soft_gather_chunks, pcf_gather_chunks).
+cl::Buffer gather_chunks(Kernels& k, int nrec,
+                         const std::function<cl::Kernel&(const cl::Buffer&)>& bind);
 
 // The stages' inputs and outputs. A view (a camera, or a light rendering its shadow map) runs
 // transform → raster fragments → [shadow lookups] → resolve; each stage returns its own

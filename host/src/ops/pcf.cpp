@@ -60,11 +60,20 @@ struct PcfGatherArgs {
   cl_int reach;
   const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   BinLists buckets;
-  const cl::Buffer &bucket_radius, &gS, &gA;
+  const cl::Buffer &bucket_radius, &chunks, &gS, &gA;
   auto fields() const {
     return std::tie(at, reach, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets,
-                    bucket_radius, gS, gA);
+                    bucket_radius, chunks, gS, gA);
   }
+};
+
+struct PcfGatherChunksArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_gather_chunks";
+  static constexpr KernelPart part = KernelPart::Backward;
+  MapLookup at;
+  const cl::Buffer &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2, &chunks;
+  auto fields() const { return std::tie(at, rec_light, rec_light2, rec_lgrad, rec_lgrad2, chunks); }
 };
 
 struct PcfBucketRadiusArgs {
@@ -95,11 +104,12 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
   return int(std::ceil(std::sqrt(r2))) + 1;
 }
 
-// pcf_gather's texel buckets and each bucket's radius (pcf_bucket_radius); placeholders for the
-// exact gather, which visits every fragment.
+// pcf_gather's texel buckets and each bucket's radius (pcf_bucket_radius), placeholders for
+// the exact gather; the exact gather's chunk boxes (pcf_gather_chunks), a placeholder for the
+// truncated one.
 struct GatherBuckets {
   Bins bins;
-  cl::Buffer radius;
+  cl::Buffer radius, chunks;
 };
 
 GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
@@ -109,8 +119,14 @@ GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const
   if (!sampling_method(sampling).windowed) {
     b.bins.offsets = b.bins.counts = b.bins.items = alloc_ints(ctx, 1);
     b.radius = alloc_reals(ctx, k.precision(), 1);
+    b.chunks = gather_chunks(k, at.nrec, [&](const cl::Buffer& out) -> cl::Kernel& {
+      return bind_args(
+          k, PcfGatherChunksArgs{at, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2, out},
+          sampling_define(sampling));
+    });
     return b;
   }
+  b.chunks = alloc_ints(ctx, 4);
   const size_t texels = size_t(at.Wm) * at.Hm;
   b.bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
   b.radius = alloc_reals(ctx, k.precision(), texels);
@@ -166,11 +182,11 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
   launch_1d(ctx, sb, n);
   const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at);
   const int reach = gather_reach(k, p, search_sigma, v, f, light);
-  auto& ga =
-      bind_args(k,
-                PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2, fgr.rec_lgrad,
-                              fgr.rec_lgrad2, buckets.bins, buckets.radius, g.S, g.A},
-                variant);
+  auto& ga = bind_args(
+      k,
+      PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2,
+                    buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
+      variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
     read_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4, [&](const auto* g2) {

@@ -43,8 +43,8 @@ struct ShadowGatherArgs {
   MapLookup at;
   const cl::Buffer &rec_light, &rec_lgrad;
   BinLists buckets;
-  const cl::Buffer& gS;
-  auto fields() const { return std::tie(at, rec_light, rec_lgrad, buckets, gS); }
+  const cl::Buffer &chunks, &gS;
+  auto fields() const { return std::tie(at, rec_light, rec_lgrad, buckets, chunks, gS); }
 };
 
 struct SoftSampleArgs {
@@ -73,10 +73,19 @@ struct SoftGatherArgs {
   MapLookup at;
   const cl::Buffer &S, &Pmap, &rec_light, &rec_light2, &rec_lgrad;
   BinLists buckets;
-  const cl::Buffer &gS, &gPmap;
+  const cl::Buffer &chunks, &gS, &gPmap;
   auto fields() const {
-    return std::tie(at, S, Pmap, rec_light, rec_light2, rec_lgrad, buckets, gS, gPmap);
+    return std::tie(at, S, Pmap, rec_light, rec_light2, rec_lgrad, buckets, chunks, gS, gPmap);
   }
+};
+
+struct SoftGatherChunksArgs {
+  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* kernel = "soft_gather_chunks";
+  static constexpr KernelPart part = KernelPart::Backward;
+  MapLookup at;
+  const cl::Buffer &rec_light, &rec_lgrad, &chunks;
+  auto fields() const { return std::tie(at, rec_light, rec_lgrad, chunks); }
 };
 
 // The exact path's kernels take a batch of m fragments from r0 instead of a MapLookup.
@@ -154,15 +163,20 @@ MapGrads soft_backward(Kernels& k, Sampling sampling, const View& v, const Fragm
                                          fgr.rec_lgrad, fgr.rec_lgrad2},
                        variant);
   launch_1d(k.ctx(), sb, at.nrec);
-  Bins bins;  // the exact gather visits every fragment and needs no buckets
-  if (sampling_method(sampling).windowed)
+  Bins bins;  // the truncated gather's buckets, or the exact gather's chunks
+  cl::Buffer chunks = alloc_ints(k.ctx(), 4);
+  if (sampling_method(sampling).windowed) {
     bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
-  else
+  } else {
     bins.offsets = bins.counts = bins.items = alloc_ints(k.ctx(), 1);
+    chunks = gather_chunks(k, at.nrec, [&](const cl::Buffer& out) -> cl::Kernel& {
+      return bind_args(k, SoftGatherChunksArgs{at, f.rec_light, fgr.rec_lgrad, out}, variant);
+    });
+  }
   g.P = zero_reals(k.ctx(), k.precision(), size_t(at.Wm) * at.Hm);
   auto& ga = bind_args(k,
                        SoftGatherArgs{at, lm.S, lm.penumbra, f.rec_light, f.rec_light2,
-                                      fgr.rec_lgrad, bins, g.S, g.P},
+                                      fgr.rec_lgrad, bins, chunks, g.S, g.P},
                        variant);
   launch_gather(k, ga, at.Wm, at.Hm);
   return g;
@@ -174,7 +188,8 @@ MapGrads truncated_backward(Kernels& k, const View& v, const Fragments& f, const
   launch_1d(k.ctx(), sb, at.nrec);
   // texels gather from nearby fragments
   Bins bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
-  auto& ga = bind_args(k, ShadowGatherArgs{at, f.rec_light, fgr.rec_lgrad, bins, g.S});
+  const cl::Buffer no_chunks = alloc_ints(k.ctx(), 4);  // (truncated)
+  auto& ga = bind_args(k, ShadowGatherArgs{at, f.rec_light, fgr.rec_lgrad, bins, no_chunks, g.S});
   launch_gather(k, ga, at.Wm, at.Hm);
   return g;
 }
@@ -213,6 +228,14 @@ void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
   const int row = d.shadow_row, rows = d.gather_rows;
   launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, (Hm + rows - 1) / rows),
          cl::NDRange(8, 8));
+}
+
+cl::Buffer gather_chunks(Kernels& k, int nrec,
+                         const std::function<cl::Kernel&(const cl::Buffer&)>& bind) {
+  const size_t chunks = (size_t(nrec) + kGatherChunk - 1) / kGatherChunk;
+  cl::Buffer out = alloc_ints(k.ctx(), std::max<size_t>(chunks, 1) * 4);
+  launch_1d(k.ctx(), bind(out), chunks);
+  return out;
 }
 
 // The fragments bucketed by the texel nearest their μ (bin.cl with one-texel tiles).
