@@ -127,6 +127,20 @@ void add_steps() {
   add_step(set(with(Shadows::Hard, Sampling::Truncated), &Case::frequency, 71));
 }
 
+// σ_s (texel²): the truncated window grows as sqrt(σ_s), and so does the part of the map whose
+// exact weights are not 0. At σ_s = 400 none of a 256² map's is (float): the exact products run
+// dense, and their GFLOP/s are flops executed.
+void add_sigma_s_sweep(const Case& hard, const Case& soft, const Case& hard_exact) {
+  for (double ss : {0.5, 1.0, 4.0, 8.0, 400.0}) {
+    if (ss < 400)
+      for (const Case& c : {hard, soft}) add(false, set(c, &Case::sigma_s, ss));
+    if (ss == 0.5 || ss == 8.0)
+      for (const Case& c : {hard, soft}) add(true, set(c, &Case::sigma_s, ss));
+    if (ss == 0.5 || ss == 8.0 || ss == 400)
+      for (bool bwd : {false, true}) add(bwd, set(hard_exact, &Case::sigma_s, ss));
+  }
+}
+
 }  // namespace
 
 void register_render_benchmarks() {
@@ -173,17 +187,7 @@ void register_render_benchmarks() {
   add(false, set(set(none, &Case::frequency, 71), &Case::image, 512));
   add(false, set(set(hard, &Case::frequency, 71), &Case::image, 512), true);
 
-  // σ_s (texel²): the truncated window grows as sqrt(σ_s), and so does the part of the map
-  // whose exact weights are not 0. At σ_s = 400 none of a 256² map's is (float): the exact
-  // products run dense, and their GFLOP/s are flops executed.
-  for (double ss : {0.5, 1.0, 4.0, 8.0, 400.0}) {
-    if (ss < 400)
-      for (const Case& c : {hard, soft}) add(false, set(c, &Case::sigma_s, ss));
-    if (ss == 0.5 || ss == 8.0)
-      for (const Case& c : {hard, soft}) add(true, set(c, &Case::sigma_s, ss));
-    if (ss == 0.5 || ss == 8.0 || ss == 400)
-      for (bool bwd : {false, true}) add(bwd, set(hard_exact, &Case::sigma_s, ss));
-  }
+  add_sigma_s_sweep(hard, soft, hard_exact);
 
   // Lights: one shadow map (and penumbra map) per light.
   for (int nl : {2, 3})
