@@ -149,6 +149,9 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
 // support n × int4: the first and last nonzero entry of the fragment's row of Gx (.xy) and of
 // Gy (.zw), empty (first > last) outside the map. Far from μ the weights are exactly 0
 // (exp_or_zero; float: beyond ~19 texels at σ_s = 2), and the products (matmul.cl) skip them.
+// The weight matrices start zero-filled (the host) and hold zeros outside the supports:
+// exact_weights writes only the entries within zero_radius of μ, after clearing the support
+// the batch before left in the row, and exact_finish_bwd scales only the support.
 // The least and the greatest lane of v.
 inline real min8(real8 v) {
   real4 a = fmin(v.lo, v.hi);
@@ -160,15 +163,19 @@ inline real max8(real8 v) {
 }
 
 // One axis of the weights, eight entries at a time: out[i] = g_i (and dout[i] = g_i·(i − c)/σ_s),
-// i < n, g_i = exp(−(i − c)²/(2σ_s)); returns (Σ g_i, Σ dout_i) and in *support the first and
+// i < n, g_i = exp(−(i − c)²/(2σ_s)), written in the chunks of eight within zero_radius of c
+// (none when `on` is 0): the others are 0 and so are their entries already. Returns
+// (Σ g_i, Σ dout_i), to which the chunks left out add nothing, and in *support the first and
 // last i whose g_i is nonzero (dout_i is 0 where g_i is).
 INLINE real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
                            __global real* dout, int2* support) {
   real8 sum = 0, dsum = 0;
   *support = (int2)(n, -1);
-  for (int i0 = 0; i0 < n; i0 += 8) {
+  const real r = zero_radius(ss);
+  const int first = on ? max((int)floor(c - r), 0) / 8 * 8 : n, last = (int)ceil(c + r);
+  for (int i0 = first; i0 < n && i0 <= last; i0 += 8) {
     real8 i = (real)i0 + LANE8, d = i - c;
-    real8 g = on ? exp_or_zero(gaussian_arg(d, ss)) : (real8)0;
+    real8 g = exp_or_zero(gaussian_arg(d, ss));
     real8 dg = dout ? g * d / ss : 0;  // the forward needs no derivative weights
     if (mask_any(g != 0)) {
       real8 first = select((real8)n, i, (g != 0) & (i < (real)n));
@@ -202,6 +209,15 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
                                   __global real2* dsum, __global int4* support) {
   int k = get_global_id(0);
   if (k >= n) return;
+  const int4 old = support[k];  // what the row's fragment of the batch before left nonzero
+  for (int i = old.x; i <= old.y; ++i) {
+    Gx[(size_t)k * Wm + i] = 0;
+    if (with_derivative) Gxd[(size_t)k * Wm + i] = 0;
+  }
+  for (int j = old.z; j <= old.w; ++j) {
+    Gy[(size_t)k * Hm + j] = 0;
+    if (with_derivative) Gyd[(size_t)k * Hm + j] = 0;
+  }
   real4 x = rec_light[(r0 + k) * nl + light];
   real ss = P[P_SIGMA_S];
   int inside = inside_map(x.xy, Wm, Hm);
@@ -229,10 +245,11 @@ FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int ligh
 // Backward: dots_r = (A, Ax, Ay) = Σ_ij S_ji·(gx_i·gy_j, gxd_i·gy_j, gx_i·gyd_j) are given
 // (matmul_nn_rowdots), and dsum from exact_weights; writes dL/dμ, dL/dd into rec_lgrad and
 // scales Gy in place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more
-// product.
+// product (its zeros stay 0; a fragment outside the map has a row of zeros already).
 BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl,
                                       int Hm, __global const real4* dots, __global real* Gy,
                                       __global const real4* norm, __global const real2* dsum,
+                                      __global const int4* support,
                                       __global const real4* rec_light, __global real4* rec_lgrad) {
   int k = get_global_id(0);
   if (k >= n) return;
@@ -241,11 +258,10 @@ BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int
   __global real* gy = Gy + (size_t)k * Hm;
   if (nm.z == 0) {
     *g = 0;
-    for (int j = 0; j < Hm; ++j) gy[j] = 0;
     return;
   }
   real nrm = nm.x * nm.y, v = d.x / nrm, gv = g->x * x.w * (1 - x.w) / P[P_GAMMA_S];
-  for (int j = 0; j < Hm; ++j) gy[j] *= gv / nrm;
+  for (int j = support[k].z; j <= support[k].w; ++j) gy[j] *= gv / nrm;
   real2 sd = dsum[k];  // Σgxd, Σgyd
   real dvx = d.y / nrm - v * sd.x / nm.x, dvy = d.z / nrm - v * sd.y / nm.y;
   *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);

@@ -9,8 +9,8 @@
 //                      Shadow/ShadowKernels.*/<sampling>)
 //   ShadowDouble.*     the shadows show: hard differs from none in every comparison scene
 //   ShadowSampling.*   exact on penumbra's kernels and on CLBlast (gemm) compute the same number
-//                      (and gradient); truncated → exact as ε_λ → 0; the exact sums leave out
-//                      only weights that are exactly 0
+//                      (and gradient), in one batch of fragments or several; truncated → exact
+//                      as ε_λ → 0; the exact sums leave out only weights that are exactly 0
 //   ShadowGradCheck.*  backward vs finite differences for every sampling method, with entries on
 //                      occluder vertices, receiver vertices and light positions; and with a loss
 //                      on the shadowed ground only (occluder vertices act through S alone)
@@ -34,6 +34,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/gradcheck.hpp"
 #include "penumbra/image.hpp"
+#include "penumbra/io.hpp"
 #include "penumbra/reference.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
@@ -369,6 +370,42 @@ TEST(ShadowSampling, ExactEqualsGemm) {
     std::cout << "[shadow] exact vs gemm " << (precision == Precision::Double ? "double" : "float")
               << ": max colour difference " << worst << std::endl;
   }
+}
+
+// The bundled scene at 128² with a 256² map keeps ~12k fragments, which the exact path takes in
+// two batches forward and three backward (double: 8192 and 4096 fragments each), its weight
+// matrices kept zero outside each batch's nonzero weights (shadow.cl, the exact sum): the
+// batches agree with CLBlast's GEMM, which multiplies every weight, as one batch does.
+TEST(ShadowSampling, ExactInBatchesEqualsGemm) {
+  REQUIRE_CONTEXT(ctx);
+  Renderer& r = shared_renderer(*ctx, Precision::Double);
+  Scene kernels = penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
+  kernels.cameras.front().width = kernels.cameras.front().height = 128;
+  kernels.params.shadow_model = ShadowModel::Paper;
+  kernels.params.shadows = Shadows::Hard;
+  kernels.params.shadow_map_size = 256;
+  set_method(kernels.params, Method::Exact);
+  kernels.params.exact_backend = ExactBackend::Kernels;
+  Scene gemm = kernels;
+  set_method(gemm.params, Method::Gemm);
+  std::vector<RenderOutput> a, b;
+  ASSERT_NO_THROW(a = r.render(kernels));
+  const auto weights = penumbra::random_loss_weights(kernels, 5);
+  SceneGrads ga, gb;
+  ASSERT_NO_THROW(ga = r.backward(kernels, weights));
+  ASSERT_NO_THROW(b = r.render(gemm));
+  ASSERT_NO_THROW(gb = r.backward(gemm, weights));
+  expect_close(b[0].color, a[0].color, 1e-11, false, "batches vs gemm colour");
+  const double scale = penumbra::max_abs_gradient(ga);
+  ASSERT_GT(scale, 0);
+  double worst = 0;
+  for (size_t m = 0; m < ga.vertices.size(); ++m)
+    for (size_t i = 0; i < ga.vertices[m].size(); ++i)
+      for (int k = 0; k < 3; ++k)
+        worst = std::max(worst, std::abs(ga.vertices[m][i][k] - gb.vertices[m][i][k]) / scale);
+  std::cout << "[shadow] exact in batches vs gemm gradients: max difference " << worst
+            << " of the largest entry" << std::endl;
+  EXPECT_LE(worst, 1e-10);
 }
 
 // Their gradients are the same too: in double to rounding, relative to the largest entry.

@@ -118,9 +118,9 @@ struct ExactFinishBwdArgs {
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer& P;
   cl_int r0, m, light, nl, Hm;
-  const cl::Buffer &dots, &Gy, &norm, &dsum, &rec_light, &rec_lgrad;
+  const cl::Buffer &dots, &Gy, &norm, &dsum, &support, &rec_light, &rec_lgrad;
   auto fields() const {
-    return std::tie(P, r0, m, light, nl, Hm, dots, Gy, norm, dsum, rec_light, rec_lgrad);
+    return std::tie(P, r0, m, light, nl, Hm, dots, Gy, norm, dsum, support, rec_light, rec_lgrad);
   }
 };
 
@@ -136,10 +136,11 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
   const Precision p = k.precision();
-  // every entry of a batch is written before it is read
-  cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gy = alloc_reals(ctx, p, batch * Hm),
+  // The weights start as zeros and exact_weights keeps them zero outside the supports (shadow.cl,
+  // the exact sum); every other entry of a batch is written before it is read.
+  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
              dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
-             support = alloc_ints(ctx, batch * 4);
+             support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
@@ -200,11 +201,12 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
   const Precision p = k.precision();
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
-  // every entry of a batch is written before it is read
-  cl::Buffer Gx = alloc_reals(ctx, p, batch * Wm), Gxd = alloc_reals(ctx, p, batch * Wm),
-             Gy = alloc_reals(ctx, p, batch * Hm), Gyd = alloc_reals(ctx, p, batch * Hm),
+  // As exact_forward's: the weights start as zeros, the rest is written before it is read.
+  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gxd = zero_reals(ctx, p, batch * Wm),
+             Gy = zero_reals(ctx, p, batch * Hm), Gyd = zero_reals(ctx, p, batch * Hm),
              dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
-             dsum = alloc_reals(ctx, p, batch * 2), support = alloc_ints(ctx, batch * 4);
+             dsum = alloc_reals(ctx, p, batch * 2),
+             support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
@@ -214,7 +216,7 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
     // dots_r = Σ_i (U_ri·Gx_ri, U_ri·Gxd_ri, Ud_ri·Gx_ri), U = Gy·S, Ud = Gyd·S
     matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, support, dots);
     auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Hm, dots, Gy, norm, dsum,
-                                                f.rec_light, fgr.rec_lgrad});
+                                                support, f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
     matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, support, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
   }
