@@ -359,9 +359,9 @@ TEST(PenumbraOverlap, GroundTexelsInBothPenumbrae) {
 // ---------------------------------------------------------------------------------------------
 // (c) Gradients.
 
-// Every scene with truncated sampling; exact sampling (O(W_s·H_s) per fragment, ~10× slower
-// here) on the directional light seen by an orthographic camera and on the two occluders under a
-// point light.
+// Every scene with truncated sampling; exact sampling (every texel whose weight is not 0 per
+// fragment, slower here) on the directional light seen by an orthographic camera and on the two
+// occluders under a point light.
 std::vector<GradCase> gradient_cases(Sampling sampling) {
   if (sampling == Sampling::Exact)
     return {{"directional (orthographic camera)", soft_scene(Layout::Directional, sampling), 5},
