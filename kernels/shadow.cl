@@ -152,6 +152,7 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
 // The weight matrices start zero-filled (the host) and hold zeros outside the supports:
 // exact_weights writes only the entries within zero_radius of μ, after clearing the support
 // the batch before left in the row, and exact_finish_bwd scales only the support.
+
 // The least and the greatest lane of v.
 inline real min8(real8 v) {
   real4 a = fmin(v.lo, v.hi);
@@ -172,15 +173,16 @@ INLINE real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
   real8 sum = 0, dsum = 0;
   *support = (int2)(n, -1);
   const real r = zero_radius(ss);
-  const int first = on ? max((int)floor(c - r), 0) / 8 * 8 : n, last = (int)ceil(c + r);
-  for (int i0 = first; i0 < n && i0 <= last; i0 += 8) {
+  const int from = on ? max(texel_bound(floor(c - r)), 0) / 8 * 8 : n;
+  const int to = texel_bound(ceil(c + r));
+  for (int i0 = from; i0 < n && i0 <= to; i0 += 8) {
     real8 i = (real)i0 + LANE8, d = i - c;
     real8 g = exp_or_zero(gaussian_arg(d, ss));
     real8 dg = dout ? g * d / ss : 0;  // the forward needs no derivative weights
     if (mask_any(g != 0)) {
-      real8 first = select((real8)n, i, (g != 0) & (i < (real)n));
-      real8 last = select((real8)-1, i, (g != 0) & (i < (real)n));
-      *support = (int2)(min(support->x, (int)min8(first)), max(support->y, (int)max8(last)));
+      real8 lo = select((real8)n, i, (g != 0) & (i < (real)n));
+      real8 hi = select((real8)-1, i, (g != 0) & (i < (real)n));
+      *support = (int2)(min(support->x, (int)min8(lo)), max(support->y, (int)max8(hi)));
     }
     if (i0 + 8 <= n) {
       vstore8(g, 0, out + i0);

@@ -470,8 +470,9 @@ TEST(ShadowSampling, TruncatedApproachesExact) {
 // The exact sums visit only nonzero_part of the whole map (common/window.clh), on the ground
 // that its weights are exactly 0 beyond it, which is what keeps them bit for bit the whole map's
 // sums. Checked for the axis weights as the kernels form them (scalar, and on ROW lanes), in
-// float and double, for σ from 0.25 to 400 texel² and μ anywhere in a 256² map (200 centres
-// each): every nonzero weight lies inside, and for σ ≤ 8 the part is narrower than the map.
+// float and double, for σ from 0.25 to 400 texel² and 1e30 (whose radius no int holds) and μ
+// anywhere in a 256² map (200 centres each): every nonzero weight lies inside, and for σ ≤ 8
+// the part is narrower than the map.
 TEST(ShadowSampling, ExactSumsLeaveOutOnlyZeroWeights) {
   REQUIRE_CONTEXT(ctx);
   const std::string kernel = R"(
@@ -512,7 +513,7 @@ __kernel void outside(int Wm, int Hm, real sigma, __global const real* mus, __gl
     cl::Buffer in(ctx->cl_context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, 2 * n * size,
                   dbl ? static_cast<void*>(mus.data()) : static_cast<void*>(musf.data()));
     cl::Buffer out(ctx->cl_context(), CL_MEM_WRITE_ONLY, 2 * n * sizeof(int));
-    for (double sigma : {0.25, 2.0, 8.0, 400.0}) {
+    for (double sigma : {0.25, 2.0, 8.0, 400.0, 1e30}) {
       const std::string label =
           std::string(dbl ? "double" : "float") + ", σ " + std::to_string(sigma);
       k.setArg(0, side);
