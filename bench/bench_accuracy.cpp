@@ -34,8 +34,8 @@ namespace penumbra::bench {
 
 namespace {
 
-// Exact sampling weighs every texel of the map for every fragment; the default suite runs it
-// at this map size, the large/ cases at 256².
+// Exact sampling weighs every texel of the map whose weight is not 0 for every fragment; the
+// default suite runs it at this map size, the large/ cases at 256².
 constexpr int kExactMap = 128;
 
 void metric_counters(benchmark::State& state, const AccuracyCase& c, const AccuracyMetrics& m) {

@@ -153,7 +153,7 @@ void register_render_benchmarks() {
   // The shadows × sampling matrix at the reference point (soft shadows have no gemm).
   for (bool bwd : {false, true}) {
     for (const Case& c : {none, hard, hard_exact, hard_gemm, soft}) add(bwd, c);
-    add(bwd, set(soft_exact, &Case::map, 64));  // exact soft costs N·W_s·H_s sigmoids
+    add(bwd, set(soft_exact, &Case::map, 64));  // exact soft: a sigmoid per nonzero weight
     add(bwd, soft_exact, true);
     // The accurate model (the renderer's default) at the same point.
     for (const Case& c : {hard, soft}) add(bwd, set(c, &Case::model, ShadowModel::Accurate));
