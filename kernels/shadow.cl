@@ -113,14 +113,14 @@ BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, i
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed
 // order (no atomics). A work-item takes ROW consecutive texels of GATHER_ROWS rows, each row
 // as one vector: g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no
-// bounds test is needed.
+// bounds test is needed. Truncated only: the exact sum of hard shadows is matrix products.
+#if !EXACT
 BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm,
                                    int Hm, __global const real4* rec_light,
                                    __global const real4* rec_lgrad,
                                    __global const int* bucket_offsets,
                                    __global const int* bucket_counts,
-                                   __global const int* bucket_recs, __global const int4* chunks,
-                                   __global real* gS) {
+                                   __global const int* bucket_recs, __global real* gS) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   if (i0 >= Wm || j0 >= Hm) return;
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
@@ -141,6 +141,7 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
   }
   store_rows(acc, rows, min(ROW, Wm - i0), i0, j0, Wm, gS);
 }
+#endif
 
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
 // U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------

@@ -43,8 +43,8 @@ struct ShadowGatherArgs {
   MapLookup at;
   const cl::Buffer &rec_light, &rec_lgrad;
   BinLists buckets;
-  const cl::Buffer &chunks, &gS;
-  auto fields() const { return std::tie(at, rec_light, rec_lgrad, buckets, chunks, gS); }
+  const cl::Buffer& gS;
+  auto fields() const { return std::tie(at, rec_light, rec_lgrad, buckets, gS); }
 };
 
 struct SoftSampleArgs {
@@ -165,9 +165,10 @@ MapGrads soft_backward(Kernels& k, Sampling sampling, const View& v, const Fragm
                        variant);
   launch_1d(k.ctx(), sb, at.nrec);
   Bins bins;  // the truncated gather's buckets, or the exact gather's chunks
-  cl::Buffer chunks = alloc_ints(k.ctx(), 4);
+  cl::Buffer chunks;
   if (sampling_method(sampling).windowed) {
     bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+    chunks = alloc_ints(k.ctx(), 4);
   } else {
     bins.offsets = bins.counts = bins.items = alloc_ints(k.ctx(), 1);
     chunks = gather_chunks(k, at.nrec, [&](const cl::Buffer& out) -> cl::Kernel& {
@@ -189,8 +190,7 @@ MapGrads truncated_backward(Kernels& k, const View& v, const Fragments& f, const
   launch_1d(k.ctx(), sb, at.nrec);
   // texels gather from nearby fragments
   Bins bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
-  const cl::Buffer no_chunks = alloc_ints(k.ctx(), 4);  // (truncated)
-  auto& ga = bind_args(k, ShadowGatherArgs{at, f.rec_light, fgr.rec_lgrad, bins, no_chunks, g.S});
+  auto& ga = bind_args(k, ShadowGatherArgs{at, f.rec_light, fgr.rec_lgrad, bins, g.S});
   launch_gather(k, ga, at.Wm, at.Hm);
   return g;
 }
