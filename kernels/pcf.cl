@@ -379,8 +379,9 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
                                 __global const real* bucket_radius, __global const int4* chunks,
                                 __global real* gS, __global real* gA) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
-  if (i0 >= Wm || j0 >= Hm) return;
-  const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0), soft = soft_mode(P);
+  GATHER_STAGE_MEMORY;
+  RETURN_PAST_MAP(i0, j0);
+  const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm), soft = soft_mode(P);
   const LightDisc L = light_disc(P, light);
   const real sigma_b = L.sigma_b;
   // The search sums over texels (st·I, st·J) only (the search map's).

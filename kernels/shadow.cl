@@ -122,9 +122,10 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
                                    __global const int* bucket_counts,
                                    __global const int* bucket_recs, __global real* gS) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
-  if (i0 >= Wm || j0 >= Hm) return;
+  GATHER_STAGE_MEMORY;
+  RETURN_PAST_MAP(i0, j0);
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
-  const int rows = min(GATHER_ROWS, Hm - j0);
+  const int rows = gather_rows(i0, j0, Wm, Hm);
   realR acc[GATHER_ROWS];
   for (int t = 0; t < rows; ++t) acc[t] = 0;
   FOR_EACH_GATHER_FRAGMENT(r, bucket_reach(P)) {
@@ -400,9 +401,10 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
                                  __global const int4* chunks, __global real* gS,
                                  __global real* gPmap) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
-  if (i0 >= Wm || j0 >= Hm) return;
+  GATHER_STAGE_MEMORY;
+  RETURN_PAST_MAP(i0, j0);
   const real ss = P[P_SIGMA_S];
-  const int n = min(ROW, Wm - i0), rows = min(GATHER_ROWS, Hm - j0);
+  const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm);
   realR Sv[GATHER_ROWS], Pv[GATHER_ROWS], accS[GATHER_ROWS], accP[GATHER_ROWS], dd, dP;
   for (int t = 0; t < rows; ++t) {
     Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);

@@ -519,6 +519,32 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
     }
 }
 
+// The texel gathers with their work-groups reading the buckets together (GatherTuning::group:
+// 8 on GPUs; here 3 and 8) visit each texel's fragments in the same order as a work-item
+// reading its own buckets: the same outputs and gradients, bit for bit, for both shadow models,
+// hard and soft. A 200-texel map leaves work-items past its edge in the last groups.
+TEST(NumericsDeterminism, GatherGroupsAreBitIdentical) {
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
+      for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+        const std::string label = std::string(p == Precision::Float ? "float " : "double ") +
+                                  word(model) + " " + word(sh);
+        Scene scene = determinism_scene(sh);
+        scene.params.shadow_model = model;
+        scene.params.shadow_map_size = 200;
+        penumbra::Tuning alone;
+        alone.gather.group = 1;
+        Renderer one(context(), p, alone);
+        const std::vector<double> all = everything(one, scene);
+        for (int group : {3, 8}) {
+          penumbra::Tuning t;
+          t.gather.group = group;
+          Renderer r(context(), p, t);
+          EXPECT_TRUE(bit_identical(all, everything(r, scene))) << label << ", group " << group;
+        }
+      }
+}
+
 // The raster's softplus part log1p(e^{−|u|}) (lanes_log1p_exp_neg_abs, common/lanes.clh) on 16
 // lanes and on 1, for |u| where e^{−|u|} is subnormal (float 87-104, double 708-745) and
 // around: every pixels-per-item gives the same bits. (PoCL's ldexp on vectors rounded

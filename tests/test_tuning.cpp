@@ -291,6 +291,27 @@ TEST(Tuning, IllegalValuesAreRejectedWithAClearMessage) {
           << e.what();
     }
   }
+  for (int group : {-1, 17}) {
+    t = Tuning{};
+    t.raster.pixels_per_item = 1;
+    t.gather.group = group;
+    try {
+      validate(t, context().info());
+      FAIL() << "gather group " << group << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("gather tuning: group " + std::to_string(group)),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  DeviceInfo small = context().info();
+  small.max_work_group = 63;  // 8 × 8 work-items do not fit
+  t = Tuning{};
+  t.raster = {8, 8, false};
+  t.gather.group = 8;
+  EXPECT_THROW(validate(t, small), Error);
+  t.gather.group = 7;
+  EXPECT_NO_THROW(validate(t, small));
 }
 
 TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
@@ -300,7 +321,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
     out << R"({"version": 1, "entries": {
       "Exact Device 1": {"raster": {"tile": 32, "pixels_per_item": 4},
                          "exact": {"clblast": false, "vector_width": 16, "row_block": 2},
-                         "penumbra": {"tile": 8}},
+                         "penumbra": {"tile": 8}, "gather": {"group": 4}},
       "Acme/gpu": {"exact": {"clblast": true}, "penumbra": {"tile": 32}},
       "cpu": {"raster": {"pixels_per_item": 8}}}})";
   }
@@ -318,6 +339,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.raster.face_lanes, 32);  // not in the entry: a GPU's
   EXPECT_EQ(t.exact.vector_width, 16);
   EXPECT_EQ(t.penumbra.tile, 8);
+  EXPECT_EQ(t.gather.group, 4);
 
   dev.name = "Unknown Device 7";  // same vendor and type: the class entry, heuristic tile
   t = db.lookup(dev, w);
@@ -326,12 +348,14 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.penumbra.tile, 32);
   EXPECT_EQ(t.raster.pixels_per_item, 1);  // the heuristic's choice for a GPU
   EXPECT_EQ(t.raster.face_lanes, 32);
+  EXPECT_EQ(t.gather.group, 8);  // a GPU's
 
   dev.vendor = "Nobody", dev.is_gpu = false;  // only the type matches
   t = db.lookup(dev, w);
   EXPECT_EQ(t.source, "heuristic+cpu");
   EXPECT_EQ(t.raster.pixels_per_item, 8);
   EXPECT_EQ(t.raster.face_lanes, 1);
+  EXPECT_EQ(t.gather.group, 1);  // a CPU's
 
   const TuningDatabase empty = TuningDatabase::load({});
   t = empty.lookup(dev, w);
@@ -392,15 +416,16 @@ TEST(Tuning, TunerTimesEveryStageAndReturnsALegalWinner) {
   o.quick = true;
   o.runs = 1;
   const TuneReport report = tune(context(), s, o);
-  bool raster = false, exact = false, pen = false;
+  bool raster = false, exact = false, pen = false, gather = false;
   for (const auto& c : report.candidates) {
     raster |= c.stage == "raster";
     exact |= c.stage == "exact";
     pen |= c.stage == "penumbra";
+    gather |= c.stage == "gather" && c.name == "group 8x8";
     EXPECT_TRUE(c.accepted) << c.stage << " " << c.name << ": " << c.note;
     EXPECT_GT(c.median_ms, 0.0);
   }
-  EXPECT_TRUE(raster && exact && pen);
+  EXPECT_TRUE(raster && exact && pen && gather);
   EXPECT_NO_THROW(validate(report.best, context().info()));
   EXPECT_EQ(report.best.source.rfind("tuned:", 0), 0u);
 }

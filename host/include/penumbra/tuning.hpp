@@ -61,10 +61,19 @@ struct PenumbraTuning {
   int tile = 16;
 };
 
+// The backward's texel gathers (shadow_gather, soft_gather, pcf_gather) with truncated sampling.
+struct GatherTuning {
+  // Work-groups of group × group work-items that read their texel buckets' fragments together
+  // through local memory (the same sums, bit for bit); 1: each work-item reads its own buckets.
+  // At most 16; 0: 8 on GPUs, 1 on CPUs.
+  int group = 0;
+};
+
 struct Tuning {
   RasterTuning raster;
   ExactSumTuning exact;
   PenumbraTuning penumbra;
+  GatherTuning gather;
   std::string source = "default";  // where it came from: default, heuristic, database entry…
 
   Tuning() = default;

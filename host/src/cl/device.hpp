@@ -21,10 +21,12 @@ struct DeviceDefaults {
   bool exact_on_clblast;  // the heuristic tuning's exact backend: CLBlast on GPUs
   int face_lanes;         // the raster backward's work-items per face: a GPU waits for its
                           // longest work-item (bundled scene, H200: raster_bwd 23 ms with 1)
+  int gather_group;       // GatherTuning::group: a GPU work-item reading its texel buckets
+                          // alone waits on its own loads (H100, 100k faces: 158 ms a launch)
 };
 inline DeviceDefaults device_defaults(const DeviceInfo& d) {
-  if (d.is_gpu) return {1, 8, 1, true, 32};
-  return {8, 16, 4, false, 1};
+  if (d.is_gpu) return {1, 8, 1, true, 32, 8};
+  return {8, 16, 4, false, 1, 1};
 }
 
 inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }

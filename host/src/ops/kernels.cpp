@@ -19,6 +19,7 @@ Tuning for_device(Tuning t, const DeviceInfo& device) {
   if (t.raster.pixels_per_item == 0)
     t.raster.pixels_per_item = device_defaults(device).pixels_per_item;
   if (t.raster.face_lanes == 0) t.raster.face_lanes = device_defaults(device).face_lanes;
+  if (t.gather.group == 0) t.gather.group = device_defaults(device).gather_group;
   return t;
 }
 
@@ -37,7 +38,8 @@ std::string program_options(const std::string& file, Precision precision, const 
   if (file == "shadow.cl" || file == "pcf.cl")
     o += " -DROW=" + std::to_string(device_defaults(device).shadow_row) +
          " -DGATHER_ROWS=" + std::to_string(device_defaults(device).gather_rows) +
-         " -DGATHER_CHUNK=" + std::to_string(kGatherChunk);
+         " -DGATHER_CHUNK=" + std::to_string(kGatherChunk) +
+         " -DGATHER_GROUP=" + std::to_string(tuning.gather.group);
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +

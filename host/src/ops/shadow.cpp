@@ -227,9 +227,10 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
 
 void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
   const DeviceDefaults d = device_defaults(k.ctx().info());
-  const int row = d.shadow_row, rows = d.gather_rows;
+  const int row = d.shadow_row, rows = d.gather_rows, group = k.tuning().gather.group;
+  const size_t local = group > 1 ? size_t(group) : 8;  // staging gathers: the kernels' group
   launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, (Hm + rows - 1) / rows),
-         cl::NDRange(8, 8));
+         cl::NDRange(local, local));
 }
 
 cl::Buffer gather_chunks(Kernels& k, int nrec,

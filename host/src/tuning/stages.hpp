@@ -13,7 +13,7 @@ namespace penumbra::detail {
 // candidate's output may differ from the starting configuration's (0: bit for bit), and the
 // candidates, each `start` with this stage's parameters changed.
 struct TuneStage {
-  std::string name;  // raster, exact, penumbra
+  std::string name;  // raster, exact, penumbra, gather
   Shadows shadows;
   Sampling sampling;
   double tolerance;

@@ -61,6 +61,7 @@ std::string describe(const Tuning& t, const std::string& stage) {
   if (stage == "exact" && t.exact.clblast)
     s << "CLBlast GEMM " << (t.exact.xgemm ? t.exact.xgemm->describe() : "(its defaults)");
   if (stage == "penumbra") s << "tile " << t.penumbra.tile;
+  if (stage == "gather") s << "group " << t.gather.group << "x" << t.gather.group;
   return s.str();
 }
 
@@ -150,6 +151,18 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
     pen.candidates.push_back(t);
   }
   stages.push_back(pen);
+  // The texel gathers' work-groups: the same sums in the same order, so bit for bit.
+  Stage gather{"gather", Shadows::Soft, Sampling::Truncated, 0.0, {}};
+  for (int group : quick ? std::vector<int>{1, 8} : std::vector<int>{1, 4, 8, 16}) {
+    Tuning t = start;
+    t.gather.group = group;
+    try {
+      validate(t, device);
+      gather.candidates.push_back(t);
+    } catch (const Error&) {  // not legal on this device
+    }
+  }
+  stages.push_back(gather);
   return stages;
 }
 
@@ -182,7 +195,8 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
     for (Tuning candidate : stage.candidates) {
       // Candidates of the later stages inherit the winners of the earlier ones.
       if (stage.name != "raster") candidate.raster = best.raster;
-      if (stage.name == "penumbra") candidate.exact = best.exact;
+      if (stage.name != "exact") candidate.exact = best.exact;
+      if (stage.name != "penumbra") candidate.penumbra = best.penumbra;
       TuneReport::Candidate row{stage.name, describe(candidate, stage.name), 0, true, ""};
       try {
         const Trial trial = time_candidate(context, scene, candidate, runs);

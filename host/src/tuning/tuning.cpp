@@ -70,6 +70,7 @@ void read_into(const json& j, Tuning& t) {
     if (e.contains("xgemm")) t.exact.xgemm = read_xgemm(e.at("xgemm"));
   }
   if (j.contains("penumbra")) get(j.at("penumbra"), "tile", t.penumbra.tile);
+  if (j.contains("gather")) get(j.at("gather"), "group", t.gather.group);
 }
 
 json to_json(const Tuning& t) {
@@ -83,7 +84,8 @@ json to_json(const Tuning& t) {
             {"row_block", t.exact.row_block},
             {"min_indirect_size", t.exact.min_indirect_size},
             {"xgemm", xgemm_json(t.exact.xgemm)}}},
-          {"penumbra", {{"tile", t.penumbra.tile}}}};
+          {"penumbra", {{"tile", t.penumbra.tile}}},
+          {"gather", {{"group", t.gather.group}}}};
 }
 
 void warn(const std::string& message) {
@@ -192,6 +194,11 @@ void validate(const Tuning& t, const DeviceInfo& device) {
   if (t.penumbra.tile < 1 || t.penumbra.tile > 256)
     throw Error("penumbra tuning: tile " + std::to_string(t.penumbra.tile) +
                 " must be in 1 to 256");
+  const int g = t.gather.group;
+  if (g < 0 || g > 16 || size_t(g) * size_t(g) > device.max_work_group)
+    throw Error("gather tuning: group " + std::to_string(g) +
+                " must be 0 (the device's default) or 1 to 16, its square at most the device's " +
+                "work-group size (" + std::to_string(device.max_work_group) + ")");
 }
 
 WorkloadStats workload_stats(const Scene& scene) {
@@ -239,6 +246,7 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   const detail::DeviceDefaults defaults = detail::device_defaults(device);
   t.raster.pixels_per_item = defaults.pixels_per_item;
   t.raster.face_lanes = defaults.face_lanes;
+  t.gather.group = defaults.gather_group;
   // Cost of a tile size T: (pixel, face) pairs visited, each face touching the pixels of every
   // tile its box overlaps, plus a fixed cost per (tile, face) entry of the bins.
   const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
