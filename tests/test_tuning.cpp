@@ -348,7 +348,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.penumbra.tile, 32);
   EXPECT_EQ(t.raster.pixels_per_item, 1);  // the heuristic's choice for a GPU
   EXPECT_EQ(t.raster.face_lanes, 32);
-  EXPECT_EQ(t.gather.group, 8);  // a GPU's
+  EXPECT_EQ(t.gather.group, 2);  // a GPU's
 
   dev.vendor = "Nobody", dev.is_gpu = false;  // only the type matches
   t = db.lookup(dev, w);
@@ -421,7 +421,7 @@ TEST(Tuning, TunerTimesEveryStageAndReturnsALegalWinner) {
     raster |= c.stage == "raster";
     exact |= c.stage == "exact";
     pen |= c.stage == "penumbra";
-    gather |= c.stage == "gather" && c.name == "group 8x8";
+    gather |= c.stage == "gather" && c.name == "group 2x2";
     EXPECT_TRUE(c.accepted) << c.stage << " " << c.name << ": " << c.note;
     EXPECT_GT(c.median_ms, 0.0);
   }

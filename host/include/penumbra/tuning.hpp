@@ -65,7 +65,7 @@ struct PenumbraTuning {
 struct GatherTuning {
   // Work-groups of group × group work-items that read their texel buckets' fragments together
   // through local memory (the same sums, bit for bit); 1: each work-item reads its own buckets.
-  // At most 16; 0: 8 on GPUs, 1 on CPUs.
+  // At most 16; 0: 2 on GPUs, 1 on CPUs.
   int group = 0;
 };
 

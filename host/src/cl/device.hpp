@@ -22,10 +22,11 @@ struct DeviceDefaults {
   int face_lanes;         // the raster backward's work-items per face: a GPU waits for its
                           // longest work-item (bundled scene, H200: raster_bwd 23 ms with 1)
   int gather_group;       // GatherTuning::group: a GPU work-item reading its texel buckets
-                          // alone waits on its own loads (H100, 100k faces: 158 ms a launch)
+                          // alone waits on its own loads (H100: 100k-face hard backward
+                          // 235 ms with 1, 142 with 2, 146 with 4, 156 with 8; docs/gpu.md)
 };
 inline DeviceDefaults device_defaults(const DeviceInfo& d) {
-  if (d.is_gpu) return {1, 8, 1, true, 32, 8};
+  if (d.is_gpu) return {1, 8, 1, true, 32, 2};
   return {8, 16, 4, false, 1, 1};
 }
 

@@ -153,7 +153,7 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
   stages.push_back(pen);
   // The texel gathers' work-groups: the same sums in the same order, so bit for bit.
   Stage gather{"gather", Shadows::Soft, Sampling::Truncated, 0.0, {}};
-  for (int group : quick ? std::vector<int>{1, 8} : std::vector<int>{1, 4, 8, 16}) {
+  for (int group : quick ? std::vector<int>{1, 2} : std::vector<int>{1, 2, 4, 8, 16}) {
     Tuning t = start;
     t.gather.group = group;
     try {
