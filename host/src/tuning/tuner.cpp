@@ -95,6 +95,21 @@ std::vector<XgemmParameters> xgemm_candidates(bool quick) {
 
 namespace detail {
 
+// The texel gathers' work-groups: the same sums in the same order, so bit for bit.
+TuneStage gather_stage(const DeviceInfo& device, const Tuning& start, bool quick) {
+  TuneStage gather{"gather", Shadows::Soft, Sampling::Truncated, 0.0, {}};
+  for (int group : quick ? std::vector<int>{1, 2} : std::vector<int>{1, 2, 4, 8, 16}) {
+    Tuning t = start;
+    t.gather.group = group;
+    try {
+      validate(t, device);
+      gather.candidates.push_back(t);
+    } catch (const Error&) {  // not legal on this device
+    }
+  }
+  return gather;
+}
+
 std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start, bool quick) {
   // One stage at a time, each on the workload it dominates. `tolerance` 0 means the
   // candidates must agree bit for bit (same summation order).
@@ -151,18 +166,7 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
     pen.candidates.push_back(t);
   }
   stages.push_back(pen);
-  // The texel gathers' work-groups: the same sums in the same order, so bit for bit.
-  Stage gather{"gather", Shadows::Soft, Sampling::Truncated, 0.0, {}};
-  for (int group : quick ? std::vector<int>{1, 2} : std::vector<int>{1, 2, 4, 8, 16}) {
-    Tuning t = start;
-    t.gather.group = group;
-    try {
-      validate(t, device);
-      gather.candidates.push_back(t);
-    } catch (const Error&) {  // not legal on this device
-    }
-  }
-  stages.push_back(gather);
+  stages.push_back(gather_stage(device, start, quick));
   return stages;
 }
 
