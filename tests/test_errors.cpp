@@ -10,6 +10,7 @@
 //                     multi-line message of a loader — now a clean penumbra::Error
 // A missing OpenCL device fails the device tests; it never skips them.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -360,9 +361,11 @@ std::string read_file(const std::string& path) {
   return s.str();
 }
 
-// Scenes name tetra.obj; parse them against a folder that holds one.
+// Scenes name tetra.obj; parse them against a folder that holds one, the process's own (ctest
+// runs tests in parallel processes: one rewriting a shared file let another read it empty).
 std::string scene_dir() {
-  const fs::path dir = fs::path(::testing::TempDir()) / "penumbra_errors_scene";
+  const fs::path dir =
+      fs::path(::testing::TempDir()) / ("penumbra_errors_scene_" + std::to_string(getpid()));
   fs::create_directories(dir);
   std::ofstream(dir / "tetra.obj")
       << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";

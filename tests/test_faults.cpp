@@ -670,6 +670,14 @@ TEST(FaultsCli, ResumeNeedsACheckpointOfTheSameRun) {
 // ---------------------------------------------------------------------------------------------
 // Progress of long calls.
 
+// The time `penumbra render` printed for its call (the progress delay counts from the call's
+// start); -1 if it printed none.
+double call_seconds(const RunResult& r) {
+  std::smatch call;
+  if (!std::regex_search(r.out, call, std::regex(", ([0-9.]+) ms \\("))) return -1;
+  return std::stod(call[1]) / 1000;
+}
+
 // Every line of `err` starts with `prefix`; at least one mentions `stage`.
 void expect_progress(const RunResult& r, const std::string& prefix, const std::string& stage) {
   const auto err = lines(r.err);
@@ -682,10 +690,15 @@ void expect_progress(const RunResult& r, const std::string& prefix, const std::s
 TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
   const std::string dir = fresh_dir("progress");
   ::setenv("PENUMBRA_PROGRESS_AFTER", "2", 1);  // the default, whatever the environment says
-  // A short call prints nothing on stderr.
+  // A short call prints nothing on stderr: one that takes under the delay, as the tool prints
+  // its time (the call builds its kernels, which a loaded machine can stretch past it).
   const RunResult fast = run_cli("render -o " + quote(dir + "/fast.png") + kSmall, "progress_fast");
   EXPECT_EQ(fast.exit_code, 0) << show(fast);
-  EXPECT_EQ(fast.err, "") << show(fast);
+  ASSERT_GE(call_seconds(fast), 0) << show(fast);
+  if (call_seconds(fast) < 2)
+    EXPECT_EQ(fast.err, "") << show(fast);
+  else
+    std::cout << "the short call took " << call_seconds(fast) << " s: too long to check it\n";
   // Progress from the first stage on (PENUMBRA_PROGRESS_AFTER=0): a line per tenth of the call
   // (stderr is not a terminal), stdout as without it.
   ::setenv("PENUMBRA_PROGRESS_AFTER", "0", 1);
@@ -707,9 +720,8 @@ TEST(FaultsCli, LongCallsShowProgressOnStderrAndShortOnesNothing) {
       run_cli("render -o " + quote(dir + "/slow.png") + kSlowProgress, "progress_slow");
   ::unsetenv("PENUMBRA_PROGRESS_AFTER");
   EXPECT_EQ(slow.exit_code, 0) << show(slow);
-  std::smatch call;
-  ASSERT_TRUE(std::regex_search(slow.out, call, std::regex(", ([0-9.]+) ms \\("))) << show(slow);
-  const double seconds = std::stod(call[1]) / 1000;
+  const double seconds = call_seconds(slow);
+  ASSERT_GE(seconds, 0) << show(slow);
   if (seconds > 1.5)
     expect_progress(slow, "render: render view 1/1, shadow lookups ", " s\n");
   else

@@ -537,12 +537,14 @@ TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
 // ---------------------------------------------------------------------------------------------
 // bin_sort puts each tile's list into face order whatever order bin_fill wrote it in (a CPU
 // writes nearly sorted lists, a GPU any order): lists given here reversed, shuffled, as
-// interleaved runs, and of length 0 and 1.
+// interleaved runs, of length 0 and 1, and longer than a work-group sorts in local memory
+// (SORT_LOCAL), through the renderer's sort_lists (this device's SORT_GROUP) and with
+// bin.cl built for work-groups of 64 and 256 (a GPU's) per list.
 
 TEST(Binning, SortsListsInAnyOrder) {
   REQUIRE_CONTEXT(ctx);
   std::mt19937 rng(7);
-  std::vector<std::vector<int>> lists(6);
+  std::vector<std::vector<int>> lists(7);
   for (int n : {0, 1}) lists[n].resize(n, 42);
   lists[2].resize(777);
   std::iota(lists[2].rbegin(), lists[2].rend(), 0);  // reversed
@@ -552,6 +554,9 @@ TEST(Binning, SortsListsInAnyOrder) {
   for (int i = 0; i < 1000; ++i)  // two ascending runs interleaved at random
     lists[4].push_back(rng() % 2 ? i : 5000 + i);
   for (int i = 0; i < 300; ++i) lists[5].push_back(i % 3 * 1000 + i);  // three, in turn
+  lists[6].resize(5000);  // past SORT_LOCAL (4096): merged by one work-item
+  std::iota(lists[6].begin(), lists[6].end(), 0);
+  std::shuffle(lists[6].begin(), lists[6].end(), rng);
   std::vector<int> offsets, counts, items;
   for (const auto& l : lists) {
     offsets.push_back(int(items.size()));
@@ -559,22 +564,41 @@ TEST(Binning, SortsListsInAnyOrder) {
     items.insert(items.end(), l.begin(), l.end());
   }
   namespace d = penumbra::detail;
-  d::Kernels kernels(*ctx, Precision::Float, {});
   d::Bins bins;  // one row of tiles, one list each
   bins.tiles_x = int(lists.size());
   bins.tiles_y = 1;
   bins.total = items.size();
   bins.offsets = d::upload_ints(*ctx, offsets);
   bins.counts = d::upload_ints(*ctx, counts);
+  auto expect_sorted = [&](const std::string& how) {
+    const std::vector<int> sorted = d::download_ints(*ctx, bins.items, items.size());
+    for (size_t t = 0; t < lists.size(); ++t) {
+      std::vector<int> want = lists[t];
+      std::sort(want.begin(), want.end());
+      const std::vector<int> got(sorted.begin() + offsets[t],
+                                 sorted.begin() + offsets[t] + counts[t]);
+      EXPECT_EQ(got, want) << how << ", list " << t;
+    }
+  };
+  d::Kernels kernels(*ctx, Precision::Float, {});
   bins.items = d::upload_ints(*ctx, items);
   d::sort_lists(kernels, bins);
-  const std::vector<int> sorted = d::download_ints(*ctx, bins.items, items.size());
-  for (size_t t = 0; t < lists.size(); ++t) {
-    std::vector<int> want = lists[t];
-    std::sort(want.begin(), want.end());
-    const std::vector<int> got(sorted.begin() + offsets[t],
-                               sorted.begin() + offsets[t] + counts[t]);
-    EXPECT_EQ(got, want) << "list " << t;
+  expect_sorted("sort_lists");
+  for (int group : {64, 256}) {
+    cl::Program program(ctx->cl_context(), penumbra::Context::kernel_source("bin.cl"));
+    program.build(
+        penumbra::Context::build_options("-DSORT_GROUP=" + std::to_string(group)).c_str());
+    cl::Kernel sort(program, "bin_sort");
+    bins.items = d::upload_ints(*ctx, items);
+    const cl::Buffer scratch = d::alloc_ints(*ctx, items.size());
+    sort.setArg(0, bins.offsets);
+    sort.setArg(1, bins.counts);
+    sort.setArg(2, int(lists.size()));
+    sort.setArg(3, bins.items);
+    sort.setArg(4, scratch);
+    ctx->queue().enqueueNDRangeKernel(sort, cl::NullRange, cl::NDRange(lists.size() * group),
+                                      cl::NDRange(group));
+    expect_sorted("work-groups of " + std::to_string(group));
   }
 }
 

@@ -24,10 +24,12 @@ struct DeviceDefaults {
   int gather_group;       // GatherTuning::group: a GPU work-item reading its texel buckets
                           // alone waits on its own loads (H100: 100k-face hard backward
                           // 235 ms with 1, 142 with 2, 146 with 4, 156 with 8; docs/gpu.md)
+  int sort_group;         // bin_sort's work-items per tile list (SORT_GROUP of bin.cl): a GPU's
+                          // lists come in no order (H100, 100k faces: 9.6 ms a launch with 1)
 };
 inline DeviceDefaults device_defaults(const DeviceInfo& d) {
-  if (d.is_gpu) return {1, 8, 1, true, 32, 2};
-  return {8, 16, 4, false, 1, 1};
+  if (d.is_gpu) return {1, 8, 1, true, 32, 2, int(std::min<size_t>(256, d.max_work_group))};
+  return {8, 16, 4, false, 1, 1, 1};
 }
 
 inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }

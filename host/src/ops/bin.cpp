@@ -71,7 +71,11 @@ void sort_lists(Kernels& k, const Bins& b) {
   const cl::Buffer scratch = alloc_ints(k.ctx(), b.total);
   auto& sort =
       bind_args(k, BinSortArgs{b.offsets, b.counts, ntiles, b.items, scratch}, bin_define(b.tile));
-  launch_1d(k.ctx(), sort, size_t(ntiles), 16);
+  const size_t group = size_t(device_defaults(k.ctx().info()).sort_group);
+  if (group > 1)  // a work-group per list
+    launch(k.ctx(), sort, cl::NDRange(size_t(ntiles) * group), cl::NDRange(group));
+  else
+    launch_1d(k.ctx(), sort, size_t(ntiles), 16);
 }
 
 }  // namespace penumbra::detail

@@ -41,6 +41,7 @@ std::string program_options(const std::string& file, Precision precision, const 
          " -DGATHER_CHUNK=" + std::to_string(kGatherChunk) +
          " -DGATHER_GROUP=" + std::to_string(tuning.gather.group);
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
+  if (file == "bin.cl") o += " -DSORT_GROUP=" + std::to_string(device_defaults(device).sort_group);
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
