@@ -95,17 +95,22 @@ std::vector<XgemmParameters> xgemm_candidates(bool quick) {
 
 namespace detail {
 
+// Adds candidate `t` to `stage` if it is legal on `device`.
+void add_if_legal(TuneStage& stage, const Tuning& t, const DeviceInfo& device) {
+  try {
+    validate(t, device);
+    stage.candidates.push_back(t);
+  } catch (const Error&) {  // not legal on this device
+  }
+}
+
 // The texel gathers' work-groups: the same sums in the same order, so bit for bit.
 TuneStage gather_stage(const DeviceInfo& device, const Tuning& start, bool quick) {
   TuneStage gather{"gather", Shadows::Soft, Sampling::Truncated, 0.0, {}};
   for (int group : quick ? std::vector<int>{1, 2} : std::vector<int>{1, 2, 4, 8, 16}) {
     Tuning t = start;
     t.gather.group = group;
-    try {
-      validate(t, device);
-      gather.candidates.push_back(t);
-    } catch (const Error&) {  // not legal on this device
-    }
+    add_if_legal(gather, t, device);
   }
   return gather;
 }
@@ -123,11 +128,7 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
       Tuning t = start;
       t.raster.tile = tile;
       t.raster.pixels_per_item = ppw;
-      try {
-        validate(t, device);
-        raster.candidates.push_back(t);
-      } catch (const Error&) {  // not legal on this device
-      }
+      add_if_legal(raster, t, device);
     }
   stages.push_back(raster);
   // Exact-sum products: their order of summation differs, so outputs agree to rounding.
@@ -152,11 +153,7 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
   for (const XgemmParameters& x : xgemm_candidates(quick)) {
     blas.exact.xgemm = x;
     blas.exact.min_indirect_size = 1;
-    try {
-      validate(blas, device);
-      exact.candidates.push_back(blas);
-    } catch (const Error&) {  // not legal on this device
-    }
+    add_if_legal(exact, blas, device);
   }
   stages.push_back(exact);
   Stage pen{"penumbra", Shadows::Soft, Sampling::Truncated, 0.0, {}};
