@@ -118,13 +118,17 @@ Case set(Case c, T Case::*member, V value) {
   return c;
 }
 
-// Steps (render, then backward) of the targets' quotients and of the 100k-face sum.
+// Steps (render, then backward) of the targets' quotients and of the 100k-face sum, the latter
+// also through the accurate model (the renderer's default), hard and soft.
 void add_steps() {
   for (Shadows sh : {Shadows::None, Shadows::Hard, Shadows::Soft})
     add_step(with(sh, Sampling::Truncated));
   add_step(with(Shadows::Hard, Sampling::Exact));
   add_step(with(Shadows::Hard, Sampling::Exact, ExactBackend::CLBlast));
-  add_step(set(with(Shadows::Hard, Sampling::Truncated), &Case::frequency, 71));
+  const Case large = set(with(Shadows::Hard, Sampling::Truncated), &Case::frequency, 71);
+  add_step(large);
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+    add_step(set(set(large, &Case::shadows, sh), &Case::model, ShadowModel::Accurate));
 }
 
 // σ_s (texel²): the truncated window grows as sqrt(σ_s), and so does the part of the map whose

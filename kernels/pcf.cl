@@ -370,7 +370,7 @@ BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int lig
 // fragment when exact), with o = 1 − c and `step` the compare's smooth step:
 //   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
-BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                 int reach, __global const real* S, __global const real* A,
                                 __global const real4* rec_light, __global const real4* rec_light2,
                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
@@ -416,7 +416,7 @@ BACKWARD_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int
     realR offx = (real)i0 + LANER - x.mu.x, gx = 0, hx = 0;
     if (filter) gx = axis_weight(offx, sigma);
     if (search) hx = on_grid * axis_weight(offx, sigma_b);
-    real gy[ROW], hy[ROW];  // the rows' weights (realG)
+    real gy[GATHER_LANES], hy[GATHER_LANES];  // the rows' weights (realG)
     const realG offy_rows = (real)j0 + LANEG - x.mu.y;
     if (filter) vstoreG(axis_weight(offy_rows, sigma), 0, gy);
     if (search) vstoreG(axis_weight(offy_rows, sigma_b), 0, hy);

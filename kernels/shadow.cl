@@ -115,7 +115,7 @@ BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, i
 // as one vector: g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no
 // bounds test is needed. Truncated only: the exact sum of hard shadows is matrix products.
 #if !EXACT
-BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm,
+GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm,
                                    int Hm, __global const real4* rec_light,
                                    __global const real4* rec_lgrad,
                                    __global const int* bucket_offsets,
@@ -133,7 +133,7 @@ BACKWARD_KERNEL void shadow_gather(__global const real* P, int nrec, int light, 
     real a = rec_lgrad[r * nl + light].x;
     if (a == 0 || !window_reaches(x.xy, i0, j0, rows, r2)) continue;
     realR gx = axis_weight((real)i0 + LANER - x.x, ss);
-    real gys[ROW];  // the rows' weights (realG)
+    real gys[GATHER_LANES];  // the rows' weights (realG)
     vstoreG(axis_weight((real)j0 + LANEG - x.y, ss), 0, gys);
     for (int t = 0; t < rows; ++t) {
       real dy = j0 + t - x.y;
@@ -392,7 +392,7 @@ BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
 // nearby texel buckets when truncated; every fragment when exact), in a fixed order; ROW
 // texels of GATHER_ROWS rows per work-item.
-BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm,
+GATHER_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm,
                                  int Hm, __global const real* S, __global const real* Pmap,
                                  __global const real4* rec_light, __global const real4* rec_light2,
                                  __global const real4* rec_lgrad,
@@ -420,7 +420,7 @@ BACKWARD_KERNEL void soft_gather(__global const real* P, int nrec, int light, in
     real4 x = rec_light[r * nl + light];
     realR offx = (real)i0 + LANER - x.x, gx = axis_weight(offx, ss);
     real2 grad = rec_light2[r * nl + light].xy;
-    real gys[ROW];  // the rows' weights (realG)
+    real gys[GATHER_LANES];  // the rows' weights (realG)
     vstoreG(axis_weight((real)j0 + LANEG - x.y, ss), 0, gys);
 #pragma unroll
     for (int t = 0; t < GATHER_ROWS; ++t) {  // unrolled: the rows' vectors stay in registers

@@ -521,9 +521,14 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
 
 // The texel gathers with their work-groups reading the buckets together (GatherTuning::group:
 // 2 on GPUs; here 2 and 3) visit each texel's fragments in the same order as a work-item
-// reading its own buckets: the same outputs and gradients, bit for bit, for both shadow models,
-// hard and soft. A 200-texel map leaves work-items past its edge in the last groups.
-TEST(NumericsDeterminism, GatherGroupsAreBitIdentical) {
+// reading its own buckets, and a texel adds its fragments in that order whatever block of
+// texels a work-item takes (GatherTuning::width × height: 8 × 8 on CPUs, 8 × 1 on GPUs; here
+// also 16 × 4, 4 × 16 and 16 × 1): the same outputs and gradients, bit for bit, for both
+// shadow models, hard and soft. A 200-texel map leaves work-items past its edge in the last
+// groups and short blocks at its edges.
+TEST(NumericsDeterminism, GatherTuningsAreBitIdentical) {
+  const std::vector<penumbra::GatherTuning> variants = {
+      {1, 16, 4}, {2, 8, 1}, {3, 4, 16}, {1, 16, 1}};
   for (Precision p : {Precision::Float, Precision::Double})
     for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
       for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
@@ -533,14 +538,15 @@ TEST(NumericsDeterminism, GatherGroupsAreBitIdentical) {
         scene.params.shadow_model = model;
         scene.params.shadow_map_size = 200;
         penumbra::Tuning alone;
-        alone.gather.group = 1;
+        alone.gather = {1, 8, 8};
         Renderer one(context(), p, alone);
         const std::vector<double> all = everything(one, scene);
-        for (int group : {2, 3}) {
+        for (const penumbra::GatherTuning& g : variants) {
           penumbra::Tuning t;
-          t.gather.group = group;
+          t.gather = g;
           Renderer r(context(), p, t);
-          EXPECT_TRUE(bit_identical(all, everything(r, scene))) << label << ", group " << group;
+          EXPECT_TRUE(bit_identical(all, everything(r, scene)))
+              << label << ", group " << g.group << ", block " << g.width << "x" << g.height;
         }
       }
 }

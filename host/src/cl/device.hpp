@@ -15,9 +15,9 @@ namespace penumbra::detail {
 // work-item vectors of pixels or texels; GPUs keep the parallelism of one per item.
 struct DeviceDefaults {
   int pixels_per_item;    // raster (the tuning's default) and penumbra map: 8 on CPUs
-  int shadow_row;         // ROW of shadow.cl/pcf.cl: 16 floats fill an AVX-512 register
-  int gather_rows;        // GATHER_ROWS: a fragment's weights and tests shared by 4 rows on
-                          // CPUs (soft backward 86.8 -> 73.6 ms on the bundled scene)
+  int shadow_row;         // ROW of shadow.cl/pcf.cl's lookups: 16 floats fill an AVX-512 register
+  int gather_height;      // GatherTuning::height: on CPUs a fragment's weights and tests shared
+                          // by 8 rows (Xeon: pcf_gather 32 -> 22 ms with 8 instead of 4 rows)
   bool exact_on_clblast;  // the heuristic tuning's exact backend: CLBlast on GPUs
   int face_lanes;         // the raster backward's work-items per face: a GPU waits for its
                           // longest work-item (bundled scene, H200: raster_bwd 23 ms with 1)
@@ -26,10 +26,13 @@ struct DeviceDefaults {
                           // 235 ms with 1, 142 with 2, 146 with 4, 156 with 8; docs/gpu.md)
   int sort_group;         // bin_sort's work-items per tile list (SORT_GROUP of bin.cl): a GPU's
                           // lists come in no order (H100, 100k faces: 9.6 ms a launch with 1)
+  int gather_width;       // GatherTuning::width: on CPUs a run of 16 texels left most lanes of a
+                          // fragment's window idle (Xeon: soft_gather 29 -> 18 ms a launch with
+                          // 8); the GPUs' runs of 8 as before (docs/gpu.md)
 };
 inline DeviceDefaults device_defaults(const DeviceInfo& d) {
-  if (d.is_gpu) return {1, 8, 1, true, 32, 2, int(std::min<size_t>(256, d.max_work_group))};
-  return {8, 16, 4, false, 1, 1, 1};
+  if (d.is_gpu) return {1, 8, 1, true, 32, 2, int(std::min<size_t>(256, d.max_work_group)), 8};
+  return {8, 16, 8, false, 1, 1, 1, 8};
 }
 
 inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }

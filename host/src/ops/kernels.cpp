@@ -20,6 +20,8 @@ Tuning for_device(Tuning t, const DeviceInfo& device) {
     t.raster.pixels_per_item = device_defaults(device).pixels_per_item;
   if (t.raster.face_lanes == 0) t.raster.face_lanes = device_defaults(device).face_lanes;
   if (t.gather.group == 0) t.gather.group = device_defaults(device).gather_group;
+  if (t.gather.width == 0) t.gather.width = device_defaults(device).gather_width;
+  if (t.gather.height == 0) t.gather.height = device_defaults(device).gather_height;
   return t;
 }
 
@@ -35,17 +37,21 @@ std::string program_options(const std::string& file, Precision precision, const 
          " -DBLOCK_W=" + std::to_string(raster_block_width(r.pixels_per_item)) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0) +
          " -DFACE_LANES=" + std::to_string(r.face_lanes);
-  if (file == "shadow.cl" || file == "pcf.cl")
-    o += " -DROW=" + std::to_string(device_defaults(device).shadow_row) +
-         " -DGATHER_ROWS=" + std::to_string(device_defaults(device).gather_rows) +
-         " -DGATHER_CHUNK=" + std::to_string(kGatherChunk) +
-         " -DGATHER_GROUP=" + std::to_string(tuning.gather.group);
+  if (file == "shadow.cl" || file == "pcf.cl") {  // the gathers' program: their block of texels
+    const GatherTuning& g = tuning.gather;
+    o += part == KernelPart::Gather
+             ? " -DROW=" + std::to_string(g.width) + " -DGATHER_ROWS=" + std::to_string(g.height) +
+                   " -DGATHER_GROUP=" + std::to_string(g.group)
+             : " -DROW=" + std::to_string(device_defaults(device).shadow_row);
+    o += " -DGATHER_CHUNK=" + std::to_string(kGatherChunk);
+  }
   if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "bin.cl") o += " -DSORT_GROUP=" + std::to_string(device_defaults(device).sort_group);
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
   o += " " + variant;
+  if (part == KernelPart::Gather) return o + " -DGATHER_KERNELS";
   return part == KernelPart::Backward ? o + " -DBACKWARD_KERNELS" : o;
 }
 
@@ -99,6 +105,8 @@ std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
       files.push_back({name, {detail::KernelPart::Forward}});
       if (text.find("BACKWARD_KERNEL") != std::string::npos)
         files.back().second.push_back(detail::KernelPart::Backward);
+      if (text.find("GATHER_KERNEL") != std::string::npos)
+        files.back().second.push_back(detail::KernelPart::Gather);
     }
   std::vector<Precision> precisions = {Precision::Float};
   if (device.fp64) precisions.push_back(Precision::Double);

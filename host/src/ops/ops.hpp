@@ -15,14 +15,16 @@
 
 namespace penumbra::detail {
 
-// Which kernels of a stage's file a program holds (FORWARD_KERNEL, BACKWARD_KERNEL in
-// kernels/common/real.clh): a render builds no backward kernel. A kernel both passes launch
+// Which kernels of a stage's file a program holds (FORWARD_KERNEL, BACKWARD_KERNEL,
+// GATHER_KERNEL in kernels/common/real.clh): a render builds no backward kernel, and the texel
+// gathers run texels of their own run width (GatherTuning::row). A kernel both passes launch
 // is a forward one (backward always follows a render of the same Kernels).
-enum class KernelPart { Forward, Backward };
+enum class KernelPart { Forward, Backward, Gather };
 
 // The options kernels/<file> is built with for this precision, tuning and device, then
 // `variant` (a stage's own: -DSAMPLING_<WORD>, bin.cl's -DTILE) and the part's
-// (-DBACKWARD_KERNELS): the one place that decides the -D options of every program.
+// (-DBACKWARD_KERNELS, -DGATHER_KERNELS): the one place that decides the -D options of every
+// program.
 std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
                             const DeviceInfo& device, const std::string& variant = "",
                             KernelPart part = KernelPart::Forward);

@@ -55,7 +55,7 @@ struct PcfSampleBwdArgs {
 struct PcfGatherArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_gather";
-  static constexpr KernelPart part = KernelPart::Backward;
+  static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
   cl_int reach;
   const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;

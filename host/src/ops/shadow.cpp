@@ -39,7 +39,7 @@ struct ShadowSampleBwdArgs {
 struct ShadowGatherArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "shadow_gather";
-  static constexpr KernelPart part = KernelPart::Backward;
+  static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
   const cl::Buffer &rec_light, &rec_lgrad;
   BinLists buckets;
@@ -69,7 +69,7 @@ struct SoftSampleBwdArgs {
 struct SoftGatherArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "soft_gather";
-  static constexpr KernelPart part = KernelPart::Backward;
+  static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
   const cl::Buffer &S, &Pmap, &rec_light, &rec_light2, &rec_lgrad;
   BinLists buckets;
@@ -226,8 +226,8 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
 }  // namespace
 
 void launch_gather(Kernels& k, cl::Kernel& gather, int Wm, int Hm) {
-  const DeviceDefaults d = device_defaults(k.ctx().info());
-  const int row = d.shadow_row, rows = d.gather_rows, group = k.tuning().gather.group;
+  const GatherTuning& t = k.tuning().gather;
+  const int row = t.width, rows = t.height, group = t.group;
   const size_t local = group > 1 ? size_t(group) : 8;  // staging gathers: the kernels' group
   launch(k.ctx(), gather, cl::NDRange((Wm + row - 1) / row, (Hm + rows - 1) / rows),
          cl::NDRange(local, local));

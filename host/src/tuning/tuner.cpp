@@ -61,7 +61,9 @@ std::string describe(const Tuning& t, const std::string& stage) {
   if (stage == "exact" && t.exact.clblast)
     s << "CLBlast GEMM " << (t.exact.xgemm ? t.exact.xgemm->describe() : "(its defaults)");
   if (stage == "penumbra") s << "tile " << t.penumbra.tile;
-  if (stage == "gather") s << "group " << t.gather.group << "x" << t.gather.group;
+  if (stage == "gather")
+    s << "group " << t.gather.group << "x" << t.gather.group << ", block " << t.gather.width << "x"
+      << t.gather.height;
   return s.str();
 }
 
@@ -104,7 +106,8 @@ void add_if_legal(TuneStage& stage, const Tuning& t, const DeviceInfo& device) {
   }
 }
 
-// The texel gathers' work-groups: the same sums in the same order, so bit for bit.
+// The texel gathers' work-groups at the starting block of texels, then the blocks at the
+// starting group: the same sums in the same order, so bit for bit.
 TuneStage gather_stage(const DeviceInfo& device, const Tuning& start, bool quick) {
   TuneStage gather{"gather", Shadows::Soft, Sampling::Truncated, 0.0, {}};
   for (int group : quick ? std::vector<int>{1, 2} : std::vector<int>{1, 2, 4, 8, 16}) {
@@ -112,6 +115,14 @@ TuneStage gather_stage(const DeviceInfo& device, const Tuning& start, bool quick
     t.gather.group = group;
     add_if_legal(gather, t, device);
   }
+  for (int width : quick ? std::vector<int>{} : std::vector<int>{8, 16})
+    for (int height : {1, 4, 8}) {
+      Tuning t = start;
+      t.gather.width = width;
+      t.gather.height = height;
+      if (width != start.gather.width || height != start.gather.height)
+        add_if_legal(gather, t, device);
+    }
   return gather;
 }
 

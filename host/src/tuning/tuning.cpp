@@ -70,7 +70,11 @@ void read_into(const json& j, Tuning& t) {
     if (e.contains("xgemm")) t.exact.xgemm = read_xgemm(e.at("xgemm"));
   }
   if (j.contains("penumbra")) get(j.at("penumbra"), "tile", t.penumbra.tile);
-  if (j.contains("gather")) get(j.at("gather"), "group", t.gather.group);
+  if (j.contains("gather")) {
+    get(j.at("gather"), "group", t.gather.group);
+    get(j.at("gather"), "width", t.gather.width);
+    get(j.at("gather"), "height", t.gather.height);
+  }
 }
 
 json to_json(const Tuning& t) {
@@ -85,7 +89,8 @@ json to_json(const Tuning& t) {
             {"min_indirect_size", t.exact.min_indirect_size},
             {"xgemm", xgemm_json(t.exact.xgemm)}}},
           {"penumbra", {{"tile", t.penumbra.tile}}},
-          {"gather", {{"group", t.gather.group}}}};
+          {"gather",
+           {{"group", t.gather.group}, {"width", t.gather.width}, {"height", t.gather.height}}}};
 }
 
 void warn(const std::string& message) {
@@ -199,6 +204,11 @@ void validate(const Tuning& t, const DeviceInfo& device) {
     throw Error("gather tuning: group " + std::to_string(g) +
                 " must be 0 (the device's default) or 1 to 16, its square at most the device's " +
                 "work-group size (" + std::to_string(device.max_work_group) + ")");
+  const int w = t.gather.width, h = t.gather.height;
+  if (!(w == 0 || w == 4 || w == 8 || w == 16) ||
+      !(h == 0 || h == 1 || h == 2 || h == 4 || h == 8 || h == 16))
+    throw Error("gather tuning: width " + std::to_string(w) + " must be 4, 8 or 16 and height " +
+                std::to_string(h) + " 1, 2, 4, 8 or 16 (0: the device's default)");
 }
 
 WorkloadStats workload_stats(const Scene& scene) {
@@ -247,6 +257,8 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   t.raster.pixels_per_item = defaults.pixels_per_item;
   t.raster.face_lanes = defaults.face_lanes;
   t.gather.group = defaults.gather_group;
+  t.gather.width = defaults.gather_width;
+  t.gather.height = defaults.gather_height;
   // Cost of a tile size T: (pixel, face) pairs visited, each face touching the pixels of every
   // tile its box overlaps, plus a fixed cost per (tile, face) entry of the bins.
   const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
