@@ -193,15 +193,41 @@ __kernel void row_dots(int M, int N, __global const real* C, __global const real
 // matmul_tn's rows per work-item: its K (fragments) is long, so each row block streams all of
 // A and B; twice nt's rows halve that traffic.
 #define TN_RB (2 * MM_RB)
-// Whether row k of A and B can be nonzero in columns m0 .. m1 of A and n0 .. n1 of B.
-inline int tn_reaches(__global const int4* support, int k, int m0, int m1, int n0, int n1) {
-  int4 s = support[k];
+// Whether support s (of a row k, or a chunk's) can be nonzero in columns m0 .. m1 of A and
+// n0 .. n1 of B.
+inline int tn_reaches(int4 s, int m0, int m1, int n0, int n1) {
   return s.z <= m1 && s.w >= m0 && s.x <= n1 && s.y >= n0;
 }
 
+// matmul_tn's chunks of TN_CHUNK consecutive rows k (the host's kTnChunk): the union of their
+// supports, empty rows left out (all empty: a box that reaches nothing). A work-item of
+// matmul_tn tests a chunk before its rows, which, k after k, had been most of its time (every
+// row of A and B is zero outside a small part of a big map); it still visits the rows it
+// reaches in the same order, so the sums are the same bit for bit. Launch: global ceil(K/TN_CHUNK).
+#define TN_CHUNK 16
+__kernel void support_chunks(int K, __global const int4* support, __global int4* chunks) {
+  int c = get_global_id(0);
+  if (c * TN_CHUNK >= K) return;
+  int4 box = (int4)(INT_MAX, INT_MIN, INT_MAX, INT_MIN);
+  for (int k = c * TN_CHUNK; k < min(K, (c + 1) * TN_CHUNK); ++k) {
+    int4 s = support[k];
+    if (s.x <= s.y && s.z <= s.w)
+      box = (int4)(min(box.x, s.x), max(box.y, s.y), min(box.z, s.z), max(box.w, s.w));
+  }
+  chunks[c] = box;
+}
+
+// The rows k a block of C (columns m0 .. m1 of A, n0 .. n1 of B) visits, in order: those whose
+// support reaches it, in the chunks whose box does.
+#define FOR_EACH_TN_ROW(k, m0, m1, n0, n1)                                        \
+  for (int c_ = 0; c_ * TN_CHUNK < K; ++c_)                                       \
+    if (tn_reaches(chunks[c_], m0, m1, n0, n1))                                   \
+      for (int k = c_ * TN_CHUNK; k < min(K, (c_ + 1) * TN_CHUNK); ++k)           \
+        if (tn_reaches(support[k], m0, m1, n0, n1))
+
 __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
-                        __global const real* B, int ldb, __global const int4* support, real beta,
-                        __global real* C, int ldc) {
+                        __global const real* B, int ldb, __global const int4* support,
+                        __global const int4* chunks, real beta, __global real* C, int ldc) {
   int n0 = get_global_id(0) * 2 * MM_VW, m0 = get_global_id(1) * TN_RB;
   if (m0 >= M || n0 >= N) return;
   // Two vectors of columns (one where only one fits: the second then repeats the first and is
@@ -212,8 +238,7 @@ __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
     realV acc[TN_RB][2];
 #pragma unroll
     for (int i = 0; i < TN_RB; ++i) acc[i][0] = acc[i][1] = 0;
-    for (int k = 0; k < K; ++k) {
-      if (!tn_reaches(support, k, m0, m_last, n0, n1 + MM_VW - 1)) continue;
+    FOR_EACH_TN_ROW(k, m0, m_last, n0, n1 + MM_VW - 1) {
       realV b0 = VLOAD(0, B + (size_t)k * ldb + n0), b1 = VLOAD(0, B + (size_t)k * ldb + n1);
       __global const real* a = A + (size_t)k * lda;
 #pragma unroll
@@ -233,9 +258,7 @@ __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
   for (int i = 0; i < TN_RB && m0 + i < M; ++i)  // the ragged right edge, column by column
     for (int j = n0 + vectors * MM_VW; j < min(n0 + 2 * MM_VW, N); ++j) {
       real s = 0;
-      for (int k = 0; k < K; ++k)
-        if (tn_reaches(support, k, m0 + i, m0 + i, j, j))
-          s += A[(size_t)k * lda + m0 + i] * B[(size_t)k * ldb + j];
+      FOR_EACH_TN_ROW(k, m0 + i, m0 + i, j, j) s += A[(size_t)k * lda + m0 + i] * B[(size_t)k * ldb + j];
       store(C, ldc, m0 + i, j, s, beta);
     }
 }

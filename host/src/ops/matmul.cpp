@@ -2,6 +2,7 @@
 // direct kernels or by CLBlast's GEMM (the same numbers up to summation order).
 #include <clblast.h>
 
+#include <algorithm>
 #include <map>
 #include <mutex>
 #include <tuple>
@@ -116,12 +117,22 @@ struct MatmulTnArgs {
   cl_int lda;
   const cl::Buffer& B;
   cl_int ldb;
-  const cl::Buffer& support;
+  const cl::Buffer &support, &chunks;
   Real beta;
   const cl::Buffer& C;
   cl_int ldc;
-  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, support, beta, C, ldc); }
+  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, support, chunks, beta, C, ldc); }
 };
+
+struct SupportChunksArgs {
+  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* kernel = "support_chunks";
+  cl_int K;
+  const cl::Buffer &support, &chunks;
+  auto fields() const { return std::tie(K, support, chunks); }
+};
+
+constexpr size_t kTnChunk = 16;  // TN_CHUNK of matmul.cl
 
 // matmul_nn_rowdot and matmul_nn_rowdots take the same arguments; `kernel` says which.
 struct MatmulRowdotsArgs {
@@ -182,8 +193,11 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support, double beta,
                cl::Buffer& C, size_t ldc) {
   if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
+  const size_t nchunks = (kk + kTnChunk - 1) / kTnChunk;
+  const cl::Buffer chunks = alloc_ints(k.ctx(), std::max<size_t>(nchunks, 1) * 4);
+  launch_1d(k.ctx(), bind_args(k, SupportChunksArgs{int(kk), support, chunks}), nchunks);
   auto& mm = bind_args(k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), support,
-                                       beta, C, int(ldc)});
+                                       chunks, beta, C, int(ldc)});
   const ExactSumTuning& t = k.tuning().exact;  // 2·MM_RB rows, 2·MM_VW columns per work-item
   const size_t rows = 2 * size_t(t.row_block), cols = 2 * size_t(t.vector_width);
   launch(k.ctx(), mm, cl::NDRange((n + cols - 1) / cols, (m + rows - 1) / rows),
