@@ -56,13 +56,15 @@ PAPER = {"none": (1.0, 1.0), "hard": (33.0, 33.0), "soft": (104.0, 104.0)}
 MISS_REASONS = [
     ("no shadows", "the three raster passes are most of the frame. For every pixel and every "
      "face whose cut-off box reaches it, `raster_count` computes the barycentrics, the distance "
-     "to the three edges and a softplus (on float16 vectors: blocks of 4×4 pixels), and "
+     "to the three edges and a softplus (on vectors of the tuning's pixels per work-item: 8 on "
+     "this Xeon, blocks of 4×2 pixels), and "
      "`raster_fragments` computes them again for the faces `raster_count` marked (a bit per "
      "block and list entry) to write the kept fragments, because which fragments are kept "
      "depends on the largest weight, which is known only after all faces. The kept fragments' "
-     "records (their shading terms computed for a face's 16 lanes at once, then each weight's "
+     "records (their shading terms computed for a face's lanes at once, then each weight's "
      "exp and three stores per kept fragment: face, weight and depth, shading; a view without "
-     "shadows writes no light-map records) are about 40 % of `raster_fragments` (with only the "
+     "shadows writes no light-map records) were about 40 % of `raster_fragments` on the AMD "
+     "EPYC of this page's earlier runs (with only the "
      "face index of each record written it took 1.01-1.29 ms per launch against 1.84-2.03 ms; "
      "kernels modified for the measurement only, alternated three times with the unmodified "
      "ones: `PENUMBRA_KERNEL_DIR=DIR PENUMBRA_PROFILE=1 penumbra_bench "
@@ -70,7 +72,12 @@ MISS_REASONS = [
      "--benchmark_min_time=2`, 2026-11-26)."),
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
-     "texels per fragment."),
+     "texels per fragment. The forward's kernels are the same as in the run of 2026-11-27 "
+     "10:19 UTC that met the limit (9.48 ms, FMA ceiling 471 GFLOP/s median): alternating "
+     "that run's build and this one three times at 12:40 UTC gave 10.4-11.6 ms and "
+     "10.7-11.2 ms (`penumbra_bench --benchmark_filter=^fwd/hard/truncated/img:256/map:256/"
+     "faces:1312/sigma_s:2/lights:1/manual --benchmark_min_time=1`): the machine, not the "
+     "code, was slower."),
     ("hard shadows, exact", "every fragment's Gaussian weights span the map: `exact_weights` "
      "writes N·(W_s + H_s) of them, and `matmul_nn_rowdot` forms Gy·S, each row summed against "
      "Gx as it is formed, over the weights that are not exactly 0 (within about 18.7 texels of "
@@ -80,46 +87,50 @@ MISS_REASONS = [
     (("backward ≤ 3× forward (hard, exact", "backward ≤ 3× forward (hard, gemm"), "the exact "
      "backward computes three matrix products (Gy·S and Gyd·S, summed against Gx and Gxd, and "
      "(a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one (Gy·S), and twice the weight "
-     "matrices (Gx, Gy and the derivative weights Gxd, Gyd) in batches half as large."),
+     "matrices (Gx, Gy and the derivative weights Gxd, Gyd) in batches half as large. "
+     "penumbra's products skip the weights outside each fragment's support; CLBlast (`gemm`) "
+     "multiplies all of them, in the forward's one product and the backward's three alike."),
     ("backward ≤ 3× forward (hard, truncated", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
      "rest per pixel), are loops per work-item that PoCL runs one work-item at a time."),
     ("backward ≤ 3× forward (soft", "the compare's two sigmoids and their derivatives are "
      "evaluated again for every fragment at every texel of its window twice: per texel in the "
-     "gather (`soft_gather`, 19.3 ms per backward, on 16×4-texel blocks) and per fragment "
-     "(`soft_sample_bwd`, 11.7 ms), against one lookup (`soft_sample`, 7.4 ms) in the forward; "
-     "the per-face raster backward of both views takes 9.2 ms and the penumbra map's backward "
-     "1.3 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/soft/truncated/img:256/"
-     "map:256/faces:1312/ --benchmark_min_time=3`, 2026-11-26 21:15 UTC). The quotient sits at "
-     "the limit: 2.4-3.24× in runs of the suite, and 2.80-3.20× in seven runs of the step case "
-     "alone within ten minutes, alternating the current build and the one before its last "
-     "raster change, which leaves the soft path's work as it was (`penumbra_bench "
-     "--benchmark_filter=^step/soft/truncated/img:256/map:256/faces:1312/ "
-     "--benchmark_min_time=2`, 2026-11-26 21:40 UTC). Each sigmoid's divisions and exponential "
-     "are most of both kernels; rewriting them (a reciprocal of γ_s, e/(e + c) for 1/(1 + c/e)) "
-     "would change the gradients' last bits."),
-    ("512²", "the tile lists of a 100k-face sphere hold many small faces (about 250 per "
-     "16×16 tile, up to 1700 near the silhouette); `raster_count` tests every one on each of the "
-     "tile's 4×4-pixel blocks (about 53 reach a block's box, 41 cover one of its pixels: the "
-     "coverage, depth and softplus of 16 pixels each: 16 384 blocks × 41, some 670 000 such "
-     "evaluations per frame), "
-     "`raster_fragments` the ~22 per block that may keep a fragment, and writes the kept ones' "
-     "records. The two took 29.5-34.0 and 32.2-38.5 ms per launch (this build alternated three "
-     "times with the previous one: `PENUMBRA_PROFILE=1 penumbra_bench "
-     "--benchmark_filter=fwd/none/truncated/img:512/map:256/faces:100852 "
-     "--benchmark_min_time=2`, 2026-11-26), the records about a third of `raster_fragments` "
-     "(21.8-23.4 ms per launch without them against 33.0-35.2 ms, kernels modified for the "
-     "measurement only, alternated three times with `PENUMBRA_KERNEL_DIR=DIR`): the raster "
-     "passes alone take about twice the target. A renderer rasters into its last render's "
-     "fragment buffers where they fit, so that PoCL's host memory does not fault their pages in "
-     "anew every frame."),
+     "gather (`soft_gather`, on blocks of 8×8 texels: 17-19 ms a backward, 29 ms on the 16×4 "
+     "blocks before) and per fragment (`soft_sample_bwd`, 18 ms), against one lookup "
+     "(`soft_sample`, 8 ms) in the forward; the per-face raster backward of both views takes "
+     "8 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/soft/truncated/img:256/"
+     "map:256/faces:1312/ --benchmark_min_time=3`, 2026-11-27, this Xeon). Each sigmoid's "
+     "divisions and exponential are most of both kernels; rewriting them (a reciprocal of γ_s, "
+     "e/(e + c) for 1/(1 + c/e)) would change the gradients' last bits."),
+    ("512²", "with the 8×8 tiles the heuristic picks for a 100k-face sphere at 512², a tile's "
+     "list holds about 77 faces; `raster_count` tests each against the box of each of the "
+     "tile's 4×2-pixel blocks (8 pixels per work-item: 16 was 1.4× slower on this Xeon), 32 "
+     "reach it and 24 cover one of its pixels: the coverage, depth and softplus of 8 pixels "
+     "each, 54 % of those lanes within the face's cut-off, some 790 000 such evaluations per "
+     "frame. `raster_fragments` evaluates again the 13 per block that may keep a fragment (9 "
+     "keep one: 4.6 fragments per pixel, 1.21 million) and writes their records. Per launch "
+     "`raster_count` took 32-36 ms, of which the walk of the lists and the box tests 6 ms "
+     "(measured with the evaluations removed), and `raster_fragments` 37-40 ms. The "
+     "evaluations are bound by the number of vector instructions, not by their chains of "
+     "latency: an independent second softplus per evaluation took `raster_count` from 34-35 "
+     "to 46-47 ms, and evaluating two faces at a time, so that their chains could overlap, to "
+     "74-76 ms "
+     "(`PENUMBRA_KERNEL_DIR=DIR PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=fwd/none/"
+     "truncated/img:512/map:256/faces:100852 --benchmark_min_time=1`, kernels modified for the "
+     "measurements only, 2026-11-27): the raster passes alone take more than twice the target "
+     "on this machine. A renderer rasters into its last render's fragment buffers where they "
+     "fit, so that PoCL's host memory does not fault their pages in anew every frame."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
-     "forward and (per face, over its pixel box) backward, plus the lookups and gathers. The "
-     "step sits near the limit on this machine: 172-200 ms in ten runs of the case alone "
-     "(`penumbra_bench --benchmark_filter=^step/hard/truncated/img:256/map:256/faces:100852 "
-     "--benchmark_min_time=2`, 2026-11-26 21:50 UTC, alternating the current build and the "
-     "one before its last raster change, whose kernel times were the same within 5 %)."),
+     "forward and (per face, over its pixel box) backward, plus the lookups and gathers: per "
+     "step `raster_bwd` 55 ms, `raster_count` 48 ms, `raster_fragments` 31 ms, `shadow_gather` "
+     "20 ms (38-41 ms on the gathers' 16×4 blocks before), `shadow_sample` 16 ms, "
+     "`shadow_sample_bwd` 12 ms of device time, and the calling thread's own work (packing the "
+     "scene, summing the per-face light gradients, new buffers' first pages) about 24 ms of CPU "
+     "time "
+     "(`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/hard/truncated/img:256/"
+     "map:256/faces:100852 --benchmark_min_time=3`, 2026-11-27). Alternating the gathers' "
+     "blocks gave steps of 238 and 233 ms against 251 and 260 ms with 16×4."),
 ]
 
 
@@ -148,7 +159,7 @@ def parse_name(name):
     elif words[:2] == ["accuracy", "ratio"]:
         rec.update(kind="accuracy_ratio", shadows=words[2], sampling=words[3])
     elif words[0] == "step":  # a render and its backward in turn (bench_render.cpp, run_step)
-        rec.update(kind="step", shadows=words[1], sampling=words[2])
+        rec.update(kind="step", shadows=words[1], sampling=words[2], model="paper")
     elif words[0] in ("turnaround", "accuracy"):
         rec.update(kind=words[0], pass_=words[1], shadows=words[2], sampling=words[3])
     elif words[0] in ("fwd", "bwd"):  # the paper's model unless the name says /model:
@@ -232,7 +243,7 @@ def ms(r):
 
 def step(res, **want):
     """The step case (a render and its backward in turn) at the reference point but `want`."""
-    return res.find("step", **{**{k: v for k, v in REF.items() if k != "model"}, **want})
+    return res.find("step", **{**REF, **want})
 
 
 def bwd_over_fwd(res, shadows, sampling):
@@ -1028,6 +1039,13 @@ def stage_notes(res, peak, exp_rate, profiles):
         out.append("- **The accurate model** (the renderer's default; truncated, the same "
                    "settings as above, so a 256² map where its default is 384²): "
                    + "; ".join(acc) + ".")
+    big = [(sh, step(res, shadows=sh, sampling="truncated", faces=100852, model=model))
+           for model in ("paper", "accurate") for sh in ("hard", "soft")]
+    big = [f"{s['model']} {sh} {fmt(s['ms_median'])} ms (forward {fmt(s['ms_fwd'])}, backward "
+           f"{fmt(s['ms_bwd'])})" for sh, s in big if s and s.get("ms_fwd")]
+    if big:
+        out.append("- **100 852 faces, a render and its backward** (`step` cases, 256² image and "
+                   "map, truncated): " + "; ".join(big) + ".")
     fc = sweep(res, "faces").get(("fwd", "none", "truncated"), [])
     if len(fc) >= 2:
         (f0, t0), (f1, t1) = fc[0], fc[-1]
