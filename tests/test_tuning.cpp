@@ -294,6 +294,13 @@ TEST(Tuning, IllegalValuesAreRejectedWithAClearMessage) {
     t.gather.group = group;
     expect_refused(t, "gather tuning: group " + std::to_string(group));
   }
+  for (auto [width, height] : {std::pair{2, 8}, {32, 8}, {8, 3}, {8, 32}, {-8, 8}}) {
+    t = Tuning{};
+    t.raster.pixels_per_item = 1;
+    t.gather.width = width, t.gather.height = height;
+    expect_refused(t, "gather tuning: width " + std::to_string(width) + " must be 4, 8 or 16 " +
+                          "and height " + std::to_string(height));
+  }
   DeviceInfo small = context().info();
   small.max_work_group = 63;  // 8 × 8 work-items do not fit
   t = Tuning{};
@@ -311,7 +318,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
     out << R"({"version": 1, "entries": {
       "Exact Device 1": {"raster": {"tile": 32, "pixels_per_item": 4},
                          "exact": {"clblast": false, "vector_width": 16, "row_block": 2},
-                         "penumbra": {"tile": 8}, "gather": {"group": 4}},
+                         "penumbra": {"tile": 8}, "gather": {"group": 4, "width": 16}},
       "Acme/gpu": {"exact": {"clblast": true}, "penumbra": {"tile": 32}},
       "cpu": {"raster": {"pixels_per_item": 8}}}})";
   }
@@ -330,6 +337,8 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.exact.vector_width, 16);
   EXPECT_EQ(t.penumbra.tile, 8);
   EXPECT_EQ(t.gather.group, 4);
+  EXPECT_EQ(t.gather.width, 16);
+  EXPECT_EQ(t.gather.height, 1);  // not in the entry: a GPU's
 
   dev.name = "Unknown Device 7";  // same vendor and type: the class entry, heuristic tile
   t = db.lookup(dev, w);
@@ -339,6 +348,8 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.raster.pixels_per_item, 1);  // the heuristic's choice for a GPU
   EXPECT_EQ(t.raster.face_lanes, 32);
   EXPECT_EQ(t.gather.group, 2);  // a GPU's
+  EXPECT_EQ(t.gather.width, 8);
+  EXPECT_EQ(t.gather.height, 1);
 
   dev.vendor = "Nobody", dev.is_gpu = false;  // only the type matches
   t = db.lookup(dev, w);
@@ -346,6 +357,8 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.raster.pixels_per_item, 8);
   EXPECT_EQ(t.raster.face_lanes, 1);
   EXPECT_EQ(t.gather.group, 1);  // a CPU's
+  EXPECT_EQ(t.gather.width, 8);
+  EXPECT_EQ(t.gather.height, 8);
 
   const TuningDatabase empty = TuningDatabase::load({});
   t = empty.lookup(dev, w);
@@ -430,10 +443,14 @@ TEST(Tuning, DatabaseRoundTripsClblastParametersAndReadsOldEntries) {
   t.exact.xgemm = xgemm_candidates(false).back();
   t.exact.xgemm->KWI = 8;  // differs from every default
   t.exact.min_indirect_size = 1;
+  t.gather = {2, 16, 4};
   TuningDatabase db = TuningDatabase::load({});
   db.set(dev.name, t);
   db.save(path);
   Tuning back = TuningDatabase::load({path}).lookup(dev, WorkloadStats{});
+  EXPECT_EQ(back.gather.group, 2);
+  EXPECT_EQ(back.gather.width, 16);
+  EXPECT_EQ(back.gather.height, 4);
   ASSERT_TRUE(back.exact.xgemm.has_value());
   EXPECT_EQ(*back.exact.xgemm, *t.exact.xgemm) << back.exact.xgemm->describe();
   EXPECT_EQ(back.exact.xgemm->KWI, 8);
