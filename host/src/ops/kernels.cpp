@@ -37,7 +37,7 @@ std::string program_options(const std::string& file, Precision precision, const 
          " -DBLOCK_W=" + std::to_string(raster_block_width(r.pixels_per_item)) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0) +
          " -DFACE_LANES=" + std::to_string(r.face_lanes);
-  if (file == "shadow.cl" || file == "pcf.cl") {  // the gathers' program: their block of texels
+  if (file == "shadow.cl" || file == "pcf.cl") {  // the gathers' program: the tuning's block
     const GatherTuning& g = tuning.gather;
     o += part == KernelPart::Gather
              ? " -DROW=" + std::to_string(g.width) + " -DGATHER_ROWS=" + std::to_string(g.height) +

@@ -17,8 +17,8 @@ namespace penumbra::detail {
 
 // Which kernels of a stage's file a program holds (FORWARD_KERNEL, BACKWARD_KERNEL,
 // GATHER_KERNEL in kernels/common/real.clh): a render builds no backward kernel, and the texel
-// gathers run texels of their own run width (GatherTuning::row). A kernel both passes launch
-// is a forward one (backward always follows a render of the same Kernels).
+// gathers run blocks of texels of their own (GatherTuning::width, height). A kernel both
+// passes launch is a forward one (backward always follows a render of the same Kernels).
 enum class KernelPart { Forward, Backward, Gather };
 
 // The options kernels/<file> is built with for this precision, tuning and device, then
