@@ -52,15 +52,17 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
 // The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
 // exact_backward): batches of at most ~96 MiB of weights and products, or fewer fragments.
 // The forward holds Gx, Gy, dots, norm and the weights' supports (int4), the backward also Gxd,
-// Gyd and dsum; with CLBlast the products Gy·S (and Gyd·S) too (the direct kernels store none).
+// Gyd and dsum; with CLBlast the products Gy·S (and Gyd·S) too (the direct kernels store none,
+// and matmul_tn's int4 box per 16 fragments instead).
 size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward,
                          bool clblast) {
   const size_t cap = std::max<size_t>(1, (size_t(96) << 20) / (texels_side * 6 * z.rs));
   const size_t support = 4 * sizeof(int);
   const size_t fwd =
       std::min(cap, fragments) * (((clblast ? 3 : 2) * texels_side + 8) * z.rs + support);
-  const size_t bwd = std::min(std::max<size_t>(cap / 2, 1), fragments) *
-                     (((clblast ? 6 : 4) * texels_side + 10) * z.rs + support);
+  const size_t bwd_batch = std::min(std::max<size_t>(cap / 2, 1), fragments);
+  const size_t bwd = bwd_batch * (((clblast ? 6 : 4) * texels_side + 10) * z.rs + support) +
+                     (clblast ? 0 : (bwd_batch / 16 + 1) * support);
   return backward ? std::max(fwd, bwd) : fwd;
 }
 

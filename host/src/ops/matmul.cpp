@@ -162,22 +162,28 @@ struct RowDotsArgs {
   auto fields() const { return std::tie(M, N, C, Cd, ldc, D, Dd, ldd, out); }
 };
 
+// `buffer`, made by `make` on first use and whenever it holds fewer than `bytes`.
+template <class Make>
+cl::Buffer& kept(cl::Buffer& buffer, size_t bytes, Make make) {
+  if (!buffer() || buffer.getInfo<CL_MEM_SIZE>() < bytes) buffer = make();
+  return buffer;
+}
+
 }  // namespace
 
 void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                        const cl::Buffer* Ad, size_t lda, const cl::Buffer& B, size_t ldb,
                        const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd,
-                       const cl::Buffer& support, cl::Buffer& out) {
+                       const cl::Buffer& support, ProductScratch& scratch, cl::Buffer& out) {
   const bool derivatives = Ad && Dd;
   const cl::Buffer &ad = derivatives ? *Ad : A, &dd = derivatives ? *Dd : D;
   if (clblast) {
-    cl::Buffer C = alloc_reals(k.ctx(), k.precision(), m * n);
+    auto make = [&] { return alloc_reals(k.ctx(), k.precision(), m * n); };
+    const size_t bytes = m * n * real_size(k.precision());
+    cl::Buffer& C = kept(scratch.products, bytes, make);
     clblast_gemm(k, false, false, m, n, kk, A, lda, B, ldb, 0.0, C, n);
-    cl::Buffer Cd = C;
-    if (derivatives) {
-      Cd = alloc_reals(k.ctx(), k.precision(), m * n);
-      clblast_gemm(k, false, false, m, n, kk, ad, lda, B, ldb, 0.0, Cd, n);
-    }
+    cl::Buffer& Cd = derivatives ? kept(scratch.products_d, bytes, make) : C;
+    if (derivatives) clblast_gemm(k, false, false, m, n, kk, ad, lda, B, ldb, 0.0, Cd, n);
     auto& rd = bind_args(k, RowDotsArgs{derivatives ? "row_dots" : "row_dot", int(m), int(n), C, Cd,
                                         int(n), D, dd, int(ldd), out});
     return launch_1d(k.ctx(), rd, m);
@@ -190,11 +196,13 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
 }
 
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-               size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support, double beta,
-               cl::Buffer& C, size_t ldc) {
+               size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support,
+               ProductScratch& scratch, double beta, cl::Buffer& C, size_t ldc) {
   if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
   const size_t nchunks = (kk + kTnChunk - 1) / kTnChunk;
-  const cl::Buffer chunks = alloc_ints(k.ctx(), std::max<size_t>(nchunks, 1) * 4);
+  const size_t boxes = std::max<size_t>(nchunks, 1) * 4;  // an int4 box per chunk
+  const cl::Buffer& chunks =
+      kept(scratch.chunks, boxes * sizeof(int), [&] { return alloc_ints(k.ctx(), boxes); });
   launch_1d(k.ctx(), bind_args(k, SupportChunksArgs{int(kk), support, chunks}), nchunks);
   auto& mm = bind_args(k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), support,
                                        chunks, beta, C, int(ldc)});

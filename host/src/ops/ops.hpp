@@ -231,18 +231,25 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
 // Row-major products by matmul.cl or (clblast) by CLBlast. `support` (int4 per row of A and
 // B, or of A and D: matmul.cl) bounds the nonzero columns of each row, which the direct
 // kernels skip and CLBlast's GEMM multiplies.
+// Buffers the products keep from one batch of rows to the next: made at the first call (the
+// largest batch comes first) and reused, so that no batch allocates while an earlier batch's
+// commands, and therefore its released buffers, may still be alive on the device.
+struct ProductScratch {
+  cl::Buffer products, products_d;  // CLBlast's A·B and Ad·B (matmul_nn_rowdots)
+  cl::Buffer chunks;                // matmul_tn's chunk boxes
+};
 // C (m × n) = Aᵀ (A is k × m)·B + beta·C.
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-               size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support, double beta,
-               cl::Buffer& C, size_t ldc);
+               size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support,
+               ProductScratch& scratch, double beta, cl::Buffer& C, size_t ldc);
 // out_r = (Σ_c (A·B)_rc·D_rc, Σ_c (A·B)_rc·Dd_rc, Σ_c (Ad·B)_rc·D_rc, 0) as a real4 (B is
 // k × n, D is m × n, Ad and Dd shaped as A and D); without Ad and Dd only the first (.y, .z
 // unspecified). The direct kernels never store A·B; CLBlast's GEMM writes it (and Ad·B) to
-// temporaries that row_dot(s) reads.
+// the scratch's products, which row_dot(s) reads.
 void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                        const cl::Buffer* Ad, size_t lda, const cl::Buffer& B, size_t ldb,
                        const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd,
-                       const cl::Buffer& support, cl::Buffer& out);
+                       const cl::Buffer& support, ProductScratch& scratch, cl::Buffer& out);
 
 // The paper model: shadow terms of every fragment `f` of camera view `v` for light `light`,
 // sampled from the light's shadow map (and penumbra map for soft shadows)

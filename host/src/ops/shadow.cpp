@@ -141,6 +141,7 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
   cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
              dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
              support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
+  ProductScratch scratch;
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
@@ -150,7 +151,7 @@ void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup
     launch_1d(ctx, wts, m);
     // dot_r = Σ_i U_ri·Gx_ri, U = Gy·S
     matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, nullptr, Hm, lm.S, Wm, Gx, nullptr, Wm, support,
-                      dot);
+                      scratch, dot);
     auto& fin = bind_args(k, ExactFinishArgs{at.P, r0, m, light, nl, dot, norm, f.rec_light});
     launch_1d(ctx, fin, m);
   }
@@ -207,6 +208,7 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
              dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
              dsum = alloc_reals(ctx, p, batch * 2),
              support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
+  ProductScratch scratch;
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
@@ -214,11 +216,12 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
                                               1, Gy, Gyd, norm, dsum, support});
     launch_1d(ctx, wts, m);
     // dots_r = Σ_i (U_ri·Gx_ri, U_ri·Gxd_ri, Ud_ri·Gx_ri), U = Gy·S, Ud = Gyd·S
-    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, support, dots);
+    matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, support, scratch,
+                      dots);
     auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Hm, dots, Gy, norm, dsum,
                                                 support, f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
-    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, support, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
+    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, support, scratch, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
   }
   return g;
 }
