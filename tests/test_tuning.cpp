@@ -348,7 +348,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.raster.pixels_per_item, 1);  // the heuristic's choice for a GPU
   EXPECT_EQ(t.raster.face_lanes, 32);
   EXPECT_EQ(t.gather.group, 2);  // a GPU's
-  EXPECT_EQ(t.gather.width, 8);
+  EXPECT_EQ(t.gather.width, 4);
   EXPECT_EQ(t.gather.height, 1);
 
   dev.vendor = "Nobody", dev.is_gpu = false;  // only the type matches
@@ -424,7 +424,7 @@ TEST(Tuning, TunerTimesEveryStageAndReturnsALegalWinner) {
     raster |= c.stage == "raster";
     exact |= c.stage == "exact";
     pen |= c.stage == "penumbra";
-    gather |= c.stage == "gather" && c.name == "group 2x2, block 8x8";
+    gather |= c.stage == "gather" && c.name.rfind("group 2x2, block ", 0) == 0;  // any device
     EXPECT_TRUE(c.accepted) << c.stage << " " << c.name << ": " << c.note;
     EXPECT_GT(c.median_ms, 0.0);
   }

@@ -70,7 +70,7 @@ struct GatherTuning {
   // A gather work-item's block of texels: `width` of a map row (the gathers' ROW: 4, 8 or 16)
   // by `height` rows (GATHER_ROWS: 1, 2, 4, 8 or 16). Each texel adds its fragments in bucket
   // order whatever the block, so the sums are the same bit for bit. 0: the device's (8 × 8 on
-  // CPUs, 8 × 1 on GPUs).
+  // CPUs, 4 × 1 on GPUs).
   int width = 0;
   int height = 0;
 };

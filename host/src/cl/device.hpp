@@ -28,10 +28,11 @@ struct DeviceDefaults {
                           // lists come in no order (H100, 100k faces: 9.6 ms a launch with 1)
   int gather_width;       // GatherTuning::width: on CPUs a run of 16 texels left most lanes of a
                           // fragment's window idle (Xeon: soft_gather 29 -> 18 ms a launch with
-                          // 8); the GPUs' runs of 8 as before (docs/gpu.md)
+                          // 8); on GPUs the shortest run did best (H200, 100k-face hard
+                          // backward: 120 ms with 8, 110 with 4; docs/gpu.md)
 };
 inline DeviceDefaults device_defaults(const DeviceInfo& d) {
-  if (d.is_gpu) return {1, 8, 1, true, 32, 2, int(std::min<size_t>(256, d.max_work_group)), 8};
+  if (d.is_gpu) return {1, 8, 1, true, 32, 2, int(std::min<size_t>(256, d.max_work_group)), 4};
   return {8, 16, 8, false, 1, 1, 1, 8};
 }
 

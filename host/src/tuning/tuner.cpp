@@ -115,7 +115,7 @@ TuneStage gather_stage(const DeviceInfo& device, const Tuning& start, bool quick
     t.gather.group = group;
     add_if_legal(gather, t, device);
   }
-  for (int width : quick ? std::vector<int>{} : std::vector<int>{8, 16})
+  for (int width : quick ? std::vector<int>{} : std::vector<int>{4, 8, 16})
     for (int height : {1, 4, 8}) {
       Tuning t = start;
       t.gather.width = width;
