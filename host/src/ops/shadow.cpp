@@ -221,7 +221,8 @@ MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const Frag
     auto& fin = bind_args(k, ExactFinishBwdArgs{at.P, r0, m, light, nl, Hm, dots, Gy, norm, dsum,
                                                 support, f.rec_light, fgr.rec_lgrad});
     launch_1d(ctx, fin, m);
-    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, support, scratch, 1.0, g.S, Wm);  // += (a⊙Gy)ᵀ·Gx
+    // g.S += (a⊙Gy)ᵀ·Gx
+    matmul_tn(k, clblast, Hm, Wm, m, Gy, Hm, Gx, Wm, support, scratch, 1.0, g.S, Wm);
   }
   return g;
 }
