@@ -523,7 +523,7 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
 // 2 on GPUs; here 2 and 3) visit each texel's fragments in the same order as a work-item
 // reading its own buckets, and a texel adds its fragments in that order whatever block of
 // texels a work-item takes (GatherTuning::width × height: 8 × 8 on CPUs, 4 × 1 on GPUs; here
-// also 16 × 4, 4 × 16 and 16 × 1): the same outputs and gradients, bit for bit, for both
+// also 16 × 4, 8 × 1, 4 × 16 and 16 × 1): the same outputs and gradients, bit for bit, for both
 // shadow models, hard and soft. A 200-texel map leaves work-items past its edge in the last
 // groups and short blocks at its edges.
 TEST(NumericsDeterminism, GatherTuningsAreBitIdentical) {

@@ -228,9 +228,6 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
                           const ScreenGeometry& sg, const Fragments& f, const FragmentGrads& fgr,
                           const cl::Buffer& gimage, const cl::Buffer& gdepth);
 
-// Row-major products by matmul.cl or (clblast) by CLBlast. `support` (int4 per row of A and
-// B, or of A and D: matmul.cl) bounds the nonzero columns of each row, which the direct
-// kernels skip and CLBlast's GEMM multiplies.
 // Buffers the products keep from one batch of rows to the next: made at the first call (the
 // largest batch comes first) and reused, so that no batch allocates while an earlier batch's
 // commands, and therefore its released buffers, may still be alive on the device.
@@ -238,6 +235,9 @@ struct ProductScratch {
   cl::Buffer products, products_d;  // CLBlast's A·B and Ad·B (matmul_nn_rowdots)
   cl::Buffer chunks;                // matmul_tn's chunk boxes
 };
+// Row-major products by matmul.cl or (clblast) by CLBlast. `support` (int4 per row of A and
+// B, or of A and D: matmul.cl) bounds the nonzero columns of each row, which the direct
+// kernels skip and CLBlast's GEMM multiplies.
 // C (m × n) = Aᵀ (A is k × m)·B + beta·C.
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support,
