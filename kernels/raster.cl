@@ -348,15 +348,19 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
       // nothing: every term below is a product with one of these or with dL/ds, which is 0 too.
       if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) continue;
+      // Only a kept fragment (its depth within [near, far]) has weight and shading terms; a
+      // fragment that was not kept, under a silhouette whose 1 − A underflowed to 0 (most of
+      // a dense mesh's pixels), has no gradient: every term below would be a product with 0.
+      int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);
+      real gc = gcover[pix];
+      if (r < 0 && gc == 0) continue;
       real2 q = pixel_centre(px, py, W, H);
       Fragment fr;
       lane_fragment(&row, lane, P, &fr);
       real D = sigmoid(fr.u);
       // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
-      real gu = gcover[pix] * D;
+      real gu = gc * D;
       real gzf = 0, gb[3] = {0, 0, 0};
-      // Only a kept fragment (its depth within [near, far]) needs the depth.
-      int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);
       if (r >= 0) {
         fragment_depth(F.z, P, &fr);
         real w = rec_wg[r].x, G = rec_wg[r].y;
