@@ -9,15 +9,17 @@
 
 namespace penumbra::detail {
 
-// One stage of the tuner: the workload it times (shadow mode and sampling), how far a
-// candidate's output may differ from the starting configuration's (0: bit for bit), and the
-// candidates, each `start` with this stage's parameters changed.
+// One stage of the tuner: the workload it times (shadow mode and sampling; `dense`: at a σ_s
+// where no Gaussian weight of the map is 0, so that the exact sum's products skip nothing), how
+// far a candidate's output may differ from the starting configuration's (0: bit for bit), and
+// the candidates, each `start` with this stage's parameters changed.
 struct TuneStage {
   std::string name;  // raster, exact, penumbra, gather
   Shadows shadows;
   Sampling sampling;
   double tolerance;
   std::vector<Tuning> candidates;
+  bool dense = false;
 };
 
 // The stages in the order the tuner runs them, with the candidates legal on `device`
