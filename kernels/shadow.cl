@@ -181,7 +181,9 @@ INLINE real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
     real8 i = (real)i0 + LANE8, d = i - c;
     real8 g = exp_or_zero(gaussian_arg(d, ss));
     real8 dg = dout ? g * d / ss : 0;  // the forward needs no derivative weights
-    if (mask_any(g != 0)) {
+    if (mask_all((g != 0) & (i < (real)n))) {  // inside the support: no lane to search
+      *support = (int2)(min(support->x, i0), i0 + 7);
+    } else if (mask_any(g != 0)) {
       real8 lo = select((real8)n, i, (g != 0) & (i < (real)n));
       real8 hi = select((real8)-1, i, (g != 0) & (i < (real)n));
       *support = (int2)(min(support->x, (int)min8(lo)), max(support->y, (int)max8(hi)));
