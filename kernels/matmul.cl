@@ -5,7 +5,7 @@
 //                     (B is K × N) without storing A·B or Ad·B: with U = Gy·S, the exact sums
 //                     Σ_i U_ri·Gx_ri and the backward's Σ_i U_ri·Gxd_ri, Σ_i (Gyd·S)_ri·Gx_ri;
 //                     matmul_nn_rowdot the first alone (.y, .z 0); row_dot(s) of stored products
-// support: per fragment r (a row of A, D in nn; of A, B in tn), int4: the first and last
+// support: per fragment r (a row of A, D in nn; of A, B in tn's chunks), int4: the first and last
 // nonzero column of its row of Gx, Gxd (.xy: D, Dd in nn, B in tn) and of Gy, Gyd (.zw: A,
 // Ad); first > last where the row is all 0 (exact_weights, shadow.cl). The products skip the
 // zeros outside: the terms they would add are exact zeros (every matrix is finite), and adding
@@ -193,7 +193,7 @@ __kernel void row_dots(int M, int N, __global const real* C, __global const real
 // matmul_tn's rows per work-item: its K (fragments) is long, so each row block streams all of
 // A and B; twice nt's rows halve that traffic.
 #define TN_RB (2 * MM_RB)
-// Whether support s (of a row k, or a chunk's) can be nonzero in columns m0 .. m1 of A and
+// Whether a chunk's support box s (below) can be nonzero in columns m0 .. m1 of A and
 // n0 .. n1 of B.
 inline int tn_reaches(int4 s, int m0, int m1, int n0, int n1) {
   return s.z <= m1 && s.w >= m0 && s.x <= n1 && s.y >= n0;
@@ -202,8 +202,10 @@ inline int tn_reaches(int4 s, int m0, int m1, int n0, int n1) {
 // matmul_tn's chunks of TN_CHUNK consecutive rows k (the host's kTnChunk): the union of their
 // supports, empty rows left out (all empty: a box that reaches nothing). A work-item of
 // matmul_tn tests a chunk before its rows, which, k after k, had been most of its time (every
-// row of A and B is zero outside a small part of a big map); it still visits the rows it
-// reaches in the same order, so the sums are the same bit for bit. Launch: global ceil(K/TN_CHUNK).
+// row of A and B is zero outside a small part of a big map); it adds every row of a chunk that
+// reaches its block, in order: a row that does not reach it adds exact zeros, which change no
+// bit of the sums, and a test per row was a branch the CPU mispredicted between its reads of
+// the rows. Launch: global ceil(K/TN_CHUNK).
 #define TN_CHUNK 16
 __kernel void support_chunks(int K, __global const int4* support, __global int4* chunks) {
   int c = get_global_id(0);
@@ -217,17 +219,16 @@ __kernel void support_chunks(int K, __global const int4* support, __global int4*
   chunks[c] = box;
 }
 
-// The rows k a block of C (columns m0 .. m1 of A, n0 .. n1 of B) visits, in order: those whose
-// support reaches it, in the chunks whose box does.
-#define FOR_EACH_TN_ROW(k, m0, m1, n0, n1)                                        \
-  for (int c_ = 0; c_ * TN_CHUNK < K; ++c_)                                       \
-    if (tn_reaches(chunks[c_], m0, m1, n0, n1))                                   \
-      for (int k = c_ * TN_CHUNK; k < min(K, (c_ + 1) * TN_CHUNK); ++k)           \
-        if (tn_reaches(support[k], m0, m1, n0, n1))
+// The rows k a block of C (columns m0 .. m1 of A, n0 .. n1 of B) visits, in order: those of
+// the chunks whose box reaches it.
+#define FOR_EACH_TN_ROW(k, m0, m1, n0, n1)              \
+  for (int c_ = 0; c_ * TN_CHUNK < K; ++c_)             \
+    if (tn_reaches(chunks[c_], m0, m1, n0, n1))         \
+      for (int k = c_ * TN_CHUNK; k < min(K, (c_ + 1) * TN_CHUNK); ++k)
 
 __kernel void matmul_tn(int M, int N, int K, __global const real* A, int lda,
-                        __global const real* B, int ldb, __global const int4* support,
-                        __global const int4* chunks, real beta, __global real* C, int ldc) {
+                        __global const real* B, int ldb, __global const int4* chunks, real beta,
+                        __global real* C, int ldc) {
   int n0 = get_global_id(0) * 2 * MM_VW, m0 = get_global_id(1) * TN_RB;
   if (m0 >= M || n0 >= N) return;
   // Two vectors of columns (one where only one fits: the second then repeats the first and is

@@ -117,11 +117,11 @@ struct MatmulTnArgs {
   cl_int lda;
   const cl::Buffer& B;
   cl_int ldb;
-  const cl::Buffer &support, &chunks;
+  const cl::Buffer& chunks;
   Real beta;
   const cl::Buffer& C;
   cl_int ldc;
-  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, support, chunks, beta, C, ldc); }
+  auto fields() const { return std::tie(M, N, K, A, lda, B, ldb, chunks, beta, C, ldc); }
 };
 
 struct SupportChunksArgs {
@@ -204,8 +204,8 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
   const cl::Buffer& chunks =
       kept(scratch.chunks, boxes * sizeof(int), [&] { return alloc_ints(k.ctx(), boxes); });
   launch_1d(k.ctx(), bind_args(k, SupportChunksArgs{int(kk), support, chunks}), nchunks);
-  auto& mm = bind_args(k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), support,
-                                       chunks, beta, C, int(ldc)});
+  auto& mm = bind_args(k, MatmulTnArgs{int(m), int(n), int(kk), A, int(lda), B, int(ldb), chunks,
+                                       beta, C, int(ldc)});
   const ExactSumTuning& t = k.tuning().exact;  // 2·MM_RB rows, 2·MM_VW columns per work-item
   const size_t rows = 2 * size_t(t.row_block), cols = 2 * size_t(t.vector_width);
   launch(k.ctx(), mm, cl::NDRange((n + cols - 1) / cols, (m + rows - 1) / rows),
