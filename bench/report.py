@@ -53,6 +53,11 @@ PAPER = {"none": (1.0, 1.0), "hard": (33.0, 33.0), "soft": (104.0, 104.0)}
 
 # Why a target is missed, by the start of its label (or one of several): what the time is spent
 # on (the profile table below has the figures), written for the kernels as they are.
+# Why the exact backward costs more than its forward (two of the reasons below).
+EXACT_BACKWARD = ("the exact backward computes three matrix products (Gy·S and Gyd·S, summed "
+                  "against Gx and Gxd, and (a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one "
+                  "(Gy·S), and twice the weight matrices (Gx, Gy and the derivative weights Gxd, "
+                  "Gyd) in batches half as large.")
 MISS_REASONS = [
     ("no shadows", "the three raster passes are most of the frame. For every pixel and every "
      "face whose cut-off box reaches it, `raster_count` computes the barycentrics, the distance "
@@ -84,12 +89,18 @@ MISS_REASONS = [
      "μ at σ_s = 2 in float); their device times per frame are in the profile below. The two "
      "raster passes come on top. CLBlast (sampling `gemm`) multiplies every weight and stores "
      "the product."),
-    (("backward ≤ 3× forward (hard, exact", "backward ≤ 3× forward (hard, gemm"), "the exact "
-     "backward computes three matrix products (Gy·S and Gyd·S, summed against Gx and Gxd, and "
-     "(a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one (Gy·S), and twice the weight "
-     "matrices (Gx, Gy and the derivative weights Gxd, Gyd) in batches half as large. "
-     "penumbra's products skip the weights outside each fragment's support; CLBlast (`gemm`) "
-     "multiplies all of them, in the forward's one product and the backward's three alike."),
+    ("backward ≤ 3× forward (hard, exact", EXACT_BACKWARD + " Most of the difference is "
+     "`matmul_tn` (dL/dS): 3.8-4.1 ms for each of the backward's ten batches of 8192 "
+     "fragments, about half of it (4.1-4.4 ms at every vector width and row block tried, 8 × 4, "
+     "16 × 4 and 16 × 8, before it stopped testing each row of a chunk that reaches its block). "
+     "Its work-items read the rows of A and B their block reaches, 1 KB apart, and wait on "
+     "those reads: with the FMAs removed it took 0.11 ms, and walking the rows in steps of 256 "
+     "shared by a work-group between barriers took 6.0 ms (PoCL then keeps the accumulators in "
+     "memory) (`PENUMBRA_KERNEL_DIR=DIR PENUMBRA_PROFILE=1 penumbra_bench "
+     "--benchmark_filter=^bwd/hard/exact/img:256/map:256/faces:1312/sigma_s:2/`, kernels "
+     "modified for the measurements only, 2026-11-27)."),
+    ("backward ≤ 3× forward (hard, gemm", EXACT_BACKWARD + " CLBlast (`gemm`) multiplies "
+     "every weight, in the forward's one product and the backward's three alike."),
     ("backward ≤ 3× forward (hard, truncated", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
@@ -103,7 +114,8 @@ MISS_REASONS = [
      "map:256/faces:1312/ --benchmark_min_time=3`, 2026-11-27, this Xeon). Each sigmoid's "
      "divisions and exponential are most of both kernels; rewriting them (a reciprocal of γ_s, "
      "e/(e + c) for 1/(1 + c/e)) would change the gradients' last bits."),
-    ("512²", "with the 8×8 tiles the heuristic picks for a 100k-face sphere at 512², a tile's "
+    ("512²", "with the 8×8 tiles of this Xeon's tuned entry (the heuristic picks the same for a "
+     "100k-face sphere at 512²), a tile's "
      "list holds about 77 faces; `raster_count` tests each against the box of each of the "
      "tile's 4×2-pixel blocks (8 pixels per work-item: 16 was 1.4× slower on this Xeon), 32 "
      "reach it and 24 cover one of its pixels: the coverage, depth and softplus of 8 pixels "
@@ -123,14 +135,19 @@ MISS_REASONS = [
      "fit, so that PoCL's host memory does not fault their pages in anew every frame."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers: per "
-     "step `raster_bwd` 55 ms, `raster_count` 48 ms, `raster_fragments` 31 ms, `shadow_gather` "
-     "20 ms (38-41 ms on the gathers' 16×4 blocks before), `shadow_sample` 16 ms, "
-     "`shadow_sample_bwd` 12 ms of device time, and the calling thread's own work (packing the "
-     "scene, summing the per-face light gradients, new buffers' first pages) about 24 ms of CPU "
-     "time "
-     "(`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/hard/truncated/img:256/"
-     "map:256/faces:100852 --benchmark_min_time=3`, 2026-11-27). Alternating the gathers' "
-     "blocks gave steps of 238 and 233 ms against 251 and 260 ms with 16×4."),
+     "step `raster_bwd` 45 ms, `raster_count` 43 ms, `raster_fragments` 27 ms, `shadow_gather` "
+     "19 ms, `shadow_sample` 15 ms, `shadow_sample_bwd` 12 ms, the rest 25 ms of device time, "
+     "and the calling thread's own work (packing the scene, summing the per-face light "
+     "gradients, new buffers' first pages) about 23 ms of CPU time (`PENUMBRA_PROFILE=1 "
+     "penumbra_bench --benchmark_filter=^step/hard/truncated/img:256/map:256/faces:100852 "
+     "--benchmark_min_time=3`, 2026-11-27 17:14 UTC, step median 206 ms). For the dense sphere "
+     "`raster_count` reserves 443 000 fragments in the camera's 65 536 pixels, 6.8 a pixel "
+     "(neighbouring faces of the surface lie within ε_w of the heaviest), and the camera's `raster_bwd` spent, per "
+     "launch of the camera's backward alone (`bwd/none`, 36.9 ms before a pixel with no kept "
+     "fragment under the silhouette was skipped, 33.1 ms after): 4.6 ms on each face's own "
+     "setup, 4.7 ms on the cut-off tests of its rows, 9 ms on the sigmoid and edge backward of "
+     "the pixels in reach, 5 ms finding the pixel's fragment of the face and 12.5 ms on the "
+     "kept fragments' shading and depth backward (kernels modified for the measurements only)."),
 ]
 
 
