@@ -267,7 +267,9 @@ BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int
     return;
   }
   real nrm = nm.x * nm.y, v = d.x / nrm, gv = g->x * x.w * (1 - x.w) / P[P_GAMMA_S];
-  for (int j = support[k].z; j <= support[k].w; ++j) gy[j] *= gv / nrm;
+  const real a = gv / nrm;
+  const int4 sup = support[k];  // read once: the compiler cannot tell that gy does not alias it
+  for (int j = sup.z; j <= sup.w; ++j) gy[j] *= a;
   real2 sd = dsum[k];  // Σgxd, Σgyd
   real dvx = d.y / nrm - v * sd.x / nm.x, dvy = d.z / nrm - v * sd.y / nm.y;
   *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);
