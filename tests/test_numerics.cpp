@@ -10,6 +10,8 @@
 //       twice on one renderer, on a fresh renderer, and across raster tunings (tile, pixels per
 //       work-item, brute force) and penumbra-map tiles — which keep the summation order — with
 //       hard and soft shadows; and the raster's lane softplus on 16 lanes and on 1.
+//   NumericsSubnormals.*  the renderer's float programs flush subnormals to zero, its double
+//       programs keep them.
 //   NumericsReference.*  double-precision kernels against the CPU reference for the extreme
 //       cases where the reference is cheap (shadows none and hard).
 //
@@ -590,6 +592,43 @@ __kernel void softplus(real u0, real du, __global real* out) {
       context().queue().enqueueReadBuffer(out, CL_TRUE, 0, n * size, bits.back().data());
     }
     EXPECT_TRUE(bits[0] == bits[1]) << (dbl ? "double" : "float");
+  }
+}
+
+// The renderer's float programs flush subnormal numbers to zero (each subnormal operation is a
+// slow microcode assist on CPUs); its double programs, which the gradient checks run, keep them.
+// A product whose exact value is subnormal, built with the options of the renderer's programs.
+TEST(NumericsSubnormals, FloatProgramsFlushThemDoubleProgramsKeepThem) {
+  const std::string source = Context::kernel_source("common/real.clh") + R"(
+__kernel void product(real a, real b, __global real* out) { out[0] = a * b; })";
+  std::map<bool, std::string> options;  // double? -> the options of one of the renderer's programs
+  for (const KernelVariant& v : kernel_variants(context().info()))
+    if (v.file == "raster.cl") options.emplace(v.options.find("PENUMBRA_DOUBLE") != std::string::npos, v.options);
+  ASSERT_TRUE(options.count(false));
+  for (const auto& [dbl, opts] : options) {
+    cl::Program program(context().cl_context(), source);
+    program.build(opts.c_str());
+    cl::Kernel k(program, "product");
+    const size_t size = dbl ? sizeof(double) : sizeof(float);
+    cl::Buffer out(context().cl_context(), CL_MEM_WRITE_ONLY, size);
+    if (dbl) {
+      k.setArg(0, 1e-160);
+      k.setArg(1, 1e-160);
+    } else {
+      k.setArg(0, 1e-20f);
+      k.setArg(1, 1e-20f);
+    }
+    k.setArg(2, out);
+    context().queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(1));
+    double product = 0;
+    if (dbl) {
+      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &product);
+      EXPECT_GT(product, 0) << "double: 1e-160 * 1e-160 is 1e-320, subnormal";
+    } else {
+      float f = -1;
+      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &f);
+      EXPECT_EQ(f, 0.0f) << "float: 1e-20 * 1e-20 is 1e-40, subnormal (options: " << opts << ")";
+    }
   }
 }
 

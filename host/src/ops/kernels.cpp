@@ -30,7 +30,7 @@ Kernels::Kernels(Context& ctx, Precision precision, const Tuning& tuning)
 
 std::string program_options(const std::string& file, Precision precision, const Tuning& tuning,
                             const DeviceInfo& device, const std::string& variant, KernelPart part) {
-  std::string o = precision_define(precision);
+  std::string o = precision_options(precision);
   const RasterTuning& r = tuning.raster;
   if (file == "raster.cl")
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(r.pixels_per_item) +
