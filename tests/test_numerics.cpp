@@ -603,7 +603,8 @@ TEST(NumericsSubnormals, FloatProgramsFlushThemDoubleProgramsKeepThem) {
 __kernel void product(real a, real b, __global real* out) { out[0] = a * b; })";
   std::map<bool, std::string> options;  // double? -> the options of one of the renderer's programs
   for (const KernelVariant& v : kernel_variants(context().info()))
-    if (v.file == "raster.cl") options.emplace(v.options.find("PENUMBRA_DOUBLE") != std::string::npos, v.options);
+    if (v.file == "raster.cl")
+      options.emplace(v.options.find("PENUMBRA_DOUBLE") != std::string::npos, v.options);
   ASSERT_TRUE(options.count(false));
   for (const auto& [dbl, opts] : options) {
     cl::Program program(context().cl_context(), source);
