@@ -623,10 +623,10 @@ __kernel void product(real a, real b, __global real* out) { out[0] = a * b; })";
     }
     k.setArg(2, out);
     context().queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(1));
-    double product = 0;
     if (dbl) {
-      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &product);
-      EXPECT_GT(product, 0) << "double: 1e-160 * 1e-160 is 1e-320, subnormal";
+      double d = 0;
+      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &d);
+      EXPECT_GT(d, 0) << "double: 1e-160 * 1e-160 is 1e-320, subnormal";
     } else {
       float f = -1;
       context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &f);
