@@ -608,33 +608,30 @@ __kernel void product(real a, real b, __global real* out) { out[0] = a * b; })";
     if (v.file == "raster.cl")
       options.emplace(v.options.find("PENUMBRA_DOUBLE") != std::string::npos, v.options);
   ASSERT_TRUE(options.count(false));
-  for (const auto& [dbl, opts] : options) {
+  // a·a on the device, in a's precision, by a program built with `opts`.
+  auto square = [&](auto a, const std::string& opts) {
     cl::Program program(context().cl_context(), source);
     program.build(opts.c_str());
     cl::Kernel k(program, "product");
-    const size_t size = dbl ? sizeof(double) : sizeof(float);
-    cl::Buffer out(context().cl_context(), CL_MEM_WRITE_ONLY, size);
-    if (dbl) {
-      k.setArg(0, 1e-160);
-      k.setArg(1, 1e-160);
-    } else {
-      k.setArg(0, 1e-20f);
-      k.setArg(1, 1e-20f);
-    }
+    cl::Buffer out(context().cl_context(), CL_MEM_WRITE_ONLY, sizeof(a));
+    k.setArg(0, a);
+    k.setArg(1, a);
     k.setArg(2, out);
     context().queue().enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(1));
+    decltype(a) product = -1;
+    context().queue().enqueueReadBuffer(out, CL_TRUE, 0, sizeof(product), &product);
+    return product;
+  };
+  for (const auto& [dbl, opts] : options) {
     if (dbl) {
-      double d = 0;
-      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &d);
-      EXPECT_GT(d, 0) << "double: 1e-160 * 1e-160 is 1e-320, subnormal";
-    } else {
-      float f = -1;
-      context().queue().enqueueReadBuffer(out, CL_TRUE, 0, size, &f);
-      if (context().info().is_gpu && f != 0)
-        EXPECT_EQ(f, 1e-20f * 1e-20f) << "float, kept: the subnormal product";
-      else
-        EXPECT_EQ(f, 0.0f) << "float: 1e-20 * 1e-20 is 1e-40, subnormal (options: " << opts << ")";
+      EXPECT_GT(square(1e-160, opts), 0) << "double: 1e-160 * 1e-160 is 1e-320, subnormal";
+      continue;
     }
+    const float f = square(1e-20f, opts);
+    if (context().info().is_gpu && f != 0)
+      EXPECT_EQ(f, 1e-20f * 1e-20f) << "float, kept: the subnormal product";
+    else
+      EXPECT_EQ(f, 0.0f) << "float: 1e-20 * 1e-20 is 1e-40, subnormal (options: " << opts << ")";
   }
 }
 
