@@ -89,21 +89,26 @@ void apply_clblast_parameters(Kernels& k) {
   apply("GemmRoutine", e.min_indirect_size > 0 ? &routine : nullptr);
 }
 
+// C = β·C + op(A)·op(B), row-major; A and B start `a_row` and `b_row` rows into their buffers.
 void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk, const cl::Buffer& A,
-                  size_t lda, const cl::Buffer& B, size_t ldb, double beta, cl::Buffer& C,
-                  size_t ldc) {
+                  size_t a_row, size_t lda, const cl::Buffer& B, size_t b_row, size_t ldb,
+                  double beta, cl::Buffer& C, size_t ldc) {
   apply_clblast_parameters(k);
   // CLBlast computes β·C even for β = 0: C must not hold NaN from old memory.
   cl_command_queue q = k.ctx().queue()();
   auto t = [](bool x) { return x ? clblast::Transpose::kYes : clblast::Transpose::kNo; };
   cl_event done = nullptr;
   cl_event* event = detail::profiling() ? &done : nullptr;
+  // Asked as the column-major Cᵀ = op(B)ᵀ·op(A)ᵀ: CLBlast's indirect GEMM copies a row-major
+  // C, transposed, into a temporary buffer and back, and a row-major A besides. Column-major it
+  // leaves C and S in place (1.3x faster forward products on the Xeon of benchmarks.md).
+  const auto col = clblast::Layout::kColMajor;
   clblast::StatusCode status =
       k.precision() == Precision::Double
-          ? clblast::Gemm<double>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0, A(), 0,
-                                  lda, B(), 0, ldb, beta, C(), 0, ldc, &q, event)
-          : clblast::Gemm<float>(clblast::Layout::kRowMajor, t(ta), t(tb), m, n, kk, 1.0f, A(), 0,
-                                 lda, B(), 0, ldb, float(beta), C(), 0, ldc, &q, event);
+          ? clblast::Gemm<double>(col, t(tb), t(ta), n, m, kk, 1.0, B(), b_row * ldb, ldb, A(),
+                                  a_row * lda, lda, beta, C(), 0, ldc, &q, event)
+          : clblast::Gemm<float>(col, t(tb), t(ta), n, m, kk, 1.0f, B(), b_row * ldb, ldb, A(),
+                                 a_row * lda, lda, float(beta), C(), 0, ldc, &q, event);
   if (status != clblast::StatusCode::kSuccess)
     throw Error("CLBlast GEMM failed (" + status_name(status) + ")");
   if (done) detail::profile_launch("clblast_gemm", cl::Event(done));  // takes the reference
@@ -133,6 +138,7 @@ struct SupportChunksArgs {
 };
 
 constexpr size_t kTnChunk = 16;  // TN_CHUNK of matmul.cl
+constexpr size_t kClblastTnBytes = size_t(2) << 20;
 
 // matmul_nn_rowdot and matmul_nn_rowdots take the same arguments; `kernel` says which.
 struct MatmulRowdotsArgs {
@@ -181,9 +187,9 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
     auto make = [&] { return alloc_reals(k.ctx(), k.precision(), m * n); };
     const size_t bytes = m * n * real_size(k.precision());
     cl::Buffer& C = kept(scratch.products, bytes, make);
-    clblast_gemm(k, false, false, m, n, kk, A, lda, B, ldb, 0.0, C, n);
+    clblast_gemm(k, false, false, m, n, kk, A, 0, lda, B, 0, ldb, 0.0, C, n);
     cl::Buffer& Cd = derivatives ? kept(scratch.products_d, bytes, make) : C;
-    if (derivatives) clblast_gemm(k, false, false, m, n, kk, ad, lda, B, ldb, 0.0, Cd, n);
+    if (derivatives) clblast_gemm(k, false, false, m, n, kk, ad, 0, lda, B, 0, ldb, 0.0, Cd, n);
     auto& rd = bind_args(k, RowDotsArgs{derivatives ? "row_dots" : "row_dot", int(m), int(n), C, Cd,
                                         int(n), D, dd, int(ldd), out});
     return launch_1d(k.ctx(), rd, m);
@@ -198,7 +204,16 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support,
                ProductScratch& scratch, double beta, cl::Buffer& C, size_t ldc) {
-  if (clblast) return clblast_gemm(k, true, false, m, n, kk, A, lda, B, ldb, beta, C, ldc);
+  if (clblast) {
+    // In chunks of the k rows whose operands fill about 2 MiB: on the Xeon of benchmarks.md,
+    // dL/dS of a 256² map (k = 8192 fragments) took 41 ms in one GEMM, 16-17 in chunks of 1024.
+    const size_t chunk =
+        std::max<size_t>(1, kClblastTnBytes / ((lda + ldb) * real_size(k.precision())));
+    for (size_t k0 = 0; k0 < kk; k0 += chunk)
+      clblast_gemm(k, true, false, m, n, std::min(chunk, kk - k0), A, k0, lda, B, k0, ldb,
+                   k0 ? 1.0 : beta, C, ldc);
+    return;
+  }
   const size_t nchunks = (kk + kTnChunk - 1) / kTnChunk;
   const size_t boxes = std::max<size_t>(nchunks, 1) * 4;  // an int4 box per chunk
   const cl::Buffer& chunks =
