@@ -205,10 +205,12 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
                size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support,
                ProductScratch& scratch, double beta, cl::Buffer& C, size_t ldc) {
   if (clblast) {
-    // In chunks of the k rows whose operands fill about 2 MiB: on the Xeon of benchmarks.md,
-    // dL/dS of a 256² map (k = 8192 fragments) took 41 ms in one GEMM, 16-17 in chunks of 1024.
+    // On a CPU in chunks of the k rows whose operands fill about 2 MiB (a core's L2 on the Xeon
+    // of benchmarks.md): there dL/dS of a 256² map (k = 8192 fragments) took 41 ms in one GEMM,
+    // 16-17 ms in chunks of 1024. GPUs (not measured) keep one GEMM.
+    const size_t rows_bytes = (lda + ldb) * real_size(k.precision());
     const size_t chunk =
-        std::max<size_t>(1, kClblastTnBytes / ((lda + ldb) * real_size(k.precision())));
+        k.ctx().info().is_gpu ? kk : std::max<size_t>(1, kClblastTnBytes / rows_bytes);
     for (size_t k0 = 0; k0 < kk; k0 += chunk)
       clblast_gemm(k, true, false, m, n, std::min(chunk, kk - k0), A, k0, lda, B, k0, ldb,
                    k0 ? 1.0 : beta, C, ldc);
