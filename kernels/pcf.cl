@@ -24,7 +24,8 @@
 // Buffers (K fragments, nl lights, this light l):
 //   rec_light   K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2  K·nl × real4 (∇_μ d, σ, z_b): σ and z_b are written here
-//   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd)
+//   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd),
+//               .x 0 where the filter is flat (filter_flat: pcf_gather would add only zeros)
 //   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
@@ -238,19 +239,41 @@ FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int 
 // κ·(d − z_b), q = −(S − z_b)·dc/dΔ), `ref` being s or z_b:
 //   .mu = Σ g·((i, j) − μ)/σ·v,  .q = Σ w·q,  .qoff = Σ w·q·((i, j) − μ),  .r2 = Σ g·r²·v,
 //   .w = Σ w, .wo = Σ w·(1 − c)
+//   .flat: whether the compare's step may be nonzero at none of the window's texels (MAY_SLOPE)
 typedef struct {
   real2 mu, qoff;
   real q, r2, w, wo;
+  int flat;
 } Moments;
+
+// Whether the compare's step may be nonzero at a texel of receiver depth d and map depth S, as
+// any kernel rounds or contracts Δ − (β − 2γ_s) = d − S − b2: unless that lies below `thr`
+// (flat_threshold). A texel where it may not is lit (c = 1), and its terms in the backward
+// (∝ dc/dΔ, c − s, the step) are exact zeros. NaN may.
+#define MAY_SLOPE(d, S, b2, thr) (!((d) - (S) - (b2) <= (thr)))
+// −FLAT_TOL times twice a bound on |d|'s terms and |b2| over window w: where d − S − b2 is that
+// close to 0, |S| is within the bound too, and no rounding of the few operations that form it
+// moves it by as much (where |S| is larger, d − S − b2 is negative however it is rounded).
+#ifdef PENUMBRA_DOUBLE
+#define FLAT_TOL (64 * DBL_EPSILON)
+#else
+#define FLAT_TOL (64 * FLT_EPSILON)
+#endif
+inline real flat_threshold(Receiver x, Window w, real b2) {
+  real ex = max(x.mu.x - w.x0, w.x1 - x.mu.x), ey = max(x.mu.y - w.y0, w.y1 - x.mu.y);
+  return -FLAT_TOL * 2 * (fabs(x.d) + fabs(x.grad.x) * ex + fabs(x.grad.y) * ey + fabs(b2));
+}
 
 // Called twice by pcf_sample_bwd: not forced inline, as window_sums.
 inline Moments window_moments(Window w, Receiver x, real sigma, int search, real ref,
                               __global const real* P, __global const real* S,
                               __global const real* A, int Wm) {
   realR mux = 0, muy = 0, q = 0, qx = 0, qy = 0, r2 = 0, sw = 0, swo = 0, dc, step;
+  realR slope = 0;  // 1 in the lanes where MAY_SLOPE held at some texel
   Columns c;
   columns_init(&c, w, x.mu, sigma);
   w = nonzero_part(w, x.mu, sigma);
+  const real b2 = P[P_BETA] - 2 * P[P_GAMMA_S], thr = flat_threshold(x, w, b2);
   for (int j = w.y0; j <= w.y1; ++j) {
     real gy = row_weight(&c, j, x.mu.y, sigma), offy = j - x.mu.y;
     for (int i0 = w.x0; i0 <= w.x1; i0 += ROW) {
@@ -259,7 +282,9 @@ inline Moments window_moments(Window w, Receiver x, real sigma, int search, real
       realR offx = (real)i0 + LANER - x.mu.x;
       const int n = min(ROW, Wm - i0);
       realR Sv = loadR(S, j * Wm + i0, n), Av = loadR(A, j * Wm + i0, n);
-      realR lit = lit_term(Sv, Av, x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
+      realR dij = x.d + x.grad.x * offx + x.grad.y * offy;
+      realR lit = lit_term(Sv, Av, dij, P, &dc, &step);
+      slope = select(slope, (realR)1, MAY_SLOPE(dij, Sv, b2, thr) && LANER <= (real)(w.x1 - i0));
       realR v = search ? (1 - lit) * (Sv - ref) + PCF_KAPPA * (x.d - ref) : lit - ref;
       realR qv = search ? -(Sv - ref) * dc : dc;
       mux += g * offx * v;
@@ -273,8 +298,34 @@ inline Moments window_moments(Window w, Receiver x, real sigma, int search, real
     }
   }
   Moments m = {(real2)(hsumR(mux), hsumR(muy)) / sigma, (real2)(hsumR(qx), hsumR(qy)),
-               hsumR(q), hsumR(r2), hsumR(sw), hsumR(swo)};
+               hsumR(q), hsumR(r2), hsumR(sw), hsumR(swo), !any(slope > 0)};
   return m;
+}
+
+// Whether MAY_SLOPE holds at none of the texels of `wide` outside window w (wide holds w).
+INLINE int ring_flat(Receiver x, Window w, Window wide, __global const real* P,
+                     __global const real* S, int Wm) {
+  if (wide.x0 == w.x0 && wide.x1 == w.x1 && wide.y0 == w.y0 && wide.y1 == w.y1) return 1;
+  const real b2 = P[P_BETA] - 2 * P[P_GAMMA_S], thr = flat_threshold(x, wide, b2);
+  for (int j = wide.y0; j <= wide.y1; ++j)
+    for (int i = wide.x0; i <= wide.x1; ++i) {
+      if (j >= w.y0 && j <= w.y1 && i >= w.x0 && i <= w.x1) i = w.x1;  // w's own row part
+      else if (MAY_SLOPE(x.d + x.grad.x * (i - x.mu.x) + x.grad.y * (j - x.mu.y), S[j * Wm + i],
+                         b2, thr))
+        return 0;
+    }
+  return 1;
+}
+
+// Whether the filter (variance σ, window w, moments f) is flat for pcf_gather: MAY_SLOPE
+// nowhere in the texels whose weight g' = max(0, gx·gy − ε_λ) it can find nonzero, those of w
+// and, truncated, of the window of the variance widened by GATHER_MARGIN (beyond which the
+// weights are below ε^1.01: exactly 0); exact, nonzero_part(w) holds them all. There every term
+// of the gather is an exact zero.
+INLINE int filter_flat(Receiver x, real sigma, Window w, Moments f, __global const real* P,
+                       __global const real* S, int Wm, int Hm) {
+  if (!f.flat || EXACT) return f.flat;
+  return ring_flat(x, w, filter_window(x.mu, sigma * GATHER_MARGIN, P, Wm, Hm), P, S, Wm);
 }
 
 // The search's moments over the search map, in the map's texels: .mu (Σ over offsets / σ_b)
@@ -304,8 +355,11 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   // Through the filter, σ held: s = Σ w·c / Σ w. Nothing to do where dL/ds = 0 (a fragment
   // unlit from this light, or outside the loss): every gradient is 0.
   Moments f;
-  if (G != 0)
-    f = window_moments(filter_window(x.mu, sigma, P, Wm, Hm), x, sigma, 0, s, P, S, A, Wm);
+  Window w;
+  if (G != 0) {
+    w = filter_window(x.mu, sigma, P, Wm, Hm);
+    f = window_moments(w, x, sigma, 0, s, P, S, A, Wm);
+  }
   if (G == 0 || !(f.w > 0)) {
     rec_lgrad[at] = 0;
     rec_lgrad2[at] = 0;
@@ -334,7 +388,8 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
     }
   }
   ggrad = slope_limit_bwd(P, light, x.d, rec_light2[at].xy, ggrad, &gd);
-  rec_lgrad[at] = (real4)(k, gmu, gd);
+  const int flat = filter_flat(x, sigma, w, f, P, S, Wm, Hm);
+  rec_lgrad[at] = (real4)(flat ? 0 : k, gmu, gd);  // flat: pcf_gather would add only zeros
   rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
 }
 
