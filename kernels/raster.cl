@@ -330,13 +330,11 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   const int rows = bb.w - bb.y + 1;
   const int band_rows = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
   const int y0 = bb.y + band * band_rows, y1 = min(bb.w, y0 + band_rows - 1);
-  Face F;
+  const Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
   ReceiverFace rf[P_MAX_LIGHTS];  // the face's receiver plane in each light's view
   const int receiver_plane = P[P_SHADOWS] > 0 && P[P_RECEIVER_PLANE] > 0;
-  if (bb.x <= bb.z) {
-    F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
+  if (bb.x <= bb.z)
     for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
-  }
   for (int py = y0; py <= y1; ++py) {
     RowLanes row;
     for (int px = bb.x; px <= bb.z; ++px) {
