@@ -253,7 +253,8 @@ typedef struct {
 #define MAY_SLOPE(d, S, b2, thr) (!((d) - (S) - (b2) <= (thr)))
 // −FLAT_TOL times twice a bound on |d|'s terms and |b2| over window w: where d − S − b2 is that
 // close to 0, |S| is within the bound too, and no rounding of the few operations that form it
-// moves it by as much (where |S| is larger, d − S − b2 is negative however it is rounded).
+// moves it by as much (where S is larger, d − S − b2 is negative however it is rounded; where
+// −S is, positive, a slope).
 #ifdef PENUMBRA_DOUBLE
 #define FLAT_TOL (64 * DBL_EPSILON)
 #else
