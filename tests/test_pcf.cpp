@@ -15,16 +15,20 @@
 //   PcfSearch.*       the blocker search's stride, and the scenes above search with strides > 1
 //   PcfGemm.*         gemm sampling is refused for the accurate model
 //   PcfDeterminism.*  two backward calls give bit-identical gradients
+//   PcfGather.FlatFilters*  pcf_gather's skip of flat filters changes no bit, and happens
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/gradcheck.hpp"
@@ -329,6 +333,72 @@ TEST(PcfDeterminism, BackwardIsBitIdentical) {
   r.render(scene);
   const SceneGrads b = r.backward(scene, weights);
   expect_identical(a, b, "soft truncated");
+}
+
+// kernels/ copied with pcf.cl's `from` replaced by `to` (the test fails if `from` is not there).
+std::filesystem::path patched_kernels(const std::string& name, const std::string& from,
+                                      const std::string& to) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / name;
+  fs::remove_all(dir);
+  fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", dir, fs::copy_options::recursive);
+  std::string text = read_text((dir / "pcf.cl").string());
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "pcf.cl no longer holds: " << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  std::ofstream(dir / "pcf.cl", std::ios::trunc) << text;
+  return dir;
+}
+
+// The gradients of a render and backward of `scene`, with the kernels of `kernel_dir` (empty:
+// the project's), in a context of their own (built after the variable is set).
+SceneGrads grads_with(const std::string& kernel_dir, const Scene& scene, Precision p,
+                      const std::vector<OutputGrads>& weights) {
+  ScopedEnv env("PENUMBRA_KERNEL_DIR", kernel_dir.empty() ? nullptr : kernel_dir.c_str());
+  Context ctx;
+  Renderer r(ctx, p);
+  r.render(scene);
+  return r.backward(scene, weights);
+}
+
+bool all_finite(const SceneGrads& g) {
+  for (const auto& mesh : g.vertices)
+    for (const auto& v : mesh)
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
+  return true;
+}
+
+// pcf_sample_bwd stores a filter scale of 0 where the filter is flat (filter_flat) and
+// pcf_gather skips it: with kernels whose filter_flat finds none, every gradient is the same
+// bit for bit. And the skip happens: kernels that store NaN there instead give NaN gradients.
+constexpr const char* kFlatTest = "  if (!f.flat || EXACT) return f.flat;";
+constexpr const char* kFlatStore = "(real4)(flat ? 0 : k, gmu, gd)";
+
+TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string never = patched_kernels("penumbra_pcf_never_flat", kFlatTest, "  return 0;");
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Layout layout : {Layout::Point, Layout::Directional})
+      for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+        for (Sampling sa : {Sampling::Truncated, Sampling::Exact}) {
+          const Scene scene = pcf_scene(layout, sh, sa);
+          const auto weights = random_loss_weights(scene, 7);
+          expect_identical(grads_with("", scene, p, weights), grads_with(never, scene, p, weights),
+                           "flat filters skipped or not", true);
+        }
+}
+
+TEST(PcfGather, FlatFiltersOccur) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string poisoned =
+      patched_kernels("penumbra_pcf_flat_nan", kFlatStore, "(real4)(flat ? NAN : k, gmu, gd)");
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+    const Scene scene = pcf_scene(Layout::Point, sh, Sampling::Truncated);
+    const auto weights = random_loss_weights(scene, 7);
+    EXPECT_TRUE(all_finite(grads_with("", scene, Precision::Float, weights)));
+    EXPECT_FALSE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)))
+        << "no fragment's filter was flat where the gather would read it";
+  }
 }
 
 }  // namespace
