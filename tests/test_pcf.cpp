@@ -335,18 +335,18 @@ TEST(PcfDeterminism, BackwardIsBitIdentical) {
   expect_identical(a, b, "soft truncated");
 }
 
-// kernels/ copied with pcf.cl's `from` replaced by `to` (the test fails if `from` is not there).
-std::filesystem::path patched_kernels(const std::string& name, const std::string& from,
-                                      const std::string& to) {
+// kernels/ copied with `from` in `file` replaced by `to` (the test fails if `from` is not there).
+std::filesystem::path patched_kernels(const std::string& name, const std::string& file,
+                                      const std::string& from, const std::string& to) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(::testing::TempDir()) / name;
   fs::remove_all(dir);
   fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", dir, fs::copy_options::recursive);
-  std::string text = read_text((dir / "pcf.cl").string());
+  std::string text = read_text((dir / file).string());
   const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << "pcf.cl no longer holds: " << from;
+  EXPECT_NE(at, std::string::npos) << file << " no longer holds: " << from;
   if (at != std::string::npos) text.replace(at, from.size(), to);
-  std::ofstream(dir / "pcf.cl", std::ios::trunc) << text;
+  std::ofstream(dir / file, std::ios::trunc) << text;
   return dir;
 }
 
@@ -376,7 +376,8 @@ constexpr const char* kFlatStore = "(real4)(flat ? 0 : k, gmu, gd)";
 
 TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
-  const std::string never = patched_kernels("penumbra_pcf_never_flat", kFlatTest, "  return 0;");
+  const std::string never =
+      patched_kernels("penumbra_pcf_never_flat", "common/pcf_filter.clh", kFlatTest, "  return 0;");
   for (Precision p : {Precision::Float, Precision::Double})
     for (Layout layout : {Layout::Point, Layout::Directional})
       for (Shadows sh : {Shadows::Hard, Shadows::Soft})
@@ -390,8 +391,8 @@ TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
 
 TEST(PcfGather, FlatFiltersOccur) {
   REQUIRE_CONTEXT(ctx);
-  const std::string poisoned =
-      patched_kernels("penumbra_pcf_flat_nan", kFlatStore, "(real4)(flat ? NAN : k, gmu, gd)");
+  const std::string poisoned = patched_kernels("penumbra_pcf_flat_nan", "pcf.cl", kFlatStore,
+                                               "(real4)(flat ? NAN : k, gmu, gd)");
   for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
     const Scene scene = pcf_scene(Layout::Point, sh, Sampling::Truncated);
     const auto weights = random_loss_weights(scene, 7);
