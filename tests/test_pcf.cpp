@@ -339,7 +339,7 @@ TEST(PcfDeterminism, BackwardIsBitIdentical) {
 std::filesystem::path patched_kernels(const std::string& name, const std::string& file,
                                       const std::string& from, const std::string& to) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::path(::testing::TempDir()) / name;
+  fs::path dir = fs::path(::testing::TempDir()) / name;
   fs::remove_all(dir);
   fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", dir, fs::copy_options::recursive);
   std::string text = read_text((dir / file).string());
