@@ -346,7 +346,9 @@ std::filesystem::path patched_kernels(const std::string& name, const std::string
   const size_t at = text.find(from);
   EXPECT_NE(at, std::string::npos) << file << " no longer holds: " << from;
   if (at != std::string::npos) text.replace(at, from.size(), to);
-  std::ofstream(dir / file, std::ios::trunc) << text;
+  std::ofstream out(dir / file, std::ios::trunc);
+  out << text;
+  EXPECT_TRUE(out.flush().good()) << "cannot write " << (dir / file).string();
   return dir;
 }
 
