@@ -49,7 +49,7 @@ void run_case(benchmark::State& state, const Case& c, bool backward) {
     return;
   }
   state.counters["device_MiB"] = double(device_memory_use().peak) / (1 << 20);
-  const double fragments = covered_pixels(out);
+  const double fragments = kept_fragments(r);
   const double med = timed_frames(state, [&] {
     if (backward)
       benchmark::DoNotOptimize(r.backward(s, grads));

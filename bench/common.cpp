@@ -236,10 +236,9 @@ double peak_rss_mib() {
   return u.ru_maxrss / 1024.0;  // kB on Linux
 }
 
-double covered_pixels(const std::vector<RenderOutput>& out) {
+double kept_fragments(const Renderer& r) {
   double n = 0;
-  for (const RenderOutput& o : out)
-    for (double a : o.silhouette.data) n += a >= 0.5;
+  for (size_t count : r.fragment_counts()) n += double(count);
   return n;
 }
 

@@ -102,9 +102,9 @@ void reset_peak_rss();
 double peak_rss_mib();
 bool peak_rss_resettable();
 
-// Pixels whose silhouette is ≥ 0.5 over every camera: the number N of fragments the shadow
-// lookup samples (each covered pixel keeps about one fragment at the default γ).
-double covered_pixels(const std::vector<RenderOutput>& out);
+// The fragments every camera's view kept in r's most recent render (Renderer::fragment_counts):
+// the number N of fragments whose shadow terms the lookups sample.
+double kept_fragments(const Renderer& r);
 
 // Runs `frame` once per benchmark iteration, timing each call (wall clock, manual time), and
 // sets ms_median, ms_min, ms_mean, frames_per_s (1 / median) and loadavg_1min counters.

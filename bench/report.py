@@ -751,8 +751,8 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("## Shadows × sampling (reference point)")
     w("")
     w("256² image, 256² map (soft exact: 64² in the default suite, 256² under `large/`), 1312")
-    w("faces, σ_s = 2, one light. N is the number of covered pixels (silhouette ≥ 0.5), which")
-    w("approximates the fragments the shadow lookup samples.")
+    w("faces, σ_s = 2, one light. N is the number of fragments the camera's view kept")
+    w("(`Renderer::fragment_counts`): the fragments whose shadow terms the lookup samples.")
     w("")
     rows = []
     for pass_ in ("fwd", "bwd"):

@@ -534,6 +534,31 @@ TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
   }
 }
 
+// Renderer::fragment_counts counts the kept fragments, not raster_count's bound on them: over a
+// head-on view, two coincident triangles (faces 1 and 2) keep one fragment each per pixel, and
+// a triangle behind them (face 0, visited first, so that the running maximum counts it) keeps
+// none, its weight e^{−Δz̃/γ} far below weight_eps.
+TEST(RasterFragments, CountsTheKeptFragments) {
+  REQUIRE_CONTEXT(ctx);
+  Scene s;
+  Mesh m;
+  m.vertices = {{-40, -40, -2}, {40, -40, -2}, {0, 40, -2}, {-40, -40, 0}, {40, -40, 0}, {0, 40, 0}};
+  m.faces = {{0, 1, 2}, {3, 4, 5}, {3, 4, 5}};
+  m.albedo.assign(m.vertices.size(), {0.5, 0.5, 0.5});
+  s.meshes.push_back(m);
+  const int W = 24, H = 16;
+  s.cameras.push_back(perspective_camera({0, 0, 5}, {0, 0, 0}, W, H, 40.0, 0.1, 20.0));
+  s.lights.push_back(point_light({0, 0, 3}, {1, 1, 1}));
+  s.params.sigma = 1e-3;
+  s.params.gamma = 1e-3;
+  for (Precision precision : {Precision::Float, Precision::Double}) {
+    Renderer renderer(*ctx, precision);
+    EXPECT_TRUE(renderer.fragment_counts().empty());
+    ASSERT_NO_THROW(renderer.render(s));
+    EXPECT_EQ(renderer.fragment_counts(), std::vector<size_t>{size_t(2 * W * H)});
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // bin_sort puts each tile's list into face order whatever order bin_fill wrote it in (a CPU
 // writes nearly sorted lists, a GPU any order): lists given here reversed, shuffled, as

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "common/layout.h"
 #include "penumbra/error.hpp"
@@ -287,6 +288,16 @@ std::vector<Image> Renderer::shadow_maps() const {
 std::vector<Image> Renderer::penumbra_maps() const {
   return light_maps(impl_->ctx, impl_->precision, impl_->light_passes,
                     &detail::LightMaps::penumbra);
+}
+
+std::vector<size_t> Renderer::fragment_counts() const {
+  std::vector<size_t> counts;
+  for (const ViewPass& cp : impl_->camera_passes) {
+    const std::vector<int> n = detail::download_ints(
+        impl_->ctx, cp.fragments.pix_n, size_t(cp.view.W) * size_t(cp.view.H));
+    counts.push_back(std::accumulate(n.begin(), n.end(), size_t(0)));
+  }
+  return counts;
 }
 
 }  // namespace penumbra

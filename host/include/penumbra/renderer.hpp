@@ -108,6 +108,12 @@ class Renderer {
   // (empty otherwise).
   std::vector<Image> penumbra_maps() const;
 
+  // How many fragments each camera's view kept in the most recent render() (empty before one):
+  // the (pixel, face) pairs whose aggregation weight is at least weight_eps times the pixel's
+  // largest, which the colour, depth, shadow lookups and backward work on. Read back from the
+  // device.
+  std::vector<size_t> fragment_counts() const;
+
   // Calls `observer` at the start of every stage of every pass of render() and backward(),
   // and of every part of a stage run in parts, after the device has finished the work before
   // it (so that what it reports is what runs; without an observer nothing waits). Outputs are

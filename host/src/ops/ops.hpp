@@ -157,7 +157,7 @@ struct ScreenGeometry {
 // the raster, written by the shadow lookups. aux holds per-pixel sums of pass 1, completed by
 // resolve.
 struct Fragments {
-  size_t nrec = 0;  // Σ over the pixels of their kept fragments
+  size_t nrec = 0;  // fragment records: Σ over the pixels of raster_count's bound on the kept
   cl::Buffer aux, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
 };
