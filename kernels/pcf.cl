@@ -248,7 +248,7 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
   // The search sums over texels (st·I, st·J) only (the search map's).
   const realR on_grid = select((realR)0, (realR)1, fmod((real)i0 + LANER, (real)L.stride) == 0);
   realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS], dc, step;
-  for (int t = 0; t < rows; ++t) {
+  FOR_ROWS(t, rows) {
     Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
     Av[t] = loadR(A, (j0 + t) * Wm + i0, n);
     acc[t] = accA[t] = 0;
@@ -281,7 +281,7 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
     const realG offy_rows = (real)j0 + LANEG - x.mu.y;
     if (filter) vstoreG(axis_weight(offy_rows, sigma), 0, gy);
     if (search) vstoreG(axis_weight(offy_rows, sigma_b), 0, hy);
-    for (int t = 0; t < rows; ++t) {
+    FOR_ROWS(t, rows) {
       real offy = j0 + t - x.mu.y;
       if (!(offy * offy < r2)) continue;
       const int filter_row = filter && offy * offy < r2f_m;

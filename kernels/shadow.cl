@@ -127,7 +127,7 @@ GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, in
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
   const int rows = gather_rows(i0, j0, Wm, Hm);
   realR acc[GATHER_ROWS];
-  for (int t = 0; t < rows; ++t) acc[t] = 0;
+  FOR_ROWS(t, rows) acc[t] = 0;
   FOR_EACH_GATHER_FRAGMENT(r, bucket_reach(P)) {
     real4 x = rec_light[r * nl + light];
     real a = rec_lgrad[r * nl + light].x;
@@ -135,7 +135,7 @@ GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, in
     realR gx = axis_weight((real)i0 + LANER - x.x, ss);
     real gys[GATHER_LANES];  // the rows' weights (realG)
     vstoreG(axis_weight((real)j0 + LANEG - x.y, ss), 0, gys);
-    for (int t = 0; t < rows; ++t) {
+    FOR_ROWS(t, rows) {
       real dy = j0 + t - x.y;
       if (dy * dy < r2) acc[t] += a * fmax(gx * gys[t] - eps, (realR)0);
     }
@@ -410,7 +410,7 @@ GATHER_KERNEL void soft_gather(__global const real* P, int nrec, int light, int 
   const real ss = P[P_SIGMA_S];
   const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm);
   realR Sv[GATHER_ROWS], Pv[GATHER_ROWS], accS[GATHER_ROWS], accP[GATHER_ROWS], dd, dP;
-  for (int t = 0; t < rows; ++t) {
+  FOR_ROWS(t, rows) {
     Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
     Pv[t] = loadR(Pmap, (j0 + t) * Wm + i0, n);
     accS[t] = accP[t] = 0;
