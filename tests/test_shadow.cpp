@@ -716,4 +716,37 @@ TEST(ShadowDeterminism, BackwardIsBitIdentical) {
   }
 }
 
+// A renderer keeps the exact lookups' weights from render to render (ExactWeights, ops.hpp):
+// through scenes with fewer fragments (the kept rows reused, the rows past the batch left as
+// they were), another map size (new weights) and back, it renders and differentiates as a
+// fresh one does, bit for bit.
+TEST(ShadowDeterminism, KeptExactWeightsGiveAFreshRenderersBits) {
+  REQUIRE_CONTEXT(ctx);
+  for (Precision precision : {Precision::Double, Precision::Float}) {
+    Scene base = shadow_scene(Lighting::Two, Method::Exact);
+    Scene shrunk = base;  // fewer fragments
+    for (Mesh& m : shrunk.meshes)
+      for (dvec3& v : m.vertices) v *= 0.8;
+    Scene small_map = base;
+    small_map.params.shadow_map_size = 32;
+    Renderer kept(*ctx, precision);
+    int step = 0;
+    for (const Scene* s : {&base, &shrunk, &small_map, &base, &shrunk}) {
+      const std::string what = "scene " + std::to_string(step++) +
+                               (precision == Precision::Double ? " double" : " float");
+      const auto weights = penumbra::random_loss_weights(*s, 7);
+      std::vector<RenderOutput> a, b;
+      SceneGrads ga, gb;
+      ASSERT_NO_THROW(a = kept.render(*s)) << what;
+      ASSERT_NO_THROW(ga = kept.backward(*s, weights)) << what;
+      Renderer fresh(*ctx, precision);
+      ASSERT_NO_THROW(b = fresh.render(*s)) << what;
+      ASSERT_NO_THROW(gb = fresh.backward(*s, weights)) << what;
+      for (size_t c = 0; c < a.size(); ++c)
+        EXPECT_EQ(a[c].color.data, b[c].color.data) << what;
+      expect_identical(ga, gb, what);
+    }
+  }
+}
+
 }  // namespace

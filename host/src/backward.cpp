@@ -108,7 +108,7 @@ BackwardSums Renderer::Impl::start_backward() {
 }
 
 void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardSums& sums) {
-  const ViewPass& cp = camera_passes[camera];
+  ViewPass& cp = camera_passes[camera];  // its fragments keep the exact lookups' weights
   const int W = cp.view.W, H = cp.view.H;
   stage("resolve");
   check_grad_image(g.color, W, H, 3, "color", camera);

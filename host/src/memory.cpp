@@ -50,20 +50,29 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
 }
 
 // The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
-// exact_backward): batches of at most ~96 MiB of weights and products, or fewer fragments.
-// The forward holds Gx, Gy, dots, norm and the weights' supports (int4), the backward also Gxd,
-// Gyd and dsum; with CLBlast the products Gy·S (and Gyd·S) too (the direct kernels store none,
-// and matmul_tn's int4 box per 16 fragments instead).
-size_t exact_batch_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward,
-                         bool clblast) {
+// exact_backward) of one camera and light: batches of at most ~96 MiB of weights and products,
+// or fewer fragments. `kept`: the weights, Gx, Gy and their supports (int4), the backward's
+// also Gxd, Gyd, which stay with the camera's fragments from call to call (ExactWeights), the
+// forward's through the backward. `call`: what a call holds besides, dots and norm (the
+// backward's also dsum) and with CLBlast the products Gy·S (and Gyd·S) (the direct kernels
+// store none, and matmul_tn's int4 box per 16 fragments instead).
+struct ExactBytes {
+  size_t kept = 0, call = 0;
+};
+ExactBytes exact_lookup_bytes(const Sizes& z, size_t texels_side, size_t fragments, bool backward,
+                              bool clblast) {
   const size_t cap = std::max<size_t>(1, (size_t(96) << 20) / (texels_side * 6 * z.rs));
   const size_t support = 4 * sizeof(int);
-  const size_t fwd =
-      std::min(cap, fragments) * (((clblast ? 3 : 2) * texels_side + 8) * z.rs + support);
+  const size_t fwd_batch = std::min(cap, fragments);
+  ExactBytes b;
+  b.kept = fwd_batch * (2 * texels_side * z.rs + support);
+  b.call = fwd_batch * ((clblast ? texels_side : 0) + 8) * z.rs;
+  if (!backward) return b;
   const size_t bwd_batch = std::min(std::max<size_t>(cap / 2, 1), fragments);
-  const size_t bwd = bwd_batch * (((clblast ? 6 : 4) * texels_side + 10) * z.rs + support) +
-                     (clblast ? 0 : (bwd_batch / 16 + 1) * support);
-  return backward ? std::max(fwd, bwd) : fwd;
+  b.kept += bwd_batch * (4 * texels_side * z.rs + support);
+  b.call = std::max(b.call, bwd_batch * ((clblast ? 2 * texels_side : 0) + 10) * z.rs +
+                                (clblast ? 0 : (bwd_batch / 16 + 1) * support));
+  return b;
 }
 
 }  // namespace
@@ -84,6 +93,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
              (backward ? size_t(c.width) * size_t(c.height) * 6 * z.rs : 0);  // dL/d(image, depth)
   if (p.shadows == Shadows::None) return bytes;
   const size_t texels = size_t(shadow_map_side(p)) * size_t(shadow_map_side(p));
+  size_t exact_kept = 0, exact_call = 0;  // exact_lookup_bytes, over the cameras and lights
   for (size_t l = 0; l < lights; ++l) {
     bytes += view_bytes(
         z, texels, 0, 0, backward,
@@ -101,20 +111,19 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
                       detail::kGatherChunk +
                   1) *
                  4 * sizeof(int);
-    if (!sampling_method(p.sampling).windowed && p.shadows == Shadows::Hard &&
-        p.shadow_model == ShadowModel::Paper) {
+    if (detail::exact_lookups(p)) {
       const bool clblast = tuning ? exact_backend_in_force(p, *tuning) == ExactBackend::CLBlast
                                   : p.exact_backend != ExactBackend::Kernels;
-      size_t most = 0;  // the batches live one camera at a time
-      for (const Camera& c : scene.cameras)
-        most = std::max(most, exact_batch_bytes(
-                                  z, size_t(shadow_map_side(p)),
-                                  fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel),
-                                  backward, clblast));
-      bytes += most;
+      for (const Camera& c : scene.cameras) {  // a call's own buffers live one at a time
+        const ExactBytes e = exact_lookup_bytes(
+            z, size_t(shadow_map_side(p)),
+            fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel), backward, clblast);
+        exact_kept += e.kept;
+        exact_call = std::max(exact_call, e.call);
+      }
     }
   }
-  return bytes;
+  return bytes + exact_kept + exact_call;
 }
 
 }  // namespace penumbra

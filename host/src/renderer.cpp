@@ -119,10 +119,15 @@ std::vector<detail::Fragments> take_fragments(std::vector<Pass>& passes) {
 size_t buffer_bytes(const cl::Buffer& b) { return b() ? b.getInfo<CL_MEM_SIZE>() : 0; }
 size_t fragment_bytes(const std::vector<detail::Fragments>& fragments) {
   size_t bytes = 0;
-  for (const detail::Fragments& f : fragments)
+  for (const detail::Fragments& f : fragments) {
     for (const cl::Buffer* b :
          {&f.aux, &f.pix_n, &f.rec_face, &f.rec_frag, &f.rec_shade, &f.rec_light, &f.rec_light2})
       bytes += buffer_bytes(*b);
+    for (const auto* kept : {&f.exact_forward, &f.exact_backward})
+      for (const detail::ExactWeights& w : *kept)
+        for (const cl::Buffer* b : {&w.Gx, &w.Gy, &w.Gxd, &w.Gyd, &w.support})
+          bytes += buffer_bytes(*b);
+  }
   return bytes;
 }
 // View i's spare fragments, moved out (none when the last render had no view i).
@@ -240,6 +245,8 @@ std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   const int nl = int(m.scene.lights.size()), nc = int(m.scene.cameras.size());
   std::vector<detail::Fragments> spare_lights = take_fragments(m.light_passes),
                                  spare_cameras = take_fragments(m.camera_passes);
+  if (!detail::exact_lookups(m.scene.params))  // the weights the last render's lookups kept: unused
+    for (detail::Fragments& f : spare_cameras) f.exact_forward.clear(), f.exact_backward.clear();
   // Held beside this render's buffers only where both fit in the memory it was checked against.
   if (fragment_bytes(spare_lights) + fragment_bytes(spare_cameras) + estimate >
       m.ctx.memory_limit()) {

@@ -29,7 +29,8 @@ struct SceneGrads {
 // camera's view and every light's shadow-map view, 1.25 fragments per pixel of a camera's view
 // and 1.5 per texel of a map (how many there are is known only once they are counted; the
 // fragments' memory is then checked again), the penumbra maps and the batches of the paper
-// model's exact hard-shadow lookups. With `tuning` (Renderer::tuning() after a render), the
+// model's exact hard-shadow lookups (whose weight matrices, forward and backward, a camera's
+// fragments keep for the next call's). With `tuning` (Renderer::tuning() after a render), the
 // exact backend `auto` is the one that tuning picks; without, it is counted as CLBlast, whose
 // GEMM needs a temporary the direct kernels do not. render() and backward() refuse a scene whose
 // estimate, with their tuning, exceeds Context::memory_limit().

@@ -156,10 +156,25 @@ struct ScreenGeometry {
 // rec_light2 hold each fragment's shadow terms per light of View::shadow_lights(): s = 1 from
 // the raster, written by the shadow lookups. aux holds per-pixel sums of pass 1, completed by
 // resolve.
+// The paper model's exact lookups' Gaussian weight matrices of one light (shadow.cpp), Gx, Gy
+// and with derivatives Gxd, Gyd: rows for `batch` fragments of a W × H map. Every row
+// holds zeros outside its support (exact_weights clears what the row's last batch left before
+// writing its own), so a render keeps them for the next one's lookups of the same shape, which
+// then need no new, zero-filled matrices (whose pages fault in as they are filled).
+struct ExactWeights {
+  size_t batch = 0;
+  int W = 0, H = 0;
+  bool derivatives = false;
+  cl::Buffer Gx, Gy, Gxd, Gyd, support;
+};
+
 struct Fragments {
   size_t nrec = 0;  // fragment records: Σ over the pixels of raster_count's bound on the kept
   cl::Buffer aux, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
+  // The exact lookups' weights of each light, forward and backward, handed on from render to
+  // render with the rest (shadow.cpp).
+  std::vector<ExactWeights> exact_forward, exact_backward;
 };
 
 // Raster pass 3: colour and silhouette (image), depth and coverage. Of a light's view, depth
@@ -251,6 +266,13 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
                        const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd,
                        const cl::Buffer& support, ProductScratch& scratch, cl::Buffer& out);
 
+// Whether `p` samples shadows by the paper model's exact lookups of hard shadows (exact or gemm
+// sampling), whose weights the fragments keep (ExactWeights).
+inline bool exact_lookups(const RenderParams& p) {
+  return p.shadows == Shadows::Hard && p.shadow_model == ShadowModel::Paper &&
+         !sampling_method(p.sampling).windowed;
+}
+
 // The paper model: shadow terms of every fragment `f` of camera view `v` for light `light`,
 // sampled from the light's shadow map (and penumbra map for soft shadows)
 // (p.shadows, p.sampling and, for the exact sum of hard shadows, exact_on_clblast).
@@ -261,7 +283,7 @@ void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments&
 struct MapGrads {
   cl::Buffer S, P, A;  // dL/d(shadow map, penumbra map (paper), coverage (accurate))
 };
-MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, const Fragments& f,
+MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, Fragments& f,
                          FragmentGrads& fgr, int light, const LightMaps& m);
 
 // The fragments `f` of `v` bucketed by the texel nearest their μ in `light`'s map (bin.cl

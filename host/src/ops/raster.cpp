@@ -162,6 +162,8 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
   f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), light_reals, rs);
   f.rec_light2 = reuse_or_alloc(ctx, std::move(spare.rec_light2), light_reals, rs);
+  f.exact_forward = std::move(spare.exact_forward);
+  f.exact_backward = std::move(spare.exact_backward);
   auto& frag =
       bind_args(k, RasterFragmentsArgs{
                        sg.vscreen, g.vworld,    g.faces,     sg.fbbox,     sg.fnormal,   g.albedo,

@@ -130,17 +130,43 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
   return std::max<size_t>(1, (size_t(96) << 20) / per);
 }
 
-void exact_forward(Kernels& k, bool clblast, const Fragments& f, const MapLookup& at,
+// Light `light`'s exact weights in `kept` where they fit batches of `batch` fragments of a
+// W × H map (rows for at least that many, at most twice as many, as reuse_or_alloc keeps
+// buffers: the rows past a batch stay as they are, zero outside their supports), else new
+// zero-filled ones (the old released first).
+ExactWeights& exact_weights(Context& ctx, Precision p, std::vector<ExactWeights>& kept, int light,
+                            size_t batch, int W, int H, bool derivatives) {
+  if (kept.size() <= size_t(light)) kept.resize(size_t(light) + 1);
+  ExactWeights& w = kept[size_t(light)];
+  if (w.W == W && w.H == H && w.derivatives == derivatives && w.batch >= batch &&
+      w.batch <= 2 * batch)
+    return w;
+  w = ExactWeights{};  // the old matrices released before the new are made
+  w.batch = batch;
+  w.W = W;
+  w.H = H;
+  w.derivatives = derivatives;
+  w.Gx = zero_reals(ctx, p, batch * W);
+  w.Gy = zero_reals(ctx, p, batch * H);
+  if (derivatives) {
+    w.Gxd = zero_reals(ctx, p, batch * W);
+    w.Gyd = zero_reals(ctx, p, batch * H);
+  }
+  w.support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
+  return w;
+}
+
+void exact_forward(Kernels& k, bool clblast, Fragments& f, const MapLookup& at,
                    const LightMaps& lm) {
   Context& ctx = k.ctx();
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm), n);
   const Precision p = k.precision();
-  // The weights start as zeros and exact_weights keeps them zero outside the supports (shadow.cl,
-  // the exact sum); every other entry of a batch is written before it is read.
-  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gy = zero_reals(ctx, p, batch * Hm),
-             dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
-             support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
+  // The weights hold zeros outside the supports (ExactWeights); every other entry of a batch is
+  // written before it is read.
+  ExactWeights& w = exact_weights(ctx, p, f.exact_forward, light, batch, Wm, Hm, false);
+  const cl::Buffer &Gx = w.Gx, &Gy = w.Gy, &support = w.support;
+  cl::Buffer dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4);
   ProductScratch scratch;
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
@@ -196,18 +222,17 @@ MapGrads truncated_backward(Kernels& k, const View& v, const Fragments& f, const
   return g;
 }
 
-MapGrads exact_backward(Kernels& k, bool clblast, const Fragments& f, const FragmentGrads& fgr,
+MapGrads exact_backward(Kernels& k, bool clblast, Fragments& f, const FragmentGrads& fgr,
                         const MapLookup& at, const LightMaps& lm, MapGrads g) {
   Context& ctx = k.ctx();
   const Precision p = k.precision();
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
-  // As exact_forward's: the weights start as zeros, the rest is written before it is read.
-  cl::Buffer Gx = zero_reals(ctx, p, batch * Wm), Gxd = zero_reals(ctx, p, batch * Wm),
-             Gy = zero_reals(ctx, p, batch * Hm), Gyd = zero_reals(ctx, p, batch * Hm),
-             dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
-             dsum = alloc_reals(ctx, p, batch * 2),
-             support = upload_ints(ctx, std::vector<int>(batch * 4, 0));
+  // As exact_forward's.
+  ExactWeights& w = exact_weights(ctx, p, f.exact_backward, light, batch, Wm, Hm, true);
+  const cl::Buffer &Gx = w.Gx, &Gxd = w.Gxd, &Gy = w.Gy, &Gyd = w.Gyd, &support = w.support;
+  cl::Buffer dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
+             dsum = alloc_reals(ctx, p, batch * 2);
   ProductScratch scratch;
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
@@ -271,7 +296,7 @@ void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments&
   }
 }
 
-MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, const Fragments& f,
+MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, Fragments& f,
                          FragmentGrads& fgr, int light, const LightMaps& lm) {
   MapGrads g;
   g.S = zero_reals(k.ctx(), k.precision(), size_t(lm.W) * lm.H);
