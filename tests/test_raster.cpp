@@ -542,7 +542,8 @@ TEST(RasterFragments, CountsTheKeptFragments) {
   REQUIRE_CONTEXT(ctx);
   Scene s;
   Mesh m;
-  m.vertices = {{-40, -40, -2}, {40, -40, -2}, {0, 40, -2}, {-40, -40, 0}, {40, -40, 0}, {0, 40, 0}};
+  m.vertices = {{-40, -40, -2}, {40, -40, -2}, {0, 40, -2},
+                {-40, -40, 0},  {40, -40, 0},  {0, 40, 0}};
   m.faces = {{0, 1, 2}, {3, 4, 5}, {3, 4, 5}};
   m.albedo.assign(m.vertices.size(), {0.5, 0.5, 0.5});
   s.meshes.push_back(m);

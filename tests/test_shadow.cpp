@@ -742,8 +742,7 @@ TEST(ShadowDeterminism, KeptExactWeightsGiveAFreshRenderersBits) {
       Renderer fresh(*ctx, precision);
       ASSERT_NO_THROW(b = fresh.render(*s)) << what;
       ASSERT_NO_THROW(gb = fresh.backward(*s, weights)) << what;
-      for (size_t c = 0; c < a.size(); ++c)
-        EXPECT_EQ(a[c].color.data, b[c].color.data) << what;
+      for (size_t c = 0; c < a.size(); ++c) EXPECT_EQ(a[c].color.data, b[c].color.data) << what;
       expect_identical(ga, gb, what);
     }
   }

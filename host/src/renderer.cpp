@@ -300,8 +300,8 @@ std::vector<Image> Renderer::penumbra_maps() const {
 std::vector<size_t> Renderer::fragment_counts() const {
   std::vector<size_t> counts;
   for (const ViewPass& cp : impl_->camera_passes) {
-    const std::vector<int> n = detail::download_ints(
-        impl_->ctx, cp.fragments.pix_n, size_t(cp.view.W) * size_t(cp.view.H));
+    const std::vector<int> n = detail::download_ints(impl_->ctx, cp.fragments.pix_n,
+                                                     size_t(cp.view.W) * size_t(cp.view.H));
     counts.push_back(std::accumulate(n.begin(), n.end(), size_t(0)));
   }
   return counts;
