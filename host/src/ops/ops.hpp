@@ -152,10 +152,6 @@ struct ScreenGeometry {
   cl::Buffer fbbox, fnormal;  // nf × int4, nf × real4
 };
 
-// Raster passes 1–2: the kept fragments of every pixel (kernels/raster.cl). rec_light and
-// rec_light2 hold each fragment's shadow terms per light of View::shadow_lights(): s = 1 from
-// the raster, written by the shadow lookups. aux holds per-pixel sums of pass 1, completed by
-// resolve.
 // The paper model's exact lookups' Gaussian weight matrices of one light (shadow.cpp), Gx, Gy
 // and with derivatives Gxd, Gyd: rows for `batch` fragments of a W × H map. Every row
 // holds zeros outside its support (exact_weights clears what the row's last batch left before
@@ -168,6 +164,10 @@ struct ExactWeights {
   cl::Buffer Gx, Gy, Gxd, Gyd, support;
 };
 
+// Raster passes 1–2: the kept fragments of every pixel (kernels/raster.cl). rec_light and
+// rec_light2 hold each fragment's shadow terms per light of View::shadow_lights(): s = 1 from
+// the raster, written by the shadow lookups. aux holds per-pixel sums of pass 1, completed by
+// resolve.
 struct Fragments {
   size_t nrec = 0;  // fragment records: Σ over the pixels of raster_count's bound on the kept
   cl::Buffer aux, pix_offset, pix_n;
