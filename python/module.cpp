@@ -451,5 +451,9 @@ NB_MODULE(_penumbra, m) {
             for (Image& s : r.penumbra_maps()) out.append(image_out(std::move(s)));
             return out;
           },
-          "The penumbra map of every light from the most recent render with soft shadows.");
+          "The penumbra map of every light from the most recent render with soft shadows.")
+      .def("fragment_counts", &Renderer::fragment_counts,
+           "How many fragments each camera's view kept in the most recent render (empty before "
+           "one): the (pixel, face) pairs whose aggregation weight is at least weight_eps times "
+           "the pixel's largest.");
 }

@@ -34,7 +34,10 @@ def test_render_equals_cli_bit_for_bit(cli, context, tmp_path, shadows, precisio
                 "--shadows", shadows, "--precision", precision, "--shadow-model", model, *SIZE)
     assert r.returncode == 0, r.stderr
     renderer = penumbra.Renderer(context, getattr(penumbra.Precision, precision))
+    assert renderer.fragment_counts() == []
     (view,) = renderer.render(bundled(shadows, model=model))
+    (kept,) = renderer.fragment_counts()
+    assert isinstance(kept, int) and kept > 0
     for name in ("color", "silhouette", "depth"):
         expected = np.load(raw / f"{name}.npy")  # float32, as the tool writes it
         assert view[name].dtype == np.float64 and view[name].shape == expected.shape
