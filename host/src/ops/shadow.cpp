@@ -134,8 +134,8 @@ size_t exact_batch(Kernels& k, int Wm, int Hm) {
 // W × H map (rows for at least that many, at most twice as many, as reuse_or_alloc keeps
 // buffers: the rows past a batch stay as they are, zero outside their supports), else new
 // zero-filled ones (the old released first).
-ExactWeights& exact_weights(Context& ctx, Precision p, std::vector<ExactWeights>& kept, int light,
-                            size_t batch, int W, int H, bool derivatives) {
+ExactWeights& kept_exact_weights(Context& ctx, Precision p, std::vector<ExactWeights>& kept,
+                                 int light, size_t batch, int W, int H, bool derivatives) {
   if (kept.size() <= size_t(light)) kept.resize(size_t(light) + 1);
   ExactWeights& w = kept[size_t(light)];
   if (w.W == W && w.H == H && w.derivatives == derivatives && w.batch >= batch &&
@@ -164,7 +164,7 @@ void exact_forward(Kernels& k, bool clblast, Fragments& f, const MapLookup& at,
   const Precision p = k.precision();
   // The weights hold zeros outside the supports (ExactWeights); every other entry of a batch is
   // written before it is read.
-  ExactWeights& w = exact_weights(ctx, p, f.exact_forward, light, batch, Wm, Hm, false);
+  ExactWeights& w = kept_exact_weights(ctx, p, f.exact_forward, light, batch, Wm, Hm, false);
   const cl::Buffer &Gx = w.Gx, &Gy = w.Gy, &support = w.support;
   cl::Buffer dot = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4);
   ProductScratch scratch;
@@ -229,7 +229,7 @@ MapGrads exact_backward(Kernels& k, bool clblast, Fragments& f, const FragmentGr
   const int n = at.nrec, Wm = at.Wm, Hm = at.Hm, light = at.light, nl = at.nl;
   const size_t batch = std::min<size_t>(exact_batch(k, Wm, Hm) / 2, n);
   // As exact_forward's.
-  ExactWeights& w = exact_weights(ctx, p, f.exact_backward, light, batch, Wm, Hm, true);
+  ExactWeights& w = kept_exact_weights(ctx, p, f.exact_backward, light, batch, Wm, Hm, true);
   const cl::Buffer &Gx = w.Gx, &Gxd = w.Gxd, &Gy = w.Gy, &Gyd = w.Gyd, &support = w.support;
   cl::Buffer dots = alloc_reals(ctx, p, batch * 4), norm = alloc_reals(ctx, p, batch * 4),
              dsum = alloc_reals(ctx, p, batch * 2);
