@@ -534,6 +534,43 @@ TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
   }
 }
 
+// A renderer keeps the last render's faces, albedo and vertex adjacency on the device while
+// only the vertices move (as in an optimisation) and uploads them again on any other change:
+// through scenes whose faces, albedo or vertex counts change, and whose vertices then move, it
+// renders and differentiates as a fresh one does.
+TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
+  REQUIRE_CONTEXT(ctx);
+  Scene base = tuning_scene();
+  base.params.shadows = Shadows::Hard;
+  Mesh& sphere = base.meshes[0];  // albedo per face, so that its count is not the vertices'
+  sphere.albedo_mode = AlbedoMode::PerFace;
+  sphere.albedo.clear();
+  for (const glm::ivec3& face : sphere.faces)
+    sphere.albedo.push_back(dvec3(0.3, 0.5, 0.7) + 0.1 * (face.x % 3));
+  Scene faces = base;  // the sphere's first half of faces replaced by copies of its second
+  std::vector<glm::ivec3>& f = faces.meshes[0].faces;
+  std::copy(f.begin() + f.size() / 2, f.begin() + f.size() / 2 * 2, f.begin());
+  Scene albedo = base;
+  for (dvec3& a : albedo.meshes[0].albedo) a *= 0.5;
+  Scene more_vertices = base;  // one vertex more, unused: the ground's indices shift when packed
+  more_vertices.meshes[0].vertices.push_back({0, 0, 0});
+  Scene moved = more_vertices;
+  for (dvec3& v : moved.meshes[0].vertices) v *= 0.8;
+  Renderer reused(*ctx, Precision::Float);
+  int step = 0;
+  for (const Scene* s : {&base, &faces, &base, &albedo, &more_vertices, &moved, &base}) {
+    const std::string what = "scene " + std::to_string(step++);
+    const auto weights = random_loss_weights(*s, 3);
+    std::vector<RenderOutput> a, b;
+    ASSERT_NO_THROW(a = reused.render(*s)) << what;
+    const SceneGrads ga = reused.backward(*s, weights);
+    Renderer fresh(*ctx, Precision::Float);
+    ASSERT_NO_THROW(b = fresh.render(*s)) << what;
+    expect_identical(a, b, what);
+    penumbra_tests::expect_identical(ga, fresh.backward(*s, weights), what);
+  }
+}
+
 // Renderer::fragment_counts counts the kept fragments, not raster_count's bound on them: over a
 // head-on view, two coincident triangles (faces 1 and 2) keep one fragment each per pixel, and
 // a triangle behind them (face 0, visited first, so that the running maximum counts it) keeps

@@ -49,11 +49,9 @@ glm::dvec3 vec3_at(const std::vector<double>& a, size_t at) {
 }
 
 bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
-  if (a.size() != b.size()) return false;
+  if (!same_faces_and_albedo(a, b)) return false;
   for (size_t i = 0; i < a.size(); ++i)
-    if (a[i].vertices != b[i].vertices || a[i].faces != b[i].faces || a[i].albedo != b[i].albedo ||
-        a[i].albedo_mode != b[i].albedo_mode)
-      return false;
+    if (a[i].vertices != b[i].vertices) return false;
   return true;
 }
 
@@ -61,9 +59,8 @@ bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
 
 void Renderer::Impl::check_backward(const Scene& given, const std::vector<OutputGrads>& grads) {
   // The meshes as given (packing them again cost 3.9 ms per call at 100k faces); the rest as
-  // render() fitted and normalised it.
-  Scene fitted = given;
-  fitted.meshes.clear();
+  // render() fitted and normalised it, copied without the meshes.
+  Scene fitted{{}, given.cameras, given.lights, given.ambient, given.background, given.params};
   for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
     if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
   fitted = detail::normalised(fitted, norm);
@@ -96,7 +93,13 @@ BackwardSums Renderer::Impl::start_backward() {
     sums.penumbra_maps.emplace_back(ntex, 0.0);
     sums.covers.emplace_back(ntex, 0.0);
   }
-  // vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd
+  if (!geometry.adj()) build_adjacency();  // once per set of faces (upload_geometry)
+  return sums;
+}
+
+// vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd.
+void Renderer::Impl::build_adjacency() {
+  const Packed& p = packed;
   std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
   for (int i = 0; i < p.nf * 3; ++i) ++count[p.faces[(i / 3) * 4 + i % 3] + 1];
   for (int v = 0; v < p.nv; ++v) count[v + 1] += count[v];
@@ -104,7 +107,6 @@ BackwardSums Renderer::Impl::start_backward() {
   for (int i = 0; i < p.nf * 3; ++i) adj[cursor[p.faces[(i / 3) * 4 + i % 3]]++] = i;
   geometry.adj_offsets = detail::upload_ints(ctx, count);
   geometry.adj = detail::upload_ints(ctx, adj);
-  return sums;
 }
 
 void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardSums& sums) {

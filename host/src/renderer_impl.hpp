@@ -16,8 +16,12 @@ struct Packed {
   std::vector<int> faces;              // nf × 4
   std::vector<size_t> vertex_offset, face_offset;
 };
-// Fills `p` with the scene's meshes, reusing its storage.
-void pack(const Scene& s, Packed& p);
+// Fills `p` with the scene's meshes, reusing its storage; with `vertices_only`, `p` holds these
+// meshes' faces and albedo already (same_faces_and_albedo) and only their vertices are written.
+void pack(const Scene& s, Packed& p, bool vertices_only);
+// Whether pack() writes the same faces and albedo for meshes `a` as for meshes `b`: the same
+// faces, albedo and vertex counts, mesh by mesh.
+bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
 
 // What the backward pass sums on the host, over cameras and lights, before it becomes
 // SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (3·nf × 4), the per-light terms of the
@@ -58,6 +62,8 @@ struct Renderer::Impl {
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
   detail::DeviceGeometry geometry;
+  bool geometry_current = false;  // packed and geometry hold given_meshes' faces and albedo
+  bool vertices_only = false;     // this render's meshes differ from the last's in vertices only
   std::vector<ViewPass> camera_passes;  // one per camera
   std::vector<LightPass> light_passes;  // one per light, when shadows are on
   std::vector<std::vector<double>> view_P;
@@ -88,6 +94,7 @@ struct Renderer::Impl {
   // Backward (backward.cpp), in order.
   void check_backward(const Scene& scene, const std::vector<OutputGrads>& grads);
   BackwardSums start_backward();  // zero sums; the vertex adjacency on the device
+  void build_adjacency();
   void camera_backward(int camera, const OutputGrads& grads, BackwardSums& sums);
   void light_backward(int light, BackwardSums& sums);
   SceneGrads scene_grads(const BackwardSums& sums) const;
