@@ -18,7 +18,7 @@
 //   tile_offsets, tile_counts, tile_faces   from bin.cl (ignored when BRUTE_FORCE)
 //   pix_count, pix_offset, pix_n   N × int: fragment bound, first fragment, fragments kept
 //   block_hits       ulong bits, per block of PPW pixels and tile-list entry (see TILE_BLOCKS)
-//   rec_face K × int; rec_frag K × real4 (D·e^{(z̃−m)/γ}, z, 0, 0)
+//   rec_face K × int; rec_frag K × real2 (D·e^{(z̃−m)/γ}, z)
 //   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
 //   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
@@ -113,7 +113,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global const real4* aux, __global const int* pix_count,
                       __global const ulong* block_hits, __global const int* pix_offset,
                       __global int* pix_n,
-                      __global int* rec_face, __global real4* rec_frag,
+                      __global int* rec_face, __global real2* rec_frag,
                       __global real4* rec_shade, __global real4* rec_light,
                       __global real4* rec_light2) {
   int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
@@ -155,7 +155,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
       if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
       int r = first[j] + n[j]++;
       rec_face[r] = f;
-      rec_frag[r] = (real4)(exp(lws[j]), zs[j], 0, 0);
+      rec_frag[r] = (real2)(exp(lws[j]), zs[j]);
       rec_shade[r * (1 + nl)] = (real4)(t.ambient[0][j], t.ambient[1][j], t.ambient[2][j], 0);
       for (int l = 0; l < nl; ++l)
         rec_shade[r * (1 + nl) + 1 + l] =
@@ -203,7 +203,7 @@ inline real exp_or_ends(real x) { return x == 0 ? 1 : x < -800 ? 0 : exp(x); }
 
 FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
                                    __global const int* pix_offset, __global const int* pix_n,
-                                   __global const real4* rec_frag, __global const real4* rec_shade,
+                                   __global const real2* rec_frag, __global const real4* rec_shade,
                                    __global const real4* rec_light, __global real4* image,
                                    __global real4* aux, __global real* depth,
                                    __global real* cover) {
@@ -215,7 +215,7 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
   real3 acc = Z * p_vec3(P, P_BACKGROUND);
   real accz = Z * P[P_FAR];
   for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
-    real4 fr = rec_frag[r];
+    real2 fr = rec_frag[r];
     Z += fr.x;
     acc += fr.x * fragment_colour(r, nl, P, rec_shade, rec_light);
     accz += fr.x * fr.y;
@@ -228,19 +228,19 @@ FORWARD_KERNEL void raster_resolve(__global const real* P, int W, int H,
 }
 
 // Backward of raster_resolve. gimage N × real4 (dL/dR, dL/dG, dL/dB, dL/dA), gdepth N × real
-// (dL/dI_z). Writes rec_wg K × real4 (w, G, 0, 0): the fragment's normalised weight w and
+// (dL/dI_z). Writes rec_wg K × real2 (w, G): the fragment's normalised weight w and
 // G = gI·(C − I) + gI_z·(z − I_z), so that dL/d(log weight) = w·G; with shadows, rec_lgrad
 // K·nl × real4 (dL/ds, 0, 0, 0), which the shadow backward completes; and gcover N × real,
 // dL/dA·(1 − A) with 1 − A = exp(Σ log(1 − D)), which raster_bwd would otherwise recompute for
 // every face of the pixel.
 BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
                                         __global const int* pix_offset, __global const int* pix_n,
-                                        __global const real4* rec_frag,
+                                        __global const real2* rec_frag,
                                         __global const real4* rec_shade,
                                         __global const real4* rec_light,
                                         __global const real4* image, __global const real4* aux,
                                         __global const real4* gimage, __global const real* gdepth,
-                                        __global real4* rec_wg, __global real4* rec_lgrad,
+                                        __global real2* rec_wg, __global real4* rec_lgrad,
                                         __global real* gcover) {
   int pix = get_global_id(0);
   if (pix >= W * H) return;
@@ -249,10 +249,10 @@ BACKWARD_KERNEL void raster_resolve_bwd(__global const real* P, int W, int H,
   real Iz = aux[pix].x, Z = aux[pix].z, gz = gdepth[pix];
   gcover[pix] = gimage[pix].w * exp(aux[pix].w);
   for (int r = pix_offset[pix]; r < pix_offset[pix] + pix_n[pix]; ++r) {
-    real4 fr = rec_frag[r];
+    real2 fr = rec_frag[r];
     real w = fr.x / Z;
     real3 C = fragment_colour(r, nl, P, rec_shade, rec_light);
-    rec_wg[r] = (real4)(w, dot(gI, C - I) + gz * (fr.y - Iz), 0, 0);
+    rec_wg[r] = (real2)(w, dot(gI, C - I) + gz * (fr.y - Iz));
     for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l)
       rec_lgrad[r * nl + l] = (real4)(w * dot(gI, rec_shade[r * (1 + nl) + 1 + l].xyz), 0, 0, 0);
   }
@@ -303,7 +303,7 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
                                 __global const real* gcover, __global const real4* gimage,
                                 __global const real* gdepth, __global const int* pix_offset,
                                 __global const int* pix_n, __global const int* rec_face,
-                                __global const real4* rec_light, __global const real4* rec_wg,
+                                __global const real4* rec_light, __global const real2* rec_wg,
                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
                                 __global real4* gface_screen, __global real4* gface_world,
                                 __global real4* gface_albedo, __global real4* gface_light) {
@@ -361,7 +361,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       real gzf = 0, gb[3] = {0, 0, 0};
       if (r >= 0) {
         fragment_depth(F.z, P, &fr);
-        real w = rec_wg[r].x, G = rec_wg[r].y;
+        real2 wg = rec_wg[r];
+        real w = wg.x, G = wg.y;
         // The weight is D·e^{z̃/γ}/Z: d(log weight)/du = 1 − D, d/dz̃ = 1/γ.
         gu += w * (1 - D) * G;
         gzf = gdepth[pix] * w - w * G / gamma / (farz - nearz);

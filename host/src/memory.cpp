@@ -38,11 +38,11 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
   // lists and are checked against the device when allocated (raster.cpp); aux, image, depth,
   // cover
   const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1 + 1);
-  // face, fragment, shading (1 + lights), two light records (shadowed)
-  size_t per_fragment = sizeof(int) + z.rs * 4 * (2 + lights + 2 * shadowed);
+  // face, weight and depth (2 reals), shading (1 + lights real4s), two light records (shadowed)
+  size_t per_fragment = sizeof(int) + z.rs * (2 + 4 * (1 + lights) + 8 * shadowed);
   size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
   if (backward) {
-    per_fragment += z.rs * 4 * (1 + 2 * shadowed);
+    per_fragment += z.rs * (2 + 8 * shadowed);  // weight gradients, two light gradients
     per_face += z.rs * (36 + (6 * lights + 1) * 4);
   }
   return z.nv * 4 * z.rs + z.nf * per_face + pixels * per_pixel_bytes +

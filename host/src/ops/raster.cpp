@@ -127,9 +127,11 @@ std::vector<int> fragment_offsets(Kernels& k, const View& v, const cl::Buffer& p
   }
   if (total > size_t(INT32_MAX))
     throw Error("the view keeps " + std::to_string(total) + " fragments, more than 2^31");
-  // Fragment storage, forward and backward: face, weight, shading terms, light terms.
-  const size_t per_fragment = sizeof(int) + real_size(k.precision()) * 4 *
-                                                (1 + (1 + v.nlights) + 4 * v.shadow_lights() + 1);
+  // Fragment storage, forward and backward: face, weight and depth (2 reals), shading terms
+  // (4 per term), light terms (4 × 4 per shadowed light), weight gradients (2).
+  const size_t per_fragment =
+      sizeof(int) + real_size(k.precision()) *
+                        (2 + 4 * (1 + size_t(v.nlights)) + 16 * size_t(v.shadow_lights()) + 2);
   check_memory(k.ctx(), total * per_fragment + npix * 13 * real_size(k.precision()),
                "a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view keeping " +
                    std::to_string(total) + " fragments");
@@ -157,7 +159,7 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   const size_t i = sizeof(cl_int);
   f.pix_n = reuse_or_alloc(ctx, std::move(spare.pix_n), npix, i);
   f.rec_face = reuse_or_alloc(ctx, std::move(spare.rec_face), f.nrec, i);
-  f.rec_frag = reuse_or_alloc(ctx, std::move(spare.rec_frag), f.nrec * 4, rs);
+  f.rec_frag = reuse_or_alloc(ctx, std::move(spare.rec_frag), f.nrec * 2, rs);
   f.rec_shade = reuse_or_alloc(ctx, std::move(spare.rec_shade), f.nrec * 4 * (1 + v.nlights), rs);
   const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
   f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), light_reals, rs);
@@ -191,7 +193,7 @@ FragmentGrads raster_resolve_backward(Kernels& k, const View& v, const Fragments
                                       const Resolved& r, const cl::Buffer& gimage,
                                       const cl::Buffer& gdepth) {
   FragmentGrads fgr;
-  fgr.rec_wg = alloc_reals(k.ctx(), k.precision(), f.nrec * 4);
+  fgr.rec_wg = alloc_reals(k.ctx(), k.precision(), f.nrec * 2);
   const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
   fgr.rec_lgrad = alloc_reals(k.ctx(), k.precision(), light_reals);
   fgr.rec_lgrad2 = zero_reals(k.ctx(), k.precision(), light_reals);
