@@ -508,6 +508,23 @@ TEST(RasterDeterminism, RepeatedRendersIdentical) {
   }
 }
 
+// One renderer through `scenes` in turn renders and differentiates each as a fresh one does.
+void expect_reused_renderer_as_fresh(Context& ctx, std::initializer_list<const Scene*> scenes) {
+  Renderer reused(ctx, Precision::Float);
+  int step = 0;
+  for (const Scene* s : scenes) {
+    const std::string what = "scene " + std::to_string(step++);
+    const auto weights = random_loss_weights(*s, 5);
+    std::vector<RenderOutput> a, b;
+    ASSERT_NO_THROW(a = reused.render(*s)) << what;
+    const SceneGrads ga = reused.backward(*s, weights);
+    Renderer fresh(ctx, Precision::Float);
+    ASSERT_NO_THROW(b = fresh.render(*s)) << what;
+    expect_identical(a, b, what);
+    penumbra_tests::expect_identical(ga, fresh.backward(*s, weights), what);
+  }
+}
+
 // A renderer rasters into its last render's fragment buffers where they fit (reuse_or_alloc):
 // after scenes of other sizes, with shadows, it renders and differentiates as a fresh one does.
 TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
@@ -519,19 +536,7 @@ TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
     for (dvec3& v : m.vertices) v *= 0.8;
   Scene small = base;  // far fewer
   for (Camera& c : small.cameras) c.width = c.height = 9;
-  Renderer reused(*ctx, Precision::Float);
-  int step = 0;
-  for (const Scene* s : {&base, &shrunk, &small, &base, &shrunk}) {
-    const std::string what = "scene " + std::to_string(step++);
-    const auto weights = random_loss_weights(*s, 5);
-    std::vector<RenderOutput> a, b;
-    ASSERT_NO_THROW(a = reused.render(*s)) << what;
-    const SceneGrads ga = reused.backward(*s, weights);
-    Renderer fresh(*ctx, Precision::Float);
-    ASSERT_NO_THROW(b = fresh.render(*s)) << what;
-    expect_identical(a, b, what);
-    penumbra_tests::expect_identical(ga, fresh.backward(*s, weights), what);
-  }
+  expect_reused_renderer_as_fresh(*ctx, {&base, &shrunk, &small, &base, &shrunk});
 }
 
 // A renderer keeps the last render's faces, albedo and vertex adjacency on the device while
@@ -556,19 +561,8 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   more_vertices.meshes[0].vertices.push_back({0, 0, 0});
   Scene moved = more_vertices;
   for (dvec3& v : moved.meshes[0].vertices) v *= 0.8;
-  Renderer reused(*ctx, Precision::Float);
-  int step = 0;
-  for (const Scene* s : {&base, &faces, &base, &albedo, &more_vertices, &moved, &base}) {
-    const std::string what = "scene " + std::to_string(step++);
-    const auto weights = random_loss_weights(*s, 3);
-    std::vector<RenderOutput> a, b;
-    ASSERT_NO_THROW(a = reused.render(*s)) << what;
-    const SceneGrads ga = reused.backward(*s, weights);
-    Renderer fresh(*ctx, Precision::Float);
-    ASSERT_NO_THROW(b = fresh.render(*s)) << what;
-    expect_identical(a, b, what);
-    penumbra_tests::expect_identical(ga, fresh.backward(*s, weights), what);
-  }
+  expect_reused_renderer_as_fresh(*ctx,
+                                  {&base, &faces, &base, &albedo, &more_vertices, &moved, &base});
 }
 
 // Renderer::fragment_counts counts the kept fragments, not raster_count's bound on them: over a
