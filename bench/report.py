@@ -843,6 +843,8 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
         if plot and plots.get(plot):
             w(f"![time vs {xname}]({rel_images}/bench_time_vs_{ {'res': 'resolution'}.get(plot, plot) }.png)")
             w("")
+        if key in ("img", "faces"):
+            L.extend(work_lines(res, key, xname))
         if key == "faces":
             L.extend(memory_lines(res, plots.get("memory"), rel_images))
 
@@ -896,6 +898,41 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     L.extend(files_section())
     docfile.write_text(doc_path, "\n".join(L))
     print(f"report: wrote {doc_path}" + (f" and plots in {image_dir}" if plt else ""))
+
+
+def ns_per_fragment(r):
+    """A case's median time per fragment the camera's view kept (counter `fragments`), in ns."""
+    return ms(r) * 1e6 / r["fragments"] if ms(r) and r.get("fragments") else None
+
+
+def work_lines(res, key, xname):
+    """Time per kept fragment along the image or face sweep: whether a frame's cost grows with
+    its work and not faster."""
+    per = sweep(res, key, ns_per_fragment)
+    kept = dict(sweep(res, key, lambda r: r.get("fragments")).get(("fwd", "none", "truncated"), []))
+    xs = sorted(kept)
+    if len(xs) < 2:
+        return []
+    rows, spans = [["kept fragments N"] + [fmt(kept[x]) for x in xs]], []
+    for pass_, sh, sa, label, *_ in SERIES:
+        pts = dict(per.get((pass_, sh, sa), []))
+        if len(pts) < 2:
+            continue
+        rows.append([label] + [fmt(pts.get(x)) for x in xs])
+        lo, hi = min(pts.values()), max(pts.values())
+        spans.append(f"{label} {fmt(lo)} to {fmt(hi)} ns (×{fmt(hi / lo)})")
+    return ["The work of a frame is the fragments the camera's view keeps (N, counter `fragments`: "
+            "`Renderer::fragment_counts`): the (pixel, face) pairs whose aggregation weight is at "
+            "least ε_w times the pixel's largest. Median time per kept fragment (ns), the "
+            "light's pass and the fixed costs of a frame included:",
+            "",
+            table([f"ns per fragment \\ {xname}"] + [str(x) for x in xs], rows),
+            "",
+            f"From N = {fmt(kept[xs[0]])} to {fmt(kept[xs[-1]])}: " + "; ".join(spans) + ". "
+            "`raster_count` evaluates every pixel that a face's cut-off box reaches, whether it "
+            "keeps a fragment there or not, and binning costs per face: the smaller the faces, "
+            "the more of that work per kept fragment.",
+            ""]
 
 
 def memory_lines(res, plotted, rel_images):
