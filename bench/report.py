@@ -138,8 +138,11 @@ MISS_REASONS = [
      "fit, so that PoCL's host memory does not fault their pages in anew every frame. The "
      "calling thread's own work takes about 7 ms of each frame, while the device waits: the "
      "scene's checks, copy and workload statistics with the vertices' packing and upload "
-     "3.8 ms, the outputs' conversion into the returned images 2.8 ms (timed inside `render`, "
-     "37 frames, 2026-11-28 03:50 UTC); a render whose meshes differ from the last one's only "
+     "3.8 ms, the outputs' conversion into the returned images 2.8 ms (a clock read around "
+     "those steps of `render`, added for the measurement only, during `penumbra_bench "
+     "--benchmark_filter=fwd/none/truncated/img:512/map:256/faces:100852 "
+     "--benchmark_min_time=1`: means of 37 frames, 2026-11-28 03:50 UTC); a render whose meshes "
+     "differ from the last one's only "
      "in their vertices packs and uploads only those (about 10 ms in all before)."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers: per "
