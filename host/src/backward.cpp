@@ -179,17 +179,20 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
   sum_face_grads(lp, fg, sums, nullptr, &sums.frames[light]);
 }
 
-// The face corners' gradients of one view through its transform: adds dL/d(vertices) and
-// dL/d(albedo) to the sums, and a camera's per-face light gradients to `glights` or a light
-// view's dL/d(its frame) to `gframe`.
+// The face corners' gradients of one view through its transform: adds dL/d(vertices) to the
+// sums, and a camera's dL/d(albedo) and per-face light gradients (`glights`) or a light view's
+// dL/d(its frame) (`gframe`). A light's view has no colour (its image gradient's R, G, B are 0),
+// so its albedo gradients are zeros, left unread.
 void Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
                                     BackwardSums& sums, std::vector<double>* glights,
                                     std::vector<double>* gframe) {
   auto gv = detail::transform_backward(kernels, geometry, vp.view, vp.screen, fg);
   accumulate(ctx, precision, sums.vertices, gv.vertices);
-  accumulate(ctx, precision, sums.albedo, fg.albedo);
   if (gframe) accumulate_rows(ctx, precision, *gframe, gv.frame, size_t(packed.nv));
-  if (glights) accumulate_rows(ctx, precision, *glights, fg.light, size_t(packed.nf));
+  if (glights) {
+    accumulate(ctx, precision, sums.albedo, fg.albedo);
+    accumulate_rows(ctx, precision, *glights, fg.light, size_t(packed.nf));
+  }
 }
 
 SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
