@@ -31,9 +31,14 @@
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
 //   Sb, Ab      Wb·Hb × real: the search map
 //   bucket_radius  W_s·H_s × real: per texel bucket, how far pcf_gather looks for its fragments
+//   grec, gslope   per gather entry (window.clh: a texel bucket's place in bucket_recs when
+//               truncated, the fragment when exact) × real8 (μx, μy, σ, dL/ds / Σg', dL/dz_b / V,
+//               d, z_b, 0) and × real2 (∇_μ d, slope limited): what pcf_gather and
+//               pcf_bucket_radius read of a fragment, in the order they visit fragments
 // Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of
 // GATHER_ROWS rows (pcf_gather), one per texel of the search map (pcf_search_map) or of the
-// map (pcf_bucket_radius).
+// map (pcf_bucket_radius), one per fragment (pcf_gather_records) or per bucket entry
+// (pcf_gather_entry_of).
 #include "common/window.clh"
 #include "common/pcf_filter.clh"
 
@@ -199,18 +204,48 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
 }
 
+// The gather entries' copies of their fragments (grec, gslope above): the gather visits a
+// fragment from every block of texels its windows reach, and reading its four records where
+// the fragment order put them, far apart, missed the cache at every visit. Written in fragment
+// order (reading the records in turn) to entry entry_of[r] (pcf_gather_entry_of; r itself
+// when exact, or −1: in no bucket). An entry outside the map (exact: the chunks hold every
+// fragment) gets no gradient, so that the gather skips it.
+BACKWARD_KERNEL void pcf_gather_records(__global const real* P, int nrec, int light, int nl,
+                                        int Wm, int Hm, __global const int* entry_of,
+                                        __global const real4* rec_light,
+                                        __global const real4* rec_light2,
+                                        __global const real4* rec_lgrad,
+                                        __global const real4* rec_lgrad2, __global real8* grec,
+                                        __global real2* gslope) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  int e = EXACT ? r : entry_of[r], at = r * nl + light;
+  if (e < 0) return;
+  Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
+  real4 x2 = rec_light2[at];
+  int inside = inside_map(x.mu, Wm, Hm);
+  grec[e] = (real8)(x.mu, x2.z, inside ? rec_lgrad[at].x : 0, inside ? rec_lgrad2[at].z : 0, x.d,
+                    x2.w, 0);
+  gslope[e] = x.grad;
+}
+
+// The entry of each bucketed fragment: its place in bucket_recs (entry_of: nrec × int, −1
+// before).
+BACKWARD_KERNEL void pcf_gather_entry_of(int entries, __global const int* bucket_recs,
+                                         __global int* entry_of) {
+  int e = get_global_id(0);
+  if (e < entries) entry_of[bucket_recs[e]] = e;
+}
+
 // pcf_gather's reach of each texel bucket: the radius (texels) of the widest window a fragment
 // of the bucket adds through (its filter's where dL/ds ≠ 0; soft shadows: the search's where
 // dL/dz_b ≠ 0), squared radii widened by GATHER_MARGIN as pcf_gather widens them, plus one
 // texel (a fragment lies within half a texel of its bucket's); −1 where none adds anything.
 // The gather skips a bucket beyond it before reading any of its fragments.
 BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int light, int nl,
-                                       int Wm, int Hm, __global const real4* rec_light2,
-                                       __global const real4* rec_lgrad,
-                                       __global const real4* rec_lgrad2,
+                                       int Wm, int Hm, __global const real8* grec,
                                        __global const int* bucket_offsets,
                                        __global const int* bucket_counts,
-                                       __global const int* bucket_recs,
                                        __global real* bucket_radius) {
   int t = get_global_id(0);
   if (t >= Wm * Hm) return;
@@ -218,10 +253,10 @@ BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int lig
   const real leps_b = log(1 / window_eps(P, 1));
   const real r2s = soft_mode(P) ? window_r2(sigma_b, leps_b) * GATHER_MARGIN : -1;
   real r2 = -1;
-  for (int k = 0; k < bucket_counts[t]; ++k) {
-    int at = bucket_recs[bucket_offsets[t] + k] * nl + light;
-    if (rec_lgrad[at].x != 0) r2 = max(r2, window_r2(rec_light2[at].z, leps) * GATHER_MARGIN);
-    if (rec_lgrad2[at].z != 0) r2 = max(r2, r2s);
+  for (int e = bucket_offsets[t]; e < bucket_offsets[t] + bucket_counts[t]; ++e) {
+    real8 g = grec[e];
+    if (g.s3 != 0) r2 = max(r2, window_r2(g.s2, leps) * GATHER_MARGIN);
+    if (g.s4 != 0) r2 = max(r2, r2s);
   }
   bucket_radius[t] = r2 < 0 ? -1 : sqrt(r2) + 1;
 }
@@ -233,8 +268,7 @@ BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int lig
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
 GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                 int reach, __global const real* S, __global const real* A,
-                                __global const real4* rec_light, __global const real4* rec_light2,
-                                __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
+                                __global const real8* grec, __global const real2* gslope,
                                 __global const int* bucket_offsets,
                                 __global const int* bucket_counts, __global const int* bucket_recs,
                                 __global const real* bucket_radius, __global const int4* chunks,
@@ -260,10 +294,10 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
   // adds exactly 0 (each weight max(0, g − ε) is 0), as does one without a gradient (dL/ds or
   // dL/dz_b 0): the gather skips both.
   const real r2s = soft ? window_r2(sigma_b, leps_b) : 0;
-  FOR_EACH_NEAR_GATHER_FRAGMENT(r, reach, bucket_radius) {
-    int at = r * nl + light;
-    real2 mu = rec_light[at].xy;
-    real sigma = rec_light2[at].z, a = rec_lgrad[at].x, b = rec_lgrad2[at].z;
+  FOR_EACH_NEAR_GATHER_ENTRY(e, reach, bucket_radius) {
+    const real8 g = grec[e];
+    const real2 mu = g.s01;
+    const real sigma = g.s2, a = g.s3, b = g.s4;
     const real r2f = window_r2(sigma, leps);
     const real r2 = sampling_r2(max(r2f, r2s), soft ? max(sigma, sigma_b) : sigma);
     if (!window_reaches(mu, i0, j0, rows, r2)) continue;
@@ -272,8 +306,8 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
     const int filter = a != 0 && window_reaches(mu, i0, j0, rows, r2f_m);
     const int search = soft && b != 0 && window_reaches(mu, i0, j0, rows, r2s_m);
     if (!filter && !search) continue;
-    Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
-    real zb = rec_light2[at].w;
+    const Receiver x = {mu, g.s5, gslope[e]};
+    const real zb = g.s6;
     realR offx = (real)i0 + LANER - x.mu.x, gx = 0, hx = 0;
     if (filter) gx = axis_weight(offx, sigma);
     if (search) hx = on_grid * axis_weight(offx, sigma_b);

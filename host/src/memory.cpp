@@ -94,6 +94,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   if (p.shadows == Shadows::None) return bytes;
   const size_t texels = size_t(shadow_map_side(p)) * size_t(shadow_map_side(p));
   size_t exact_kept = 0, exact_call = 0;  // exact_lookup_bytes, over the cameras and lights
+  size_t call = 0;                        // the largest of one lookup call's own buffers
   for (size_t l = 0; l < lights; ++l) {
     bytes += view_bytes(
         z, texels, 0, 0, backward,
@@ -103,8 +104,12 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
     else if (p.shadows == Shadows::Soft)
       bytes += texels / 2 * z.rs;  // the search map: S and A at a stride of 2 or more (pcf.cpp)
     if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
-    if (backward && p.shadow_model == ShadowModel::Accurate)
-      bytes += texels * z.rs;                               // pcf_gather's bucket radii (pcf.cpp)
+    if (backward && p.shadow_model == ShadowModel::Accurate) {
+      bytes += texels * z.rs;                // pcf_gather's bucket radii (pcf.cpp)
+      for (const Camera& c : scene.cameras)  // its entries' copies of the fragments, one call's
+        call = std::max(call, fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel) *
+                                  (10 * z.rs + sizeof(int)));
+    }
     if (backward && !sampling_method(p.sampling).windowed)  // the exact gathers' chunk boxes
       for (const Camera& c : scene.cameras)
         bytes += (fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel) /
@@ -123,7 +128,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
       }
     }
   }
-  return bytes + exact_kept + exact_call;
+  return bytes + exact_kept + std::max(exact_call, call);
 }
 
 }  // namespace penumbra

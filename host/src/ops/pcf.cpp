@@ -58,13 +58,39 @@ struct PcfGatherArgs {
   static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
   cl_int reach;
-  const cl::Buffer &S, &A, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  const cl::Buffer &S, &A, &grec, &gslope;
   BinLists buckets;
   const cl::Buffer &bucket_radius, &chunks, &gS, &gA;
   auto fields() const {
-    return std::tie(at, reach, S, A, rec_light, rec_light2, rec_lgrad, rec_lgrad2, buckets,
-                    bucket_radius, chunks, gS, gA);
+    return std::tie(at, reach, S, A, grec, gslope, buckets, bucket_radius, chunks, gS, gA);
   }
+};
+
+// The gather entries' copies of their fragments (pcf.cl's grec, gslope).
+struct GatherRecords {
+  cl::Buffer grec, gslope;
+  auto fields() const { return std::tie(grec, gslope); }
+};
+
+struct PcfGatherRecordsArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_gather_records";
+  static constexpr KernelPart part = KernelPart::Backward;
+  MapLookup at;
+  const cl::Buffer &entry_of, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
+  const GatherRecords& out;
+  auto fields() const {
+    return std::tie(at, entry_of, rec_light, rec_light2, rec_lgrad, rec_lgrad2, out);
+  }
+};
+
+struct PcfGatherEntryOfArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_gather_entry_of";
+  static constexpr KernelPart part = KernelPart::Backward;
+  cl_int entries;
+  const cl::Buffer &bucket_recs, &entry_of;
+  auto fields() const { return std::tie(entries, bucket_recs, entry_of); }
 };
 
 struct PcfGatherChunksArgs {
@@ -81,10 +107,9 @@ struct PcfBucketRadiusArgs {
   static constexpr const char* kernel = "pcf_bucket_radius";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer &rec_light2, &rec_lgrad, &rec_lgrad2;
-  BinLists buckets;
-  const cl::Buffer& radius;
-  auto fields() const { return std::tie(at, rec_light2, rec_lgrad, rec_lgrad2, buckets, radius); }
+  const cl::Buffer& grec;
+  const cl::Buffer &offsets, &counts, &radius;
+  auto fields() const { return std::tie(at, grec, offsets, counts, radius); }
 };
 
 // Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
@@ -106,11 +131,39 @@ int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const V
 
 // pcf_gather's texel buckets and each bucket's radius (pcf_bucket_radius), placeholders for
 // the exact gather; the exact gather's chunk boxes (pcf_gather_chunks), a placeholder for the
-// truncated one.
+// truncated one; the entries' copies of their fragments, in the order the gather visits them.
 struct GatherBuckets {
   Bins bins;
   cl::Buffer radius, chunks;
+  GatherRecords records;
 };
+
+// The copies of the fragments for pcf_gather (pcf_gather_records), one per entry: per bucket
+// entry (`bins`, truncated), per fragment (exact).
+GatherRecords gather_records(Kernels& k, Sampling sampling, const Fragments& f,
+                             const FragmentGrads& fgr, const MapLookup& at, const Bins& bins) {
+  Context& ctx = k.ctx();
+  const std::string variant = sampling_define(sampling);
+  const bool bucketed = sampling_method(sampling).windowed;
+  const size_t nrec = size_t(at.nrec), entries = bucketed ? bins.total : nrec;
+  cl::Buffer entry_of = alloc_ints(ctx, bucketed ? nrec : 1);
+  if (bucketed && entries > 0) {
+    ctx.queue().enqueueFillBuffer(entry_of, cl_int(-1), 0, nrec * sizeof(cl_int));
+    launch_1d(ctx,
+              bind_args(k, PcfGatherEntryOfArgs{cl_int(entries), bins.items, entry_of}, variant),
+              entries);
+  }
+  const size_t n = std::max<size_t>(entries, 1);
+  GatherRecords g{alloc_reals(ctx, k.precision(), n * 8), alloc_reals(ctx, k.precision(), n * 2)};
+  if (entries > 0)
+    launch_1d(ctx,
+              bind_args(k,
+                        PcfGatherRecordsArgs{at, entry_of, f.rec_light, f.rec_light2, fgr.rec_lgrad,
+                                             fgr.rec_lgrad2, g},
+                        variant),
+              nrec);
+  return g;
+}
 
 GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
                              const FragmentGrads& fgr, const MapLookup& at) {
@@ -124,15 +177,17 @@ GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const
           k, PcfGatherChunksArgs{at, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2, out},
           sampling_define(sampling));
     });
+    b.records = gather_records(k, sampling, f, fgr, at, b.bins);
     return b;
   }
   b.chunks = alloc_ints(ctx, 4);
   const size_t texels = size_t(at.Wm) * at.Hm;
   b.bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+  b.records = gather_records(k, sampling, f, fgr, at, b.bins);
   b.radius = alloc_reals(ctx, k.precision(), texels);
-  auto& radius = bind_args(
-      k, PcfBucketRadiusArgs{at, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2, b.bins, b.radius},
-      sampling_define(sampling));
+  auto& radius =
+      bind_args(k, PcfBucketRadiusArgs{at, b.records.grec, b.bins.offsets, b.bins.counts, b.radius},
+                sampling_define(sampling));
   launch_1d(ctx, radius, texels);
   return b;
 }
@@ -182,11 +237,11 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
   launch_1d(ctx, sb, n);
   const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at);
   const int reach = gather_reach(k, p, search_sigma, v, f, light);
-  auto& ga = bind_args(
-      k,
-      PcfGatherArgs{at, reach, lm.S, lm.A, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2,
-                    buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
-      variant);
+  auto& ga =
+      bind_args(k,
+                PcfGatherArgs{at, reach, lm.S, lm.A, buckets.records.grec, buckets.records.gslope,
+                              buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
+                variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
     read_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4, [&](const auto* g2) {
