@@ -35,10 +35,11 @@
 //               truncated, the fragment when exact) × real8 (μx, μy, σ, dL/ds / Σg', dL/dz_b / V,
 //               d, z_b, 0) and × real2 (∇_μ d, slope limited): what pcf_gather and
 //               pcf_bucket_radius read of a fragment, in the order they visit fragments
+//   logs        2 × real: log(1/ε) of the filter's and the search's cuts (pcf_window_logs)
 // Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of
 // GATHER_ROWS rows (pcf_gather), one per texel of the search map (pcf_search_map) or of the
 // map (pcf_bucket_radius), one per fragment (pcf_gather_records) or per bucket entry
-// (pcf_gather_entry_of).
+// (pcf_gather_entry_of), a single one (pcf_window_logs).
 #include "common/window.clh"
 #include "common/pcf_filter.clh"
 
@@ -75,18 +76,18 @@ inline Receiver search_receiver(Receiver x, LightDisc L) {
 inline real search_variance(LightDisc L) { return L.sigma_b / (L.stride * L.stride); }
 
 // The search's window in the search map (empty where μ lies outside the map).
-INLINE Window search_window(Receiver x, LightDisc L, __global const real* P, int Wm, int Hm,
-                            int Wb, int Hb) {
+INLINE Window search_window(Receiver x, LightDisc L, WindowLogs logs, __global const real* P,
+                            int Wm, int Hm, int Wb, int Hb) {
   real eps = window_eps(P, 1), st = L.stride;
   if (!inside_map(x.mu, Wm, Hm)) return no_window();
-  return clipped_window(x.mu / st, window_radius(L.sigma_b, eps) / st, eps, Wb, Hb);
+  return clipped_window(x.mu / st, window_radius(L.sigma_b, logs[1]) / st, eps, Wb, Hb);
 }
 
 // The search's sums (Σh', Σh'c, Σh'S, Σh'cS) over the search map.
-INLINE real4 search_sums(Receiver x, LightDisc L, __global const real* P,
+INLINE real4 search_sums(Receiver x, LightDisc L, WindowLogs logs, __global const real* P,
                          __global const real* Sb, __global const real* Ab, int Wm, int Hm,
                          int Wb, int Hb) {
-  return window_sums(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
+  return window_sums(search_window(x, L, logs, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
                      search_variance(L), P, Sb, Ab, Wb);
 }
 
@@ -119,8 +120,15 @@ inline real blocker_depth(real4 sums, real d, real* V) {
   return *V > 0 ? (Z + k * d) / *V : d;
 }
 
+// log(1/ε) of the filter's and the search's cuts (WindowLogs), as every fragment computed them.
+FORWARD_KERNEL void pcf_window_logs(__global const real* P, __global real* logs) {
+  if (get_global_id(0) > 0) return;
+  logs[0] = log(1 / window_eps(P, 0));
+  logs[1] = log(1 / window_eps(P, 1));
+}
+
 FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                               __global const real* S, __global const real* A,
+                               WindowLogs logs, __global const real* S, __global const real* A,
                                __global const real* Sb, __global const real* Ab, int Wb, int Hb,
                                __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
@@ -130,21 +138,21 @@ FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int 
   real sigma = P[P_SIGMA_S], zb = x.d, V, dzb, dd, dsize, dw;
   if (soft_mode(P)) {
     LightDisc L = light_disc(P, light);
-    zb = blocker_depth(search_sums(x, L, P, Sb, Ab, Wm, Hm, Wb, Hb), x.d, &V);
+    zb = blocker_depth(search_sums(x, L, logs, P, Sb, Ab, Wm, Hm, Wb, Hb), x.d, &V);
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
   }
-  real4 f = window_sums(filter_window(x.mu, sigma, P, Wm, Hm), x, sigma, P, S, A, Wm);
+  real4 f = window_sums(filter_window(x.mu, sigma, logs, P, Wm, Hm), x, sigma, P, S, A, Wm);
   rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
   rec_light2[at].zw = (real2)(sigma, zb);
 }
 
 // The search's moments over the search map, in the map's texels: .mu (Σ over offsets / σ_b)
 // and .qoff (Σ over offsets) scale with the stride.
-INLINE Moments search_moments(Receiver x, LightDisc L, real zb, __global const real* P,
-                              __global const real* Sb, __global const real* Ab, int Wm, int Hm,
-                              int Wb, int Hb) {
-  Moments m = window_moments(search_window(x, L, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
+INLINE Moments search_moments(Receiver x, LightDisc L, real zb, WindowLogs logs,
+                              __global const real* P, __global const real* Sb,
+                              __global const real* Ab, int Wm, int Hm, int Wb, int Hb) {
+  Moments m = window_moments(search_window(x, L, logs, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
                              search_variance(L), 1, zb, P, Sb, Ab, Wb);
   m.mu /= L.stride;
   m.qoff *= L.stride;
@@ -153,7 +161,8 @@ INLINE Moments search_moments(Receiver x, LightDisc L, real zb, __global const r
 
 // Backward per fragment: dL/dμ, dL/dd, dL/d∇_μ d, dL/dD_L, and the scales the gather needs.
 BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light, int nl, int Wm,
-                                    int Hm, __global const real* S, __global const real* A,
+                                    int Hm, WindowLogs logs, __global const real* S,
+                                    __global const real* A,
                                     __global const real* Sb, __global const real* Ab, int Wb,
                                     int Hb, __global const real4* rec_light,
                                     __global const real4* rec_light2, __global real4* rec_lgrad,
@@ -168,7 +177,7 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   Moments f;
   Window w;
   if (G != 0) {
-    w = filter_window(x.mu, sigma, P, Wm, Hm);
+    w = filter_window(x.mu, sigma, logs, P, Wm, Hm);
     f = window_moments(w, x, sigma, 0, s, P, S, A, Wm);
   }
   if (G == 0 || !(f.w > 0)) {
@@ -189,7 +198,7 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
     gd += gw * dd;
     real gzb = gw * dzb;
     Moments b;
-    if (gzb != 0) b = search_moments(x, L, zb, P, Sb, Ab, Wm, Hm, Wb, Hb);
+    if (gzb != 0) b = search_moments(x, L, zb, logs, P, Sb, Ab, Wm, Hm, Wb, Hb);
     real V = gzb != 0 ? b.wo + PCF_KAPPA * b.w : 0;  // blocker_depth's denominator
     if (V > 0) {
       gzb_v = gzb / V;
@@ -199,7 +208,7 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
     }
   }
   ggrad = slope_limit_bwd(P, light, x.d, rec_light2[at].xy, ggrad, &gd);
-  const int flat = filter_flat(x, sigma, w, f, P, S, Wm, Hm);
+  const int flat = filter_flat(x, sigma, w, f, logs, P, S, Wm, Hm);
   rec_lgrad[at] = (real4)(flat ? 0 : k, gmu, gd);  // flat: pcf_gather would add only zeros
   rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
 }
@@ -243,15 +252,14 @@ BACKWARD_KERNEL void pcf_gather_entry_of(int entries, __global const int* bucket
 // texel (a fragment lies within half a texel of its bucket's); −1 where none adds anything.
 // The gather skips a bucket beyond it before reading any of its fragments.
 BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int light, int nl,
-                                       int Wm, int Hm, __global const real8* grec,
+                                       int Wm, int Hm, WindowLogs logs, __global const real8* grec,
                                        __global const int* bucket_offsets,
                                        __global const int* bucket_counts,
                                        __global real* bucket_radius) {
   int t = get_global_id(0);
   if (t >= Wm * Hm) return;
-  const real leps = log(1 / window_eps(P, 0)), sigma_b = light_disc(P, light).sigma_b;
-  const real leps_b = log(1 / window_eps(P, 1));
-  const real r2s = soft_mode(P) ? window_r2(sigma_b, leps_b) * GATHER_MARGIN : -1;
+  const real leps = logs[0], sigma_b = light_disc(P, light).sigma_b;
+  const real r2s = soft_mode(P) ? window_r2(sigma_b, logs[1]) * GATHER_MARGIN : -1;
   real r2 = -1;
   for (int e = bucket_offsets[t]; e < bucket_offsets[t] + bucket_counts[t]; ++e) {
     real8 g = grec[e];
@@ -267,7 +275,8 @@ BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int lig
 //   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
 GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                                int reach, __global const real* S, __global const real* A,
+                                WindowLogs logs, int reach, __global const real* S,
+                                __global const real* A,
                                 __global const real8* grec, __global const real2* gslope,
                                 __global const int* bucket_offsets,
                                 __global const int* bucket_counts, __global const int* bucket_recs,
@@ -287,8 +296,7 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
     Av[t] = loadR(A, (j0 + t) * Wm + i0, n);
     acc[t] = accA[t] = 0;
   }
-  const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
-  const real leps = log(1 / eps), leps_b = log(1 / eps_b);
+  const real eps = window_eps(P, 0), eps_b = window_eps(P, 1), leps = logs[0], leps_b = logs[1];
   // A fragment reaches texels within r2 of it (the larger of its filter's and search's windows).
   // Of those, a part whose own window, its squared radius widened by GATHER_MARGIN, misses them
   // adds exactly 0 (each weight max(0, g − ε) is 0), as does one without a gradient (dL/ds or

@@ -29,14 +29,21 @@ struct PcfSearchMapArgs {
   auto fields() const { return std::tie(Wm, S, A, stride, out); }
 };
 
+struct PcfWindowLogsArgs {
+  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* kernel = "pcf_window_logs";
+  const cl::Buffer &P, &logs;
+  auto fields() const { return std::tie(P, logs); }
+};
+
 struct PcfSampleArgs {
   static constexpr const char* file = "pcf.cl";
   static constexpr const char* kernel = "pcf_sample";
   MapLookup at;
-  const cl::Buffer &S, &A;
+  const cl::Buffer &logs, &S, &A;
   const SearchMap& search;
   const cl::Buffer &rec_light, &rec_light2;
-  auto fields() const { return std::tie(at, S, A, search, rec_light, rec_light2); }
+  auto fields() const { return std::tie(at, logs, S, A, search, rec_light, rec_light2); }
 };
 
 struct PcfSampleBwdArgs {
@@ -44,11 +51,11 @@ struct PcfSampleBwdArgs {
   static constexpr const char* kernel = "pcf_sample_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer &S, &A;
+  const cl::Buffer &logs, &S, &A;
   const SearchMap& search;
   const cl::Buffer &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   auto fields() const {
-    return std::tie(at, S, A, search, rec_light, rec_light2, rec_lgrad, rec_lgrad2);
+    return std::tie(at, logs, S, A, search, rec_light, rec_light2, rec_lgrad, rec_lgrad2);
   }
 };
 
@@ -57,12 +64,13 @@ struct PcfGatherArgs {
   static constexpr const char* kernel = "pcf_gather";
   static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
+  const cl::Buffer& logs;
   cl_int reach;
   const cl::Buffer &S, &A, &grec, &gslope;
   BinLists buckets;
   const cl::Buffer &bucket_radius, &chunks, &gS, &gA;
   auto fields() const {
-    return std::tie(at, reach, S, A, grec, gslope, buckets, bucket_radius, chunks, gS, gA);
+    return std::tie(at, logs, reach, S, A, grec, gslope, buckets, bucket_radius, chunks, gS, gA);
   }
 };
 
@@ -107,9 +115,8 @@ struct PcfBucketRadiusArgs {
   static constexpr const char* kernel = "pcf_bucket_radius";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer& grec;
-  const cl::Buffer &offsets, &counts, &radius;
-  auto fields() const { return std::tie(at, grec, offsets, counts, radius); }
+  const cl::Buffer &logs, &grec, &offsets, &counts, &radius;
+  auto fields() const { return std::tie(at, logs, grec, offsets, counts, radius); }
 };
 
 // Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
@@ -166,7 +173,8 @@ GatherRecords gather_records(Kernels& k, Sampling sampling, const Fragments& f,
 }
 
 GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
-                             const FragmentGrads& fgr, const MapLookup& at) {
+                             const FragmentGrads& fgr, const MapLookup& at,
+                             const cl::Buffer& logs) {
   Context& ctx = k.ctx();
   GatherBuckets b;
   if (!sampling_method(sampling).windowed) {
@@ -185,9 +193,9 @@ GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const
   b.bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
   b.records = gather_records(k, sampling, f, fgr, at, b.bins);
   b.radius = alloc_reals(ctx, k.precision(), texels);
-  auto& radius =
-      bind_args(k, PcfBucketRadiusArgs{at, b.records.grec, b.bins.offsets, b.bins.counts, b.radius},
-                sampling_define(sampling));
+  auto& radius = bind_args(
+      k, PcfBucketRadiusArgs{at, logs, b.records.grec, b.bins.offsets, b.bins.counts, b.radius},
+      sampling_define(sampling));
   launch_1d(ctx, radius, texels);
   return b;
 }
@@ -205,6 +213,13 @@ SearchMap search_map(Kernels& k, const RenderParams& p, double search_sigma, con
   return m;
 }
 
+// log(1/ε) of the filter's and the search's cuts for view parameters P (pcf.cl's WindowLogs).
+cl::Buffer window_logs(Kernels& k, const cl::Buffer& P, Sampling sampling) {
+  cl::Buffer logs = alloc_reals(k.ctx(), k.precision(), 2);
+  launch_1d(k.ctx(), bind_args(k, PcfWindowLogsArgs{P, logs}, sampling_define(sampling)), 1, 1);
+  return logs;
+}
+
 }  // namespace
 
 void pcf_forward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
@@ -213,7 +228,8 @@ void pcf_forward(Kernels& k, const RenderParams& p, double search_sigma, const V
   if (n == 0) return;
   const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
   const SearchMap search = search_map(k, p, search_sigma, lm);
-  auto& s = bind_args(k, PcfSampleArgs{at, lm.S, lm.A, search, f.rec_light, f.rec_light2},
+  const cl::Buffer logs = window_logs(k, v.P, p.sampling);
+  auto& s = bind_args(k, PcfSampleArgs{at, logs, lm.S, lm.A, search, f.rec_light, f.rec_light2},
                       sampling_define(p.sampling));
   launch_1d(k.ctx(), s, n);
 }
@@ -230,18 +246,19 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
   const std::string variant = sampling_define(p.sampling);
   const MapLookup at{v.P, n, light, nl, Wm, Hm};
   const SearchMap search = search_map(k, p, search_sigma, lm);
+  const cl::Buffer logs = window_logs(k, v.P, p.sampling);
   auto& sb = bind_args(k,
-                       PcfSampleBwdArgs{at, lm.S, lm.A, search, f.rec_light, f.rec_light2,
+                       PcfSampleBwdArgs{at, logs, lm.S, lm.A, search, f.rec_light, f.rec_light2,
                                         fgr.rec_lgrad, fgr.rec_lgrad2},
                        variant);
   launch_1d(ctx, sb, n);
-  const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at);
+  const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at, logs);
   const int reach = gather_reach(k, p, search_sigma, v, f, light);
-  auto& ga =
-      bind_args(k,
-                PcfGatherArgs{at, reach, lm.S, lm.A, buckets.records.grec, buckets.records.gslope,
-                              buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
-                variant);
+  auto& ga = bind_args(
+      k,
+      PcfGatherArgs{at, logs, reach, lm.S, lm.A, buckets.records.grec, buckets.records.gslope,
+                    buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
+      variant);
   launch_gather(k, ga, Wm, Hm);
   if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
     read_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4, [&](const auto* g2) {
