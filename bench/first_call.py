@@ -141,9 +141,10 @@ def section(doc):
         "`POCL_WORK_GROUP_SPECIALIZATION=0` (unless the variable is set), so launches run the",
         "code the binary holds: a process that fills the kernel cache compiles each kernel once,",
         "and one that loads it compiles nothing (the *kernel cache* row).",
-        "What keeps the cold row above a second is PoCL compiling the ten kernels a first render",
-        "uses: `POCL_DEBUG=llvm,timing` timed 2.3 s of work-group generation and code generation",
-        "on 2026-11-26, 0.75 s of it for raster_fragments and 0.48 s for raster_count (the",
+        "What keeps the cold row above a second is PoCL compiling the kernels a first render",
+        f"uses{kernel_count(doc.get('floor'))}: `POCL_DEBUG=llvm,timing` timed 2.3 s of work-group",
+        "generation and code generation on 2026-11-26 (ten kernels then), 0.75 s of it for",
+        "raster_fragments and 0.48 s for raster_count (the",
         "kernels with the PPW-lane vector code), besides ~0.5 s loading PoCL's built-in library.",
         "PoCL compiles one program at a time: the variants a first render uses of raster.cl,",
         "pcf.cl, transform.cl and bin.cl (`penumbra kernels --kind cpu --variants DIR`), each",
@@ -153,6 +154,11 @@ def section(doc):
         "second core cannot shorten the cold call.",
         "",
     ] + floor_paragraph(doc.get("floor"))
+
+
+def kernel_count(floor):
+    """How many kernels the cold first render compiled, as the floor's programs hold them."""
+    return f" ({sum(floor['kernels'])} in this run)" if floor else ""
 
 
 def floor_paragraph(floor):
