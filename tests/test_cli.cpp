@@ -279,6 +279,30 @@ TEST(Cli, BackwardWritesGradients) {
   EXPECT_NE(penumbra::load_npy(out + "/lights.npy").data[6], 0.0);
 }
 
+// PENUMBRA_PROFILE=1: besides the kernels' device time, each stage of render() and backward()
+// gets one row of wall time, once per call.
+TEST(Cli, ProfileTimesEveryStageOfRenderAndBackward) {
+  const std::string in = temp_path("profile_in"), out = temp_path("profile_out");
+  fs::remove_all(in);
+  fs::create_directories(in);
+  penumbra::save_npy(penumbra::Image(32, 24, 3, 1.0), in + "/color.npy");
+  ScopedEnv profile("PENUMBRA_PROFILE", "1");
+  const RunResult r = run_cli("backward " + quote(kBundled) + " --width 32 --height 24 --grad-in " +
+                                  quote(in) + " -o " + quote(out),
+                              "profile");
+  ASSERT_EQ(r.exit_code, 0) << show(r);
+  const size_t table = r.err.find("penumbra profile (wall ms, calls of each renderer stage):\n");
+  ASSERT_NE(table, std::string::npos) << show(r);
+  for (const char* stage :
+       {"render: prepare", "render: upload", "render: shadow map", "render: raster",
+        "render: shadow lookups", "render: resolve", "render: outputs", "backward: check",
+        "backward: sums", "backward: resolve", "backward: shadow lookups", "backward: faces",
+        "backward: shadow map", "backward: gradients"}) {
+    const std::regex row("\n  " + std::string(stage) + " +[0-9]+\\.[0-9]{2} +1\n");
+    EXPECT_TRUE(std::regex_search(r.err.substr(table), row)) << stage << "\n" << show(r);
+  }
+}
+
 TEST(Cli, RenderHardShadowsWritesShadowMap) {
   const std::string raw = temp_path("render_shadow_raw");
   fs::remove_all(raw);

@@ -243,7 +243,9 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
 // Every camera's pass backwards, then every light's.
 SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
   Impl& m = *impl_;
+  const Impl::CallProfile profile(m, "backward", "check");
   m.check_backward(scene, grads);
+  m.mark("sums");
   BackwardSums sums = m.start_backward();
   const int nc = int(m.camera_passes.size()), lights = int(m.light_passes.size());
   const int passes = nc + lights;
@@ -255,6 +257,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
     m.begin_pass("backward", "light", l, int(m.scene.lights.size()), nc + l, passes);
     m.light_backward(l, sums);
   }
+  m.mark("gradients");
   return m.scene_grads(sums);
 }
 

@@ -77,7 +77,10 @@ void Renderer::Impl::report(double within) {
   observer(progress);
 }
 
+void Renderer::Impl::mark(const char* name) { detail::profile_stage(ctx, call, name); }
+
 void Renderer::Impl::stage(const char* name) {
+  mark(name);
   if (!observer) return;
   progress.stage = name;
   progress.part = progress.parts = 0;
@@ -186,6 +189,7 @@ RenderOutput Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
   }
   stage("resolve");
   cp.resolved = detail::raster_resolve(kernels, cp.view, cp.fragments);
+  mark("outputs");
   return download(cp);
 }
 
@@ -257,7 +261,9 @@ const Tuning& Renderer::tuning() const { return impl_->kernels.tuning(); }
 // Every light's shadow map first (when shadows are on), then every camera's image.
 std::vector<RenderOutput> Renderer::render(const Scene& scene) {
   Impl& m = *impl_;
+  const Impl::CallProfile profile(m, "render", "prepare");
   const size_t estimate = m.prepare(scene);
+  m.mark("upload");
   m.upload_geometry();
   const int nl = int(m.scene.lights.size()), nc = int(m.scene.cameras.size());
   std::vector<detail::Fragments> spare_lights = take_fragments(m.light_passes),

@@ -77,7 +77,22 @@ struct Renderer::Impl {
 
   void begin_pass(const char* call, const char* pass, int index, int count, int done, int total);
   void report(double within);
+  // A stage of `call` ("render" or "backward"): reported to the observer and, with
+  // PENUMBRA_PROFILE, timed (mark: timed only; null ends the call's last stage).
   void stage(const char* name);
+  void mark(const char* name);
+  const char* call = "render";
+  // Begins `call` with its stage `first`; its last stage ends when the call returns or throws.
+  struct CallProfile {
+    Impl& m;
+    CallProfile(Impl& impl, const char* call, const char* first) : m(impl) {
+      m.call = call;
+      m.mark(first);
+    }
+    ~CallProfile() { m.mark(nullptr); }
+    CallProfile(const CallProfile&) = delete;
+    CallProfile& operator=(const CallProfile&) = delete;
+  };
 
   // Forward (renderer.cpp), in order.
   // Checked, frusta fitted, normalised, tuned, packed; returns its device memory estimate.

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <mutex>
+#include <string>
+#include <vector>
 
 #include "penumbra/error.hpp"
 
@@ -143,19 +146,26 @@ cl::Buffer zero_reals(Context& ctx, Precision p, size_t count) {
 
 namespace {
 // PENUMBRA_PROFILE=1: every launch waits for its kernel and its device time is summed per
-// kernel name; the table goes to stderr at exit. For finding hot spots, not for timing runs.
+// kernel name, and the wall time of the renderer's stages per stage; the tables go to stderr at
+// exit. For finding hot spots, not for timing runs.
+using Rows = std::map<std::string, std::pair<double, int>>;  // name → (total ms, count)
+void print_rows(const char* title, Rows& rows) {
+  if (rows.empty()) return;
+  std::vector<std::pair<double, std::string>> order;
+  for (auto& [name, t] : rows) order.emplace_back(t.first, name);
+  std::sort(order.rbegin(), order.rend());
+  std::fprintf(stderr, "penumbra profile (%s):\n", title);
+  for (auto& [total, name] : order)
+    std::fprintf(stderr, "  %-24s %10.2f %6d\n", name.c_str(), total, rows[name].second);
+}
 struct Profile {
   bool on = std::getenv("PENUMBRA_PROFILE") != nullptr;
   std::mutex mutex;
-  std::map<std::string, std::pair<double, int>> ms;  // name → (total ms, launches)
+  Rows ms, stages;  // kernels' device time and launches; renderer stages' wall time and calls
   ~Profile() {
     if (!on) return;
-    std::vector<std::pair<double, std::string>> rows;
-    for (auto& [name, t] : ms) rows.emplace_back(t.first, name);
-    std::sort(rows.rbegin(), rows.rend());
-    std::fprintf(stderr, "penumbra profile (device ms, launches):\n");
-    for (auto& [total, name] : rows)
-      std::fprintf(stderr, "  %-24s %10.2f %6d\n", name.c_str(), total, ms[name].second);
+    print_rows("device ms, launches", ms);
+    print_rows("wall ms, calls of each renderer stage", stages);
   }
 };
 Profile& profile() {
@@ -175,6 +185,23 @@ void profile_launch(const std::string& name, const cl::Event& event) {
   auto& row = profile().ms[name];
   row.first += ms;
   row.second += 1;
+}
+
+void profile_stage(Context& ctx, const char* call, const char* name) {
+  if (!profile().on) return;
+  thread_local std::string current;  // the stage this thread is in, "" before the first
+  thread_local std::chrono::steady_clock::time_point since;
+  clFinish(ctx.queue()());  // the stage's kernels and copies are its time (no throw: a
+                            // destructor ends the last stage; a failure shows at the next call)
+  const auto now = std::chrono::steady_clock::now();
+  if (!current.empty()) {
+    std::lock_guard<std::mutex> lock(profile().mutex);
+    auto& row = profile().stages[current];
+    row.first += std::chrono::duration<double, std::milli>(now - since).count();
+    row.second += 1;
+  }
+  current = name ? std::string(call) + ": " + name : "";
+  since = now;
 }
 
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) {

@@ -94,6 +94,10 @@ void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local);
 // a launch made elsewhere (CLBlast's) and adds its device time to the row `name`.
 bool profiling();
 void profile_launch(const std::string& name, const cl::Event& event);
+// With PENUMBRA_PROFILE set: waits for the queue, adds the wall time since the calling thread's
+// last mark to the row of the stage it then began, and begins "`call`: `name`" (none if `name`
+// is null). Wall time holds the stage's kernels, copies and host work.
+void profile_stage(Context& ctx, const char* call, const char* name);
 inline void launch_1d(Context& ctx, cl::Kernel& k, size_t n, size_t local = 64) {
   launch(ctx, k, cl::NDRange(n), cl::NDRange(local));
 }
