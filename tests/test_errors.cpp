@@ -239,6 +239,12 @@ TEST(ErrorsDevice, UnknownNameFromEnvironment) {
   EXPECT_CONTAINS(msg, "no-such-opencl-device-from-env");
 }
 
+TEST(ErrorsDevice, TransfersFromEnvironmentMustBeMapOrCopy) {
+  ScopedEnv env("PENUMBRA_TRANSFERS", "pinned");
+  const std::string msg = error_of([] { Context ctx; });
+  EXPECT_CONTAINS(msg, "PENUMBRA_TRANSFERS must be map or copy, not 'pinned'");
+}
+
 // A device without cl_khr_fp64, simulated: the Context's description of the device is the one
 // place the library reads fp64 from, so clearing it there makes the device look like one
 // without double precision (the Context object itself is not const, so this is well defined).

@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "cli_run.hpp"
 #include "ops/args.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/image.hpp"
@@ -563,6 +564,52 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   for (dvec3& v : moved.meshes[0].vertices) v *= 0.8;
   expect_reused_renderer_as_fresh(*ctx,
                                   {&base, &faces, &base, &albedo, &more_vertices, &moved, &base});
+}
+
+// Reading results and writing inputs through reused host memory and copies (a discrete GPU's
+// default, PENUMBRA_TRANSFERS=copy) gives the bits of mapped buffers (a CPU's): the outputs,
+// the shadow and penumbra maps, and the gradients, in both precisions, of the accurate and the
+// paper model's soft shadows (their host reads of records and texels), then of the scene with
+// its vertices moved (written into the last render's buffer).
+TEST(RasterDeterminism, CopiedTransfersGiveTheMappedBits) {
+  REQUIRE_CONTEXT(ctx);
+  std::unique_ptr<Context> mapped, copied;
+  {
+    ScopedEnv map("PENUMBRA_TRANSFERS", "map");
+    mapped = std::make_unique<Context>(std::to_string(ctx->info().index));
+  }
+  {
+    ScopedEnv copy("PENUMBRA_TRANSFERS", "copy");
+    copied = std::make_unique<Context>(std::to_string(ctx->info().index));
+  }
+  ASSERT_FALSE(mapped->copy_transfers());
+  ASSERT_TRUE(copied->copy_transfers());
+  EXPECT_EQ(ctx->copy_transfers(), !ctx->info().unified_memory);
+  Scene base = tuning_scene();
+  base.params.shadows = Shadows::Soft;
+  Scene moved = base;
+  for (dvec3& v : moved.meshes[0].vertices) v *= 0.9;
+  for (Precision precision : {Precision::Float, Precision::Double})
+    for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper}) {
+      Renderer a(*mapped, precision), b(*copied, precision);
+      for (Scene* s : {&base, &moved}) {
+        s->params.shadow_model = model;
+        const std::string what = std::string(precision == Precision::Float ? "float" : "double") +
+                                 (model == ShadowModel::Paper ? " paper" : " accurate") +
+                                 (s == &base ? "" : ", moved");
+        const auto weights = random_loss_weights(*s, 5);
+        std::vector<RenderOutput> ra, rb;
+        ASSERT_NO_THROW(ra = a.render(*s)) << what;
+        ASSERT_NO_THROW(rb = b.render(*s)) << what;
+        expect_identical(ra, rb, what);
+        for (auto maps : {&Renderer::shadow_maps, &Renderer::penumbra_maps}) {
+          const std::vector<Image> ma = (a.*maps)(), mb = (b.*maps)();
+          ASSERT_EQ(ma.size(), mb.size()) << what;
+          for (size_t i = 0; i < ma.size(); ++i) EXPECT_EQ(ma[i].data, mb[i].data) << what;
+        }
+        penumbra_tests::expect_identical(a.backward(*s, weights), b.backward(*s, weights), what);
+      }
+    }
 }
 
 // Renderer::fragment_counts counts the kept fragments, not raster_count's bound on them: over a

@@ -65,9 +65,10 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
   for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
     if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
   fitted = detail::normalised(fitted, norm);
-  bool same =
-      same_meshes(given.meshes, given_meshes) && fitted.cameras.size() == camera_passes.size() &&
-      fitted.lights.size() == scene.lights.size() && fitted.params.shadows == scene.params.shadows;
+  bool same = same_meshes(given.meshes, meshes_as_given()) &&
+              fitted.cameras.size() == camera_passes.size() &&
+              fitted.lights.size() == scene.lights.size() &&
+              fitted.params.shadows == scene.params.shadows;
   for (size_t c = 0; same && c < fitted.cameras.size(); ++c)
     same = detail::view_params(fitted, fitted.cameras[c]) == view_P[c];
   if (!same)
@@ -79,20 +80,20 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
                 " camera(s), the scene has " + std::to_string(given.cameras.size()));
 }
 
-BackwardSums Renderer::Impl::start_backward() {
+BackwardSums& Renderer::Impl::start_backward() {
   const Packed& p = packed;
-  const size_t nl = scene.lights.size();
-  BackwardSums sums;
+  BackwardSums& sums = backward_sums;
+  const size_t nl = scene.lights.size(), maps = light_passes.size();
   sums.vertices.assign(size_t(p.nv) * 4, 0.0);
   sums.albedo.assign(size_t(p.nf) * 12, 0.0);
   sums.lights.assign((6 * nl + 1) * 4, 0.0);
   sums.light_size.assign(nl, 0.0);
-  sums.frames.assign(nl, std::vector<double>(16, 0.0));
-  for (const LightPass& lp : light_passes) {
-    const size_t ntex = size_t(lp.view.W) * lp.view.H;
-    sums.maps.emplace_back(ntex, 0.0);
-    sums.penumbra_maps.emplace_back(ntex, 0.0);
-    sums.covers.emplace_back(ntex, 0.0);
+  sums.frames.resize(nl);
+  for (std::vector<double>& f : sums.frames) f.assign(16, 0.0);
+  for (auto* per_map : {&sums.maps, &sums.penumbra_maps, &sums.covers}) {
+    per_map->resize(maps);
+    for (size_t l = 0; l < maps; ++l)
+      (*per_map)[l].assign(size_t(light_passes[l].view.W) * light_passes[l].view.H, 0.0);
   }
   if (!geometry.adj()) build_adjacency();  // once per set of faces (upload_geometry)
   return sums;
@@ -246,7 +247,7 @@ SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>
   const Impl::CallProfile profile(m, "backward", "check");
   m.check_backward(scene, grads);
   m.mark("sums");
-  BackwardSums sums = m.start_backward();
+  BackwardSums& sums = m.start_backward();
   const int nc = int(m.camera_passes.size()), lights = int(m.light_passes.size());
   const int passes = nc + lights;
   for (int c = 0; c < nc; ++c) {

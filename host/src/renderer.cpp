@@ -94,15 +94,21 @@ size_t Renderer::Impl::prepare(const Scene& given) {
                 std::to_string(P_MAX_LIGHTS) + " are supported");
   // An optimisation moves the vertices of fixed faces: the last render's faces and albedo, packed
   // and on the device, stay (at 100k faces, packing and uploading them took 3-4 ms a render).
-  vertices_only = geometry_current && same_faces_and_albedo(given.meshes, given_meshes);
+  vertices_only = geometry_current && same_faces_and_albedo(given.meshes, meshes_as_given());
   geometry_current = false;  // until upload_geometry() has put this scene's meshes there
   scene = given;
-  given_meshes = given.meshes;
+  meshes_normalised = false;
   fit_light_frusta(scene);  // frusta not given are fitted to this scene and then fixed
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);
   norm = detail::normalisation(scene);
-  if (!norm.identity()) scene = detail::normalised(scene, norm);
+  if (norm.identity()) {
+    given_meshes.clear();
+  } else {
+    given_meshes = given.meshes;
+    scene = detail::normalised(scene, norm);
+    meshes_normalised = true;
+  }
   if (automatic) kernels.set_tuning(database.lookup(ctx.info(), workload_stats(given)));
   pack(scene, packed, vertices_only);
   const size_t estimate = estimate_device_memory(scene, precision, false, &kernels.tuning());
@@ -114,7 +120,10 @@ size_t Renderer::Impl::prepare(const Scene& given) {
 void Renderer::Impl::upload_geometry() {
   geometry.nv = packed.nv;
   geometry.nf = packed.nf;
-  geometry.vworld = detail::upload_reals(ctx, precision, packed.vworld);
+  if (vertices_only)  // into the last render's buffer, of the same size
+    detail::write_reals(ctx, precision, geometry.vworld, packed.vworld);
+  else
+    geometry.vworld = detail::upload_reals(ctx, precision, packed.vworld);
   if (!vertices_only) {
     geometry.faces = detail::upload_ints(ctx, packed.faces);
     geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);

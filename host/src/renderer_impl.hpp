@@ -56,13 +56,19 @@ struct Renderer::Impl {
   TuningDatabase database;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
-  Scene scene;                       // as rendered: light frusta fitted, then normalised (`norm`)
-  std::vector<Mesh> given_meshes;    // the meshes as given, which backward() must be given again
+  Scene scene;  // as rendered: light frusta fitted, then normalised (`norm`)
+  // The meshes as given, which backward() must be given again: scene.meshes, or where the
+  // scene was normalised (its meshes moved), given_meshes (empty otherwise: not copied twice).
+  std::vector<Mesh> given_meshes;
+  bool meshes_normalised = false;
+  const std::vector<Mesh>& meshes_as_given() const {
+    return meshes_normalised ? given_meshes : scene.meshes;
+  }
   detail::Normalisation norm;        // device points = (world points − norm.origin) · norm.scale
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
   detail::DeviceGeometry geometry;
-  bool geometry_current = false;  // packed and geometry hold given_meshes' faces and albedo
+  bool geometry_current = false;  // packed and geometry hold these meshes' faces and albedo
   bool vertices_only = false;     // this render's meshes differ from the last's in vertices only
   std::vector<ViewPass> camera_passes;  // one per camera
   std::vector<LightPass> light_passes;  // one per light, when shadows are on
@@ -108,7 +114,10 @@ struct Renderer::Impl {
 
   // Backward (backward.cpp), in order.
   void check_backward(const Scene& scene, const std::vector<OutputGrads>& grads);
-  BackwardSums start_backward();  // zero sums; the vertex adjacency on the device
+  // Zero sums, in the last backward's storage (fresh host memory faults its pages in: 12 MB
+  // at 100k faces); the vertex adjacency on the device.
+  BackwardSums& start_backward();
+  BackwardSums backward_sums;
   void build_adjacency();
   void camera_backward(int camera, const OutputGrads& grads, BackwardSums& sums);
   void light_backward(int light, BackwardSums& sums);

@@ -72,17 +72,40 @@ cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& va
   return buf;
 }
 
-// Converts into the buffer mapped for writing: no host copy of the converted values.
+namespace {
+// This thread's staging memory for a discrete device's transfers (read_reals, write_reals), at
+// least `bytes`: it only grows, so that its pages stay faulted in.
+void* staging(size_t bytes) {
+  thread_local std::vector<double> memory;
+  if (memory.size() * sizeof(double) < bytes) memory.resize((bytes + 7) / 8);
+  return memory.data();
+}
+}  // namespace
+
+const void* staged_read(Context& ctx, const cl::Buffer& buf, size_t bytes) {
+  void* at = staging(bytes);
+  ctx.queue().enqueueReadBuffer(buf, CL_TRUE, 0, bytes, at);
+  return at;
+}
+
+// Converts into the buffer mapped for writing (no host copy of the converted values), or with
+// Context::copy_transfers into staging memory that is then written (read_reals).
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values) {
   if (values.empty()) return;
   const size_t bytes = values.size() * real_size(p);
-  void* at = ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, bytes);
+  const bool map = !ctx.copy_transfers();
+  void* at =
+      map ? ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, bytes)
+          : staging(bytes);
   if (p == Precision::Double)
     std::copy(values.begin(), values.end(), static_cast<double*>(at));
   else
     std::transform(values.begin(), values.end(), static_cast<float*>(at),
                    [](double v) { return float(v); });
-  ctx.queue().enqueueUnmapMemObject(buf, at);
+  if (map)
+    ctx.queue().enqueueUnmapMemObject(buf, at);
+  else
+    ctx.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, bytes, at);
 }
 
 std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count) {

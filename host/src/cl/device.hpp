@@ -49,13 +49,28 @@ inline std::string precision_options(Precision p) {
 cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& values);
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values);
 std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count);
+// The first `bytes` of `buf` copied into this thread's staging memory, reused from call to call
+// (valid until its next call).
+const void* staged_read(Context& ctx, const cl::Buffer& buf, size_t bytes);
 // Calls read(const float*) or read(const double*), as the precision, on the first `count` reals
-// of `buf` mapped for reading: no host copy (at 100k faces the copies into fresh host memory
-// cost ~18 ms of a backward; on PoCL a map is the buffer itself).
+// of `buf`: mapped for reading (no host copy: at 100k faces the copies into fresh host memory
+// cost ~18 ms of a backward; on PoCL a map is the buffer itself), or with
+// Context::copy_transfers copied into reused staging memory (staged_read), as a discrete GPU's
+// driver maps a buffer through host memory of its own, new for each new buffer. `read` must
+// not call read_reals or write_reals.
 template <class Read>
 void read_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count, Read read) {
   if (count == 0) return;
-  void* at = ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_READ, 0, count * real_size(p));
+  const size_t bytes = count * real_size(p);
+  if (ctx.copy_transfers()) {
+    const void* at = staged_read(ctx, buf, bytes);
+    if (p == Precision::Double)
+      read(static_cast<const double*>(at));
+    else
+      read(static_cast<const float*>(at));
+    return;
+  }
+  void* at = ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_READ, 0, bytes);
   try {
     if (p == Precision::Double)
       read(static_cast<const double*>(at));
