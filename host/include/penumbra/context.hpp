@@ -13,7 +13,6 @@ struct DeviceInfo {
   int index = 0;  // position in list_devices()
   std::string platform, name, vendor, version;
   bool is_gpu = false, fp64 = false;
-  bool unified_memory = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: the host's memory is the device's
   size_t global_mem = 0, max_alloc = 0, max_work_group = 0;
   cl::Device device;
 };
@@ -53,9 +52,9 @@ class Context {
   size_t memory_limit() const { return memory_limit_ ? memory_limit_ : info_.global_mem; }
   const std::string& memory_limit_by() const { return memory_limit_by_; }
 
-  // How results are read and inputs written: true, through reused host memory and copies
-  // (devices whose memory is not the host's); false, through mapped buffers (the host's
-  // memory: no copy). $PENUMBRA_TRANSFERS ("map" or "copy") chooses for any device.
+  // How results are read and inputs written: false (the default), through mapped buffers (no
+  // copy where the device's memory is the host's, as PoCL's); true ($PENUMBRA_TRANSFERS=copy),
+  // through reused host memory and copies, which a discrete GPU may transfer faster.
   bool copy_transfers() const { return copy_transfers_; }
 
  private:

@@ -135,7 +135,6 @@ std::vector<DeviceInfo> list_devices() {
       info.vendor = trim(d.getInfo<CL_DEVICE_VENDOR>());
       info.version = trim(d.getInfo<CL_DEVICE_VERSION>());
       info.is_gpu = (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) != 0;
-      info.unified_memory = d.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() != CL_FALSE;
       info.fp64 = d.getInfo<CL_DEVICE_EXTENSIONS>().find("cl_khr_fp64") != std::string::npos ||
                   d.getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() != 0;
       info.global_mem = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
@@ -180,7 +179,6 @@ Context::Context(const std::string& device) {
       throw Error("no OpenCL device matches '" + spec + "' (see `penumbra devices`)");
     info_ = *it;
   }
-  copy_transfers_ = !info_.unified_memory;
   if (const char* env = std::getenv("PENUMBRA_TRANSFERS")) {
     if (std::string(env) != "map" && std::string(env) != "copy")
       throw Error("PENUMBRA_TRANSFERS must be map or copy, not '" + std::string(env) + "'");
