@@ -59,9 +59,10 @@ bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
 
 void Renderer::Impl::check_backward(const Scene& given, const std::vector<OutputGrads>& grads) {
   // The meshes as given (packing them again cost 3.9 ms per call at 100k faces); the rest as
-  // render() fitted and normalised it, copied without the meshes: every other member of Scene
-  // is named here, and one added to Scene must be too.
-  Scene fitted{{}, given.cameras, given.lights, given.ambient, given.background, given.params};
+  // render() fitted and normalised it, copied without the meshes. The binding names every
+  // member of Scene: one added to Scene stops the build here until it is copied too.
+  [[maybe_unused]] const auto& [meshes, cameras, lights, ambient, background, params] = given;
+  Scene fitted{{}, cameras, lights, ambient, background, params};
   for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
     if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
   fitted = detail::normalised(fitted, norm);

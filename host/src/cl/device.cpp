@@ -138,7 +138,7 @@ cl::Buffer reuse_or_alloc(Context& ctx, cl::Buffer&& spare, size_t count, size_t
   const size_t bytes = std::max<size_t>(count, 1) * size;
   if (spare()) {
     const size_t held = spare.getInfo<CL_MEM_SIZE>();
-    if (held >= bytes && held / 2 <= bytes) return std::move(spare);
+    if (spare_fits(held, bytes)) return std::move(spare);
     spare = cl::Buffer();
   }
   return make_buffer(ctx, bytes, nullptr);

@@ -92,6 +92,9 @@ cl::Buffer alloc_ints(Context& ctx, size_t count);
 // released first). On a CPU device a new buffer is new host memory whose pages fault in as the
 // kernels first write them; a renderer hands its last render's buffers back here.
 cl::Buffer reuse_or_alloc(Context& ctx, cl::Buffer&& spare, size_t count, size_t size);
+// Whether a spare of `held` units serves a need of `need`: at least that, at most twice as
+// much (reuse_or_alloc's rule).
+inline bool spare_fits(size_t held, size_t need) { return held >= need && held / 2 <= need; }
 // Throws penumbra::Error "<what> needs N GiB of device memory, more than ..." when `bytes`
 // exceeds the context's memory limit (Context::memory_limit: the device's memory unless set);
 // checked before allocating.

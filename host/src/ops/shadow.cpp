@@ -138,9 +138,7 @@ ExactWeights& kept_exact_weights(Context& ctx, Precision p, std::vector<ExactWei
                                  int light, size_t batch, int W, int H, bool derivatives) {
   if (kept.size() <= size_t(light)) kept.resize(size_t(light) + 1);
   ExactWeights& w = kept[size_t(light)];
-  if (w.W == W && w.H == H && w.derivatives == derivatives && w.batch >= batch &&
-      w.batch <= 2 * batch)
-    return w;
+  if (w.W == W && w.H == H && w.derivatives == derivatives && spare_fits(w.batch, batch)) return w;
   w = ExactWeights{};  // the old matrices released before the new are made
   w.batch = batch;
   w.W = W;
