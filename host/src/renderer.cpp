@@ -120,11 +120,10 @@ size_t Renderer::Impl::prepare(const Scene& given) {
 void Renderer::Impl::upload_geometry() {
   geometry.nv = packed.nv;
   geometry.nf = packed.nf;
-  if (vertices_only)  // into the last render's buffer, of the same size
+  if (vertices_only) {  // into the last render's buffer, of the same size
     detail::write_reals(ctx, precision, geometry.vworld, packed.vworld);
-  else
+  } else {
     geometry.vworld = detail::upload_reals(ctx, precision, packed.vworld);
-  if (!vertices_only) {
     geometry.faces = detail::upload_ints(ctx, packed.faces);
     geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
     geometry.adj_offsets = geometry.adj = cl::Buffer();  // backward() builds them for these faces
