@@ -73,8 +73,8 @@ cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& va
 }
 
 namespace {
-// This thread's staging memory for a discrete device's transfers (read_reals, write_reals), at
-// least `bytes`: it only grows, so that its pages stay faulted in.
+// This thread's staging memory for copied transfers (Context::copy_transfers: read_reals,
+// write_reals), at least `bytes`: it only grows, so that its pages stay faulted in.
 void* staging(size_t bytes) {
   thread_local std::vector<double> memory;
   if (memory.size() * sizeof(double) < bytes) memory.resize((bytes + 7) / 8);
