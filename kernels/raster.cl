@@ -19,7 +19,8 @@
 //   pix_count, pix_offset, pix_n   N × int: fragment bound, first fragment, fragments kept
 //   block_hits       ulong bits, per block of PPW pixels and tile-list entry (see TILE_BLOCKS)
 //   rec_face K × int; rec_frag K × real2 (D·e^{(z̃−m)/γ}, z)
-//   rec_shade K·(1+nl) × real4 (ambient term, direct term of each light)
+//   rec_shade K·(1+nl) × real4 (ambient term, 0), then per light (direct term, 1 where the
+//                    fragment faces the light (n·l > 0), else 0: its shadow term is unused)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
 //   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
 //                    Both only for a view with shadows (P_SHADOWS): without, s is 1 and
@@ -159,7 +160,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
       rec_shade[r * (1 + nl)] = (real4)(t.ambient[0][j], t.ambient[1][j], t.ambient[2][j], 0);
       for (int l = 0; l < nl; ++l)
         rec_shade[r * (1 + nl) + 1 + l] =
-            (real4)(t.direct[l][0][j], t.direct[l][1][j], t.direct[l][2][j], 0);
+            (real4)(t.direct[l][0][j], t.direct[l][1][j], t.direct[l][2][j], t.facing[l][j]);
       for (int l = 0; shadowed && l < nl; ++l) {
         rec_light[r * nl + l] = (real4)(t.mu[l][0][j], t.mu[l][1][j], t.mu[l][2][j], 1);
         rec_light2[r * nl + l] = (real4)(t.slope[l][0][j], t.slope[l][1][j], 0, 0);

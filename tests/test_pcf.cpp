@@ -16,6 +16,8 @@
 //   PcfGemm.*         gemm sampling is refused for the accurate model
 //   PcfDeterminism.*  two backward calls give bit-identical gradients
 //   PcfGather.FlatFilters*  pcf_gather's skip of flat filters changes no bit, and happens
+//   PcfFacing.*       pcf_sample's skip of fragments facing away from the light changes no bit
+//                     of an image or gradient, and happens
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
 
@@ -352,15 +354,38 @@ std::filesystem::path patched_kernels(const std::string& name, const std::string
   return dir;
 }
 
-// The gradients of a render and backward of `scene`, with the kernels of `kernel_dir` (empty:
-// the project's), in a context of their own (built after the variable is set).
-SceneGrads grads_with(const std::string& kernel_dir, const Scene& scene, Precision p,
-                      const std::vector<OutputGrads>& weights) {
+// The images and gradients of a render and backward of `scene`, with the kernels of
+// `kernel_dir` (empty: the project's), in a context of their own (built after the variable is
+// set).
+struct Results {
+  std::vector<RenderOutput> images;
+  SceneGrads grads;
+};
+Results results_with(const std::string& kernel_dir, const Scene& scene, Precision p,
+                     const std::vector<OutputGrads>& weights) {
   ScopedEnv env("PENUMBRA_KERNEL_DIR", kernel_dir.empty() ? nullptr : kernel_dir.c_str());
   Context ctx;
   Renderer r(ctx, p);
-  r.render(scene);
-  return r.backward(scene, weights);
+  Results out{r.render(scene), {}};
+  out.grads = r.backward(scene, weights);
+  return out;
+}
+SceneGrads grads_with(const std::string& kernel_dir, const Scene& scene, Precision p,
+                      const std::vector<OutputGrads>& weights) {
+  return results_with(kernel_dir, scene, p, weights).grads;
+}
+
+bool same_images(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t v = 0; v < a.size(); ++v)
+    if (a[v].color.data != b[v].color.data || a[v].silhouette.data != b[v].silhouette.data ||
+        a[v].depth.data != b[v].depth.data)
+      return false;
+  return true;
+}
+
+bool finite_image(const Image& im) {
+  return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
 }
 
 bool all_finite(const SceneGrads& g) {
@@ -401,6 +426,45 @@ TEST(PcfGather, FlatFiltersOccur) {
     EXPECT_TRUE(all_finite(grads_with("", scene, Precision::Float, weights)));
     EXPECT_FALSE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)))
         << "no fragment's filter was flat where the gather would read it";
+  }
+}
+
+// pcf_sample gives a fragment in the map that faces away from the light (n·l ≤ 0) s = 1 without
+// a lookup: kernels that look every fragment up give the same images and gradients bit for bit;
+// kernels that store NaN there give NaN colours (s·0), so the skip happens in these scenes.
+constexpr const char* kFacingTest = "rec_shade[r * (1 + nl) + 1 + light].w == 0";
+constexpr const char* kFacingStore = "    rec_light[at].w = 1;";
+
+TEST(PcfFacing, SkippedLookupsChangeNoBit) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string always =
+      patched_kernels("penumbra_pcf_look_up_all", "pcf.cl", kFacingTest, "0");
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Layout layout : {Layout::Point, Layout::Two})
+      for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+        for (Sampling sa : {Sampling::Truncated, Sampling::Exact}) {
+          const Scene scene = pcf_scene(layout, sh, sa);
+          const auto weights = random_loss_weights(scene, 11);
+          const Results a = results_with("", scene, p, weights),
+                        b = results_with(always, scene, p, weights);
+          const std::string what =
+              std::string(name_of(layout)) + " " + name_of(sh) + " " + penumbra_tests::name_of(sa);
+          EXPECT_TRUE(same_images(a.images, b.images)) << what;
+          expect_identical(a.grads, b.grads, what + ": facing-away lookups skipped or not", true);
+        }
+}
+
+TEST(PcfFacing, LookupsSkipped) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string poisoned = patched_kernels("penumbra_pcf_facing_nan", "pcf.cl", kFacingStore,
+                                               "    rec_light[at].w = NAN;");
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+    const Scene scene = pcf_scene(Layout::Point, sh, Sampling::Truncated);
+    const auto weights = random_loss_weights(scene, 11);
+    EXPECT_TRUE(finite_image(results_with("", scene, Precision::Float, weights).images[0].color));
+    EXPECT_FALSE(
+        finite_image(results_with(poisoned, scene, Precision::Float, weights).images[0].color))
+        << name_of(sh) << ": no fragment in the map faced away from the light";
   }
 }
 

@@ -42,8 +42,8 @@ struct PcfSampleArgs {
   MapLookup at;
   const cl::Buffer &logs, &S, &A;
   const SearchMap& search;
-  const cl::Buffer &rec_light, &rec_light2;
-  auto fields() const { return std::tie(at, logs, S, A, search, rec_light, rec_light2); }
+  const cl::Buffer &rec_shade, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, logs, S, A, search, rec_shade, rec_light, rec_light2); }
 };
 
 struct PcfSampleBwdArgs {
@@ -229,8 +229,9 @@ void pcf_forward(Kernels& k, const RenderParams& p, double search_sigma, const V
   const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
   const SearchMap search = search_map(k, p, search_sigma, lm);
   const cl::Buffer logs = window_logs(k, v.P, p.sampling);
-  auto& s = bind_args(k, PcfSampleArgs{at, logs, lm.S, lm.A, search, f.rec_light, f.rec_light2},
-                      sampling_define(p.sampling));
+  auto& s = bind_args(
+      k, PcfSampleArgs{at, logs, lm.S, lm.A, search, f.rec_shade, f.rec_light, f.rec_light2},
+      sampling_define(p.sampling));
   launch_1d(k.ctx(), s, n);
 }
 
