@@ -20,7 +20,8 @@
 //   block_hits       ulong bits, per block of PPW pixels and tile-list entry (see TILE_BLOCKS)
 //   rec_face K × int; rec_frag K × real2 (D·e^{(z̃−m)/γ}, z)
 //   rec_shade K·(1+nl) × real4 (ambient term, 0), then per light (direct term, 1 where the
-//                    fragment faces the light (n·l > 0), else 0: its shadow term is unused)
+//                    fragment faces the light, n·l > 0; else 0, its direct term 0 too, and
+//                    pcf_sample looks nothing up for it)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
 //   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
 //                    Both only for a view with shadows (P_SHADOWS): without, s is 1 and

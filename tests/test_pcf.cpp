@@ -25,6 +25,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <string>
 #include <tuple>
@@ -375,6 +376,18 @@ SceneGrads grads_with(const std::string& kernel_dir, const Scene& scene, Precisi
   return results_with(kernel_dir, scene, p, weights).grads;
 }
 
+// f(precision, scene, its name) for float and double, each of `layouts`, hard and soft shadows,
+// truncated and exact sampling.
+template <class F>
+void for_each_variant(std::initializer_list<Layout> layouts, F&& f) {
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Layout layout : layouts)
+      for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+        for (Sampling sa : {Sampling::Truncated, Sampling::Exact})
+          f(p, pcf_scene(layout, sh, sa),
+            std::string(name_of(layout)) + " " + name_of(sh) + " " + penumbra_tests::name_of(sa));
+}
+
 bool same_images(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
   if (a.size() != b.size()) return false;
   for (size_t v = 0; v < a.size(); ++v)
@@ -405,15 +418,12 @@ TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string never =
       patched_kernels("penumbra_pcf_never_flat", "common/pcf_filter.clh", kFlatTest, "  return 0;");
-  for (Precision p : {Precision::Float, Precision::Double})
-    for (Layout layout : {Layout::Point, Layout::Directional})
-      for (Shadows sh : {Shadows::Hard, Shadows::Soft})
-        for (Sampling sa : {Sampling::Truncated, Sampling::Exact}) {
-          const Scene scene = pcf_scene(layout, sh, sa);
-          const auto weights = random_loss_weights(scene, 7);
-          expect_identical(grads_with("", scene, p, weights), grads_with(never, scene, p, weights),
-                           "flat filters skipped or not", true);
-        }
+  for_each_variant({Layout::Point, Layout::Directional}, [&](Precision p, const Scene& scene,
+                                                             const std::string& what) {
+    const auto weights = random_loss_weights(scene, 7);
+    expect_identical(grads_with("", scene, p, weights), grads_with(never, scene, p, weights),
+                     what + ": flat filters skipped or not", true);
+  });
 }
 
 TEST(PcfGather, FlatFiltersOccur) {
@@ -439,19 +449,14 @@ TEST(PcfFacing, SkippedLookupsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string always =
       patched_kernels("penumbra_pcf_look_up_all", "pcf.cl", kFacingTest, "0");
-  for (Precision p : {Precision::Float, Precision::Double})
-    for (Layout layout : {Layout::Point, Layout::Two})
-      for (Shadows sh : {Shadows::Hard, Shadows::Soft})
-        for (Sampling sa : {Sampling::Truncated, Sampling::Exact}) {
-          const Scene scene = pcf_scene(layout, sh, sa);
-          const auto weights = random_loss_weights(scene, 11);
-          const Results a = results_with("", scene, p, weights),
-                        b = results_with(always, scene, p, weights);
-          const std::string what =
-              std::string(name_of(layout)) + " " + name_of(sh) + " " + penumbra_tests::name_of(sa);
-          EXPECT_TRUE(same_images(a.images, b.images)) << what;
-          expect_identical(a.grads, b.grads, what + ": facing-away lookups skipped or not", true);
-        }
+  for_each_variant(
+      {Layout::Point, Layout::Two}, [&](Precision p, const Scene& scene, const std::string& what) {
+        const auto weights = random_loss_weights(scene, 11);
+        const Results a = results_with("", scene, p, weights),
+                      b = results_with(always, scene, p, weights);
+        EXPECT_TRUE(same_images(a.images, b.images)) << what;
+        expect_identical(a.grads, b.grads, what + ": facing-away lookups skipped or not", true);
+      });
 }
 
 TEST(PcfFacing, LookupsSkipped) {
