@@ -22,6 +22,7 @@
 // Truncated sampling cuts each Gaussian at ε_λ (g' = max(0, g − ε_λ)); exact (EXACT) sums
 // g over the whole map.
 // Buffers (K fragments, nl lights, this light l):
+//   rec_shade   K·(1+nl) × real4 (raster.cl): the w of entry 1 + l, whether the fragment faces l
 //   rec_light   K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2  K·nl × real4 (∇_μ d, σ, z_b): σ and z_b are written here
 //   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd),
@@ -129,9 +130,10 @@ FORWARD_KERNEL void pcf_window_logs(__global const real* P, __global real* logs)
 
 // s, σ and z_b of every fragment. A fragment in the map that faces away from the light (n·l ≤ 0:
 // rec_shade's flag, raster.cl) needs no lookup: its s enters its colour only times its direct
-// term, 0, and the backward passes over its light (shade_bwd; pcf_sample_bwd, as dL/ds = 0),
-// so the only result that reads its σ is the gather's reach, which must not fall short of the
-// widest filter with a gradient (gather_reach): it gets s = 1, σ = σ_s and z_b = d.
+// term, 0, and the backward passes over its light (shade_bwd; pcf_sample_bwd, as dL/ds = 0,
+// which leaves it no gradient for the gather to add). Its σ then changes no result but the
+// gather's reach (gather_reach: the widest σ), which must not fall short of the widest filter
+// with a gradient and does not: it gets s = 1, σ = σ_s and z_b = d.
 FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                WindowLogs logs, __global const real* S, __global const real* A,
                                __global const real* Sb, __global const real* Ab, int Wb, int Hb,
