@@ -351,6 +351,19 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.gather.width, 4);
   EXPECT_EQ(t.gather.height, 1);
 
+  // The statistics are asked for only where they decide: not with a tuned entry.
+  int asked = 0;
+  const auto counted = [&] {
+    ++asked;
+    return w;
+  };
+  EXPECT_EQ(db.lookup(dev, counted).source, "heuristic+Acme/gpu");
+  EXPECT_EQ(asked, 1);
+  dev.name = "Exact Device 1";
+  EXPECT_EQ(db.lookup(dev, counted).source, "tuned:Exact Device 1");
+  EXPECT_EQ(asked, 1);
+  dev.name = "Unknown Device 7";
+
   dev.vendor = "Nobody", dev.is_gpu = false;  // only the type matches
   t = db.lookup(dev, w);
   EXPECT_EQ(t.source, "heuristic+cpu");

@@ -109,7 +109,8 @@ size_t Renderer::Impl::prepare(const Scene& given) {
     scene = detail::normalised(scene, norm);
     meshes_normalised = true;
   }
-  if (automatic) kernels.set_tuning(database.lookup(ctx.info(), workload_stats(given)));
+  if (automatic)
+    kernels.set_tuning(database.lookup(ctx.info(), [&] { return workload_stats(given); }));
   pack(scene, packed, vertices_only);
   const size_t estimate = estimate_device_memory(scene, precision, false, &kernels.tuning());
   detail::check_memory(ctx, estimate,

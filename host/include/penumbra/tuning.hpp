@@ -2,6 +2,7 @@
 // Launch parameters of the kernels, chosen per device and per workload: named structs per
 // stage, a database of tuned values (shipped defaults in data/tuning/, the user's results in a
 // cache folder), a heuristic from scene statistics, and a tuner that times candidates.
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -121,6 +122,9 @@ class TuningDatabase {
   // The tuning for this device and workload (raster tile and pixels per item, exact-sum and
   // penumbra parameters); `source` says which entry (or "heuristic") decided.
   Tuning lookup(const DeviceInfo& device, const WorkloadStats& workload) const;
+  // The same, calling `workload` only where the statistics decide (no valid entry for this very
+  // device): a renderer computes them for every render, ~10 ms at a million faces.
+  Tuning lookup(const DeviceInfo& device, const std::function<WorkloadStats()>& workload) const;
   bool has(const std::string& key) const;
   void set(const std::string& key, const Tuning& tuning);
   size_t size() const { return entries_.size(); }

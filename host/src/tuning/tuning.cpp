@@ -358,6 +358,11 @@ void TuningDatabase::set(const std::string& key, const Tuning& tuning) {
 }
 
 Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& workload) const {
+  return lookup(device, [&] { return workload; });
+}
+
+Tuning TuningDatabase::lookup(const DeviceInfo& device,
+                              const std::function<WorkloadStats()>& workload_of) const {
   auto find = [&](const std::string& key) -> const Tuning* {
     for (auto& e : entries_)
       if (e.first == key) return &e.second;
@@ -375,6 +380,7 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device, const WorkloadStats& wor
     }
   }
   // Otherwise the heuristic, with the stage parameters of the device's class where shipped.
+  const WorkloadStats workload = workload_of();
   Tuning out = heuristic_tuning(device, workload);
   const RasterTuning raster = out.raster;
   for (const std::string& key : {class_key(device), std::string(type_key(device))})
