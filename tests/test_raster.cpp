@@ -542,8 +542,8 @@ TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
 
 // A renderer keeps the last render's faces, albedo and vertex adjacency on the device while
 // only the vertices move (as in an optimisation) and uploads them again on any other change:
-// through scenes whose faces, albedo or vertex counts change, and whose vertices then move, it
-// renders and differentiates as a fresh one does.
+// through scenes whose faces, albedo or vertex counts change, and whose vertices then move (with
+// everything but the faces and albedo, once), it renders and differentiates as a fresh one does.
 TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   REQUIRE_CONTEXT(ctx);
   Scene base = tuning_scene();
@@ -562,8 +562,16 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   more_vertices.meshes[0].vertices.push_back({0, 0, 0});
   Scene moved = more_vertices;
   for (dvec3& v : moved.meshes[0].vertices) v *= 0.8;
-  expect_reused_renderer_as_fresh(*ctx,
-                                  {&base, &faces, &base, &albedo, &more_vertices, &moved, &base});
+  Scene seen_anew = moved;  // its faces and albedo too as the last render's, all else changed
+  for (dvec3& v : seen_anew.meshes[0].vertices) v *= 0.9;
+  seen_anew.meshes[0].name = "renamed";
+  seen_anew.cameras[0].eye += dvec3(0.3, 0.2, 0);
+  seen_anew.lights[0].position += dvec3(0.2, 0, 0.1);
+  seen_anew.ambient *= 0.5;
+  seen_anew.background = dvec3(0.2, 0.3, 0.4);
+  seen_anew.params.gamma *= 2;
+  expect_reused_renderer_as_fresh(
+      *ctx, {&base, &faces, &base, &albedo, &more_vertices, &moved, &seen_anew, &base});
 }
 
 // Reading results and writing inputs through reused host memory and copies
