@@ -10,6 +10,8 @@
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2 K·nl × real4: truncated hard shadows write (·, ·, v, Σg') to .zw, the filtered
 //              depth and the filter's sum, which the backward reads instead of summing again
+//   rec_shade  K·(1+nl) × real4 (raster.cl): truncated hard shadows read each light's flag,
+//              0 where the fragment faces away from it
 //   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
@@ -42,12 +44,28 @@ inline real compare(real v, real d, __global const real* P) {
   return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
 }
 
+// The texel nearest a μ in the map, at most half a texel off along each axis, weighs
+// e^(−1/(4σ_s)) or more: where that is at least 2ε_λ (and the window reaches half a texel), its
+// g' > 0, so Σg' > 0 for every fragment in the map.
+inline int nearest_texel_counts(__global const real* P) {
+  return P[P_WINDOW_R] >= RL(0.5) && exp(RL(-0.25) / P[P_SIGMA_S]) >= 2 * P[P_LAMBDA_EPS];
+}
+
+// A fragment in the map that faces away from the light (rec_shade's flag 0) gets s = 1 without
+// a lookup: s multiplies its direct term, 0, and shade_bwd passes over the light. Its backward
+// (dL/ds = ±0) reads of v and Σg' only whether Σg' > 0, which nearest_texel_counts assures.
 FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm,
-                                  int Hm, __global const real* S, __global real4* rec_light,
-                                  __global real4* rec_light2) {
+                                  int Hm, __global const real* S, __global const real4* rec_shade,
+                                  __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
+  if (inside_map(x.xy, Wm, Hm) && rec_shade[r * (1 + nl) + 1 + light].w == 0 &&
+      nearest_texel_counts(P)) {
+    rec_light[r * nl + light].w = 1;
+    rec_light2[r * nl + light].zw = (real2)(x.z, 1);
+    return;
+  }
   Window w = sample_window(x.xy, P, Wm, Hm);
   real norm = 0, v = w.x0 <= w.x1 ? filter_depth(x.xy, w, P, S, Wm, &norm) : 0;
   rec_light[r * nl + light].w = norm > 0 ? compare(v, x.z, P) : 1;

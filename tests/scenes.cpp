@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <sstream>
 
+#include "cli_run.hpp"
 #include "penumbra/reference.hpp"
 
 namespace penumbra_tests {
@@ -300,6 +303,50 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
   EXPECT_TRUE(a.light_size.empty() || std::memcmp(a.light_size.data(), b.light_size.data(),
                                                   a.light_size.size() * sizeof(double)) == 0)
       << what << " light sizes";
+}
+
+std::string patched_kernels(const std::string& name, const std::string& file,
+                            const std::string& from, const std::string& to) {
+  namespace fs = std::filesystem;
+  fs::path dir = fs::path(::testing::TempDir()) / name;
+  fs::remove_all(dir);
+  fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", dir, fs::copy_options::recursive);
+  std::string text = read_text((dir / file).string());
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << file << " no longer holds: " << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  std::ofstream out(dir / file, std::ios::trunc);
+  out << text;
+  EXPECT_TRUE(out.flush().good()) << "cannot write " << (dir / file).string();
+  return dir.string();
+}
+
+Results results_with(const std::string& kernel_dir, const Scene& scene, Precision p,
+                     const std::vector<OutputGrads>& weights) {
+  ScopedEnv env("PENUMBRA_KERNEL_DIR", kernel_dir.empty() ? nullptr : kernel_dir.c_str());
+  Context ctx;
+  Renderer r(ctx, p);
+  Results out{r.render(scene), {}};
+  out.grads = r.backward(scene, weights);
+  return out;
+}
+
+SceneGrads grads_with(const std::string& kernel_dir, const Scene& scene, Precision p,
+                      const std::vector<OutputGrads>& weights) {
+  return results_with(kernel_dir, scene, p, weights).grads;
+}
+
+bool same_images(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t v = 0; v < a.size(); ++v)
+    if (a[v].color.data != b[v].color.data || a[v].silhouette.data != b[v].silhouette.data ||
+        a[v].depth.data != b[v].depth.data)
+      return false;
+  return true;
+}
+
+bool finite_image(const Image& im) {
+  return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
 }
 
 }  // namespace penumbra_tests

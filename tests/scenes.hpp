@@ -120,4 +120,30 @@ bool has_entry(const penumbra::GradCheckResult& r, const std::string& prefix);
 void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads& b,
                       const std::string& what, bool with_light_size = false);
 
+// ---------------------------------------------------------------------------------------------
+// Kernel variants: the project's kernels with one passage changed, to show that a shortcut
+// changes no bit (against kernels without it) and that it is taken (kernels that poison it).
+
+// kernels/ copied to the folder `name` under the test temp dir with `from` in `file` replaced
+// by `to` (the test fails if `from` is not there); returns the folder.
+std::string patched_kernels(const std::string& name, const std::string& file,
+                            const std::string& from, const std::string& to);
+
+// The images and gradients of a render and backward of `scene`, with the kernels of
+// `kernel_dir` (empty: the project's), in a context of their own (built after the variable is
+// set).
+struct Results {
+  std::vector<penumbra::RenderOutput> images;
+  penumbra::SceneGrads grads;
+};
+Results results_with(const std::string& kernel_dir, const penumbra::Scene& scene,
+                     penumbra::Precision p, const std::vector<penumbra::OutputGrads>& weights);
+penumbra::SceneGrads grads_with(const std::string& kernel_dir, const penumbra::Scene& scene,
+                                penumbra::Precision p,
+                                const std::vector<penumbra::OutputGrads>& weights);
+
+bool same_images(const std::vector<penumbra::RenderOutput>& a,
+                 const std::vector<penumbra::RenderOutput>& b);
+bool finite_image(const penumbra::Image& im);
+
 }  // namespace penumbra_tests

@@ -23,15 +23,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <initializer_list>
 #include <iostream>
 #include <string>
 #include <tuple>
 #include <vector>
 
-#include "cli_run.hpp"
 #include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/gradcheck.hpp"
@@ -338,44 +335,6 @@ TEST(PcfDeterminism, BackwardIsBitIdentical) {
   expect_identical(a, b, "soft truncated");
 }
 
-// kernels/ copied with `from` in `file` replaced by `to` (the test fails if `from` is not there).
-std::filesystem::path patched_kernels(const std::string& name, const std::string& file,
-                                      const std::string& from, const std::string& to) {
-  namespace fs = std::filesystem;
-  fs::path dir = fs::path(::testing::TempDir()) / name;
-  fs::remove_all(dir);
-  fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", dir, fs::copy_options::recursive);
-  std::string text = read_text((dir / file).string());
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << file << " no longer holds: " << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  std::ofstream out(dir / file, std::ios::trunc);
-  out << text;
-  EXPECT_TRUE(out.flush().good()) << "cannot write " << (dir / file).string();
-  return dir;
-}
-
-// The images and gradients of a render and backward of `scene`, with the kernels of
-// `kernel_dir` (empty: the project's), in a context of their own (built after the variable is
-// set).
-struct Results {
-  std::vector<RenderOutput> images;
-  SceneGrads grads;
-};
-Results results_with(const std::string& kernel_dir, const Scene& scene, Precision p,
-                     const std::vector<OutputGrads>& weights) {
-  ScopedEnv env("PENUMBRA_KERNEL_DIR", kernel_dir.empty() ? nullptr : kernel_dir.c_str());
-  Context ctx;
-  Renderer r(ctx, p);
-  Results out{r.render(scene), {}};
-  out.grads = r.backward(scene, weights);
-  return out;
-}
-SceneGrads grads_with(const std::string& kernel_dir, const Scene& scene, Precision p,
-                      const std::vector<OutputGrads>& weights) {
-  return results_with(kernel_dir, scene, p, weights).grads;
-}
-
 // f(precision, scene, its name) for float and double, each of `layouts`, hard and soft shadows,
 // truncated and exact sampling.
 template <class F>
@@ -386,19 +345,6 @@ void for_each_variant(std::initializer_list<Layout> layouts, F&& f) {
         for (Sampling sa : {Sampling::Truncated, Sampling::Exact})
           f(p, pcf_scene(layout, sh, sa),
             std::string(name_of(layout)) + " " + name_of(sh) + " " + penumbra_tests::name_of(sa));
-}
-
-bool same_images(const std::vector<RenderOutput>& a, const std::vector<RenderOutput>& b) {
-  if (a.size() != b.size()) return false;
-  for (size_t v = 0; v < a.size(); ++v)
-    if (a[v].color.data != b[v].color.data || a[v].silhouette.data != b[v].silhouette.data ||
-        a[v].depth.data != b[v].depth.data)
-      return false;
-  return true;
-}
-
-bool finite_image(const Image& im) {
-  return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
 }
 
 bool all_finite(const SceneGrads& g) {

@@ -16,6 +16,7 @@
 //                      on the shadowed ground only (occluder vertices act through S alone)
 //   ShadowVisible.*    a ground pixel in the occluder's shadow is dark, one outside it is lit
 //   ShadowDeterminism.*  two backward calls give bit-identical gradients
+//   ShadowFacing.*     shadow_sample's skip of fragments facing away from the light changes no bit
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
 
@@ -746,6 +747,49 @@ TEST(ShadowDeterminism, KeptExactWeightsGiveAFreshRenderersBits) {
       expect_identical(ga, gb, what);
     }
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (h) Fragments facing away from the light.
+
+// shadow_sample gives a fragment in the map that faces away from the light (n·l ≤ 0) s = 1
+// without a lookup where σ_s and ε_λ assure Σg' > 0 there: kernels that look every fragment up
+// give the same images and gradients bit for bit, at σ_s and ε_λ that skip and at ones that do
+// not (σ_s = ε_λ = 0.05: the texel nearest μ may weigh less than ε_λ, Σg' may be 0); kernels
+// that store NaN there give NaN colours (s·0), so the skip happens in these scenes.
+constexpr const char* kFacingTest = "rec_shade[r * (1 + nl) + 1 + light].w == 0";
+constexpr const char* kFacingStore = "    rec_light[r * nl + light].w = 1;";
+
+TEST(ShadowFacing, SkippedLookupsChangeNoBit) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string always =
+      patched_kernels("penumbra_shadow_look_up_all", "shadow.cl", kFacingTest, "0");
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (const NamedScene& named : comparison_scenes(Method::Truncated))
+      for (const double sigma_eps : {0.0, 0.05}) {  // 0: the scene's σ_s = 2, ε_λ = 1e-3
+        Scene scene = named.scene;
+        if (sigma_eps > 0) scene.params.sigma_s = scene.params.lambda_eps = sigma_eps;
+        const std::string what =
+            named.name + " " + name_of(p) + (sigma_eps > 0 ? " σ_s = ε_λ = 0.05" : "");
+        const auto weights = penumbra::random_loss_weights(scene, 11);
+        const Results a = results_with("", scene, p, weights),
+                      b = results_with(always, scene, p, weights);
+        EXPECT_TRUE(same_images(a.images, b.images)) << what;
+        expect_identical(a.grads, b.grads, what + ": facing-away lookups skipped or not");
+      }
+}
+
+TEST(ShadowFacing, LookupsSkipped) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string poisoned =
+      patched_kernels("penumbra_shadow_facing_nan", "shadow.cl", kFacingStore,
+                      "    rec_light[r * nl + light].w = NAN;");
+  const Scene scene = shadow_scene(Lighting::Point);
+  const auto weights = penumbra::random_loss_weights(scene, 11);
+  EXPECT_TRUE(finite_image(results_with("", scene, Precision::Float, weights).images[0].color));
+  EXPECT_FALSE(
+      finite_image(results_with(poisoned, scene, Precision::Float, weights).images[0].color))
+      << "no fragment in the map faced away from the light";
 }
 
 }  // namespace

@@ -23,8 +23,8 @@ struct ShadowSampleArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "shadow_sample";
   MapLookup at;
-  const cl::Buffer &S, &rec_light, &rec_light2;
-  auto fields() const { return std::tie(at, S, rec_light, rec_light2); }
+  const cl::Buffer &S, &rec_shade, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, rec_shade, rec_light, rec_light2); }
 };
 
 struct ShadowSampleBwdArgs {
@@ -287,7 +287,7 @@ void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments&
                         sampling_define(p.sampling));
     launch_1d(k.ctx(), s, n);
   } else if (sampling_method(p.sampling).windowed) {
-    auto& s = bind_args(k, ShadowSampleArgs{at, lm.S, f.rec_light, f.rec_light2});
+    auto& s = bind_args(k, ShadowSampleArgs{at, lm.S, f.rec_shade, f.rec_light, f.rec_light2});
     launch_1d(k.ctx(), s, n);
   } else {
     exact_forward(k, exact_on_clblast(p, k.tuning()), f, at, lm);
