@@ -10,8 +10,8 @@
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2 K·nl × real4: truncated hard shadows write (·, ·, v, Σg') to .zw, the filtered
 //              depth and the filter's sum, which the backward reads instead of summing again
-//   rec_shade  K·(1+nl) × real4 (raster.cl): truncated hard shadows read each light's flag,
-//              0 where the fragment faces away from it
+//   rec_shade  K·(1+nl) × real4 (raster.cl): shadow_sample and soft_sample read each light's
+//              flag, 0 where the fragment faces away from it
 //   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
@@ -328,12 +328,19 @@ inline realR soft_term(realR S, realR Pv, realR dij, SoftCompare k, realR* dd, r
   return front * lit;
 }
 
+// A fragment in the map that faces away from the light gets s = 1 without a lookup, as in
+// shadow_sample; soft_sample_bwd reads nothing of it (dL/ds = ±0 there).
 FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                 __global const real* S, __global const real* Pmap,
-                                __global real4* rec_light, __global const real4* rec_light2) {
+                                __global const real4* rec_shade, __global real4* rec_light,
+                                __global const real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
+  if (inside_map(x.xy, Wm, Hm) && rec_shade[r * (1 + nl) + 1 + light].w == 0) {
+    rec_light[r * nl + light].w = 1;
+    return;
+  }
   real2 grad = rec_light2[r * nl + light].xy;
   Window w = sample_window(x.xy, P, Wm, Hm);
   real ss = P[P_SIGMA_S];

@@ -16,6 +16,8 @@
 //   PenumbraLightSize.*    dL/dD_L against a central difference of render
 //   PenumbraWidth.*        the penumbra widens with D_L and with the occluder's height
 //   PenumbraDeterminism.*  two backward calls give bit-identical gradients
+//   PenumbraFacing.*       soft_sample's skip of fragments facing away from the light changes no
+//                          bit, and happens
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
 
@@ -651,6 +653,45 @@ TEST(PenumbraDeterminism, BackwardIsBitIdentical) {
         EXPECT_NE(a.light_size[0], 0.0) << tag;
       }
     }
+  }
+}
+
+// soft_sample gives a fragment in the map that faces away from the light (n·l ≤ 0) s = 1
+// without a lookup: kernels that look every fragment up give the same images and gradients bit
+// for bit, truncated and exact; kernels that store NaN there give NaN colours (s·0), so the
+// skip happens in these scenes.
+constexpr const char* kFacingTest = "rec_shade[r * (1 + nl) + 1 + light].w == 0) {";
+constexpr const char* kFacingStore =
+    "    rec_light[r * nl + light].w = 1;\n    return;\n  }\n  real2";
+
+TEST(PenumbraFacing, SkippedLookupsChangeNoBit) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string always =
+      patched_kernels("penumbra_soft_look_up_all", "shadow.cl", kFacingTest, "0) {");
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Sampling sampling : {Sampling::Truncated, Sampling::Exact})
+      for (const NamedScene& named : comparison_scenes(sampling)) {
+        const std::string what = named.name + " " + name_of(sampling) + " " + name_of(p);
+        const auto weights = penumbra::random_loss_weights(named.scene, 11);
+        const Results a = results_with("", named.scene, p, weights),
+                      b = results_with(always, named.scene, p, weights);
+        EXPECT_TRUE(same_images(a.images, b.images)) << what;
+        expect_identical(a.grads, b.grads, what + ": facing-away lookups skipped or not", true);
+      }
+}
+
+TEST(PenumbraFacing, LookupsSkipped) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string poisoned =
+      patched_kernels("penumbra_soft_facing_nan", "shadow.cl", kFacingStore,
+                      "    rec_light[r * nl + light].w = NAN;\n    return;\n  }\n  real2");
+  for (Sampling sampling : {Sampling::Truncated, Sampling::Exact}) {
+    const Scene scene = soft_scene(Layout::Point, sampling);
+    const auto weights = penumbra::random_loss_weights(scene, 11);
+    EXPECT_TRUE(finite_image(results_with("", scene, Precision::Float, weights).images[0].color));
+    EXPECT_FALSE(
+        finite_image(results_with(poisoned, scene, Precision::Float, weights).images[0].color))
+        << name_of(sampling) << ": no fragment in the map faced away from the light";
   }
 }
 

@@ -51,8 +51,8 @@ struct SoftSampleArgs {
   static constexpr const char* file = "shadow.cl";
   static constexpr const char* kernel = "soft_sample";
   MapLookup at;
-  const cl::Buffer &S, &Pmap, &rec_light, &rec_light2;
-  auto fields() const { return std::tie(at, S, Pmap, rec_light, rec_light2); }
+  const cl::Buffer &S, &Pmap, &rec_shade, &rec_light, &rec_light2;
+  auto fields() const { return std::tie(at, S, Pmap, rec_shade, rec_light, rec_light2); }
 };
 
 struct SoftSampleBwdArgs {
@@ -283,8 +283,9 @@ void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments&
   if (n == 0) return;
   const MapLookup at{v.P, n, light, v.nlights, lm.W, lm.H};
   if (p.shadows == Shadows::Soft) {
-    auto& s = bind_args(k, SoftSampleArgs{at, lm.S, lm.penumbra, f.rec_light, f.rec_light2},
-                        sampling_define(p.sampling));
+    auto& s =
+        bind_args(k, SoftSampleArgs{at, lm.S, lm.penumbra, f.rec_shade, f.rec_light, f.rec_light2},
+                  sampling_define(p.sampling));
     launch_1d(k.ctx(), s, n);
   } else if (sampling_method(p.sampling).windowed) {
     auto& s = bind_args(k, ShadowSampleArgs{at, lm.S, f.rec_shade, f.rec_light, f.rec_light2});
