@@ -349,4 +349,22 @@ bool finite_image(const Image& im) {
   return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
 }
 
+void expect_skip_changes_no_bit(const std::string& looking_up, const Scene& scene, Precision p,
+                                const std::string& what) {
+  const auto weights = random_loss_weights(scene, 11);
+  const Results a = results_with("", scene, p, weights),
+                b = results_with(looking_up, scene, p, weights);
+  EXPECT_TRUE(same_images(a.images, b.images)) << what;
+  expect_identical(a.grads, b.grads, what + ": lookups skipped or not", true);
+}
+
+void expect_skip_taken(const std::string& poisoned, const Scene& scene, const std::string& what) {
+  const auto weights = random_loss_weights(scene, 11);
+  EXPECT_TRUE(finite_image(results_with("", scene, Precision::Float, weights).images[0].color))
+      << what;
+  EXPECT_FALSE(
+      finite_image(results_with(poisoned, scene, Precision::Float, weights).images[0].color))
+      << what << ": no lookup was skipped";
+}
+
 }  // namespace penumbra_tests

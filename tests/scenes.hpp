@@ -146,4 +146,14 @@ bool same_images(const std::vector<penumbra::RenderOutput>& a,
                  const std::vector<penumbra::RenderOutput>& b);
 bool finite_image(const penumbra::Image& im);
 
+// A lookup skipped where it cannot matter changes no bit: `scene` gives the same images and
+// gradients (random loss weights) with the project's kernels and with `looking_up`'s, which
+// skip nothing.
+void expect_skip_changes_no_bit(const std::string& looking_up, const penumbra::Scene& scene,
+                                penumbra::Precision p, const std::string& what);
+// The skip happens: the first view's colour is finite with the project's kernels and not with
+// `poisoned`'s, which store NaN as a skipped fragment's s (s·0 is NaN).
+void expect_skip_taken(const std::string& poisoned, const penumbra::Scene& scene,
+                       const std::string& what);
+
 }  // namespace penumbra_tests

@@ -769,13 +769,9 @@ TEST(ShadowFacing, SkippedLookupsChangeNoBit) {
       for (const double sigma_eps : {0.0, 0.05}) {  // 0: the scene's σ_s = 2, ε_λ = 1e-3
         Scene scene = named.scene;
         if (sigma_eps > 0) scene.params.sigma_s = scene.params.lambda_eps = sigma_eps;
-        const std::string what =
-            named.name + " " + name_of(p) + (sigma_eps > 0 ? " σ_s = ε_λ = 0.05" : "");
-        const auto weights = penumbra::random_loss_weights(scene, 11);
-        const Results a = results_with("", scene, p, weights),
-                      b = results_with(always, scene, p, weights);
-        EXPECT_TRUE(same_images(a.images, b.images)) << what;
-        expect_identical(a.grads, b.grads, what + ": facing-away lookups skipped or not");
+        expect_skip_changes_no_bit(
+            always, scene, p,
+            named.name + " " + name_of(p) + (sigma_eps > 0 ? " σ_s = ε_λ = 0.05" : ""));
       }
 }
 
@@ -784,12 +780,7 @@ TEST(ShadowFacing, LookupsSkipped) {
   const std::string poisoned =
       patched_kernels("penumbra_shadow_facing_nan", "shadow.cl", kFacingStore,
                       "    rec_light[r * nl + light].w = NAN;");
-  const Scene scene = shadow_scene(Lighting::Point);
-  const auto weights = penumbra::random_loss_weights(scene, 11);
-  EXPECT_TRUE(finite_image(results_with("", scene, Precision::Float, weights).images[0].color));
-  EXPECT_FALSE(
-      finite_image(results_with(poisoned, scene, Precision::Float, weights).images[0].color))
-      << "no fragment in the map faced away from the light";
+  expect_skip_taken(poisoned, shadow_scene(Lighting::Point), "point");
 }
 
 }  // namespace
