@@ -128,12 +128,11 @@ FORWARD_KERNEL void pcf_window_logs(__global const real* P, __global real* logs)
   logs[1] = log(1 / window_eps(P, 1));
 }
 
-// s, σ and z_b of every fragment. A fragment in the map that faces away from the light (n·l ≤ 0:
-// rec_shade's flag, raster.cl) needs no lookup: its s enters its colour only times its direct
-// term, 0, and the backward passes over its light (shade_bwd; pcf_sample_bwd, as dL/ds = 0,
-// which leaves it no gradient for the gather to add). Its σ then changes no result but the
-// gather's reach (gather_reach: the widest σ), which must not fall short of the widest filter
-// with a gradient and does not: it gets s = 1, σ = σ_s and z_b = d.
+// s, σ and z_b of every fragment. A fragment facing away from the light (faces_away_in_map)
+// needs no lookup: pcf_sample_bwd, as dL/ds = ±0, leaves it no gradient for the gather to add.
+// Its σ then changes no result but the gather's reach (gather_reach: the widest σ), which must
+// not fall short of the widest filter with a gradient and does not: it gets s = 1, σ = σ_s and
+// z_b = d.
 FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                WindowLogs logs, __global const real* S, __global const real* A,
                                __global const real* Sb, __global const real* Ab, int Wb, int Hb,
@@ -144,8 +143,7 @@ FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int 
   int at = r * nl + light;
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real sigma = P[P_SIGMA_S], zb = x.d, V, dzb, dd, dsize, dw;
-  // (Inside the map only: the unused slots' records lie outside it, their shading unwritten.)
-  if (inside_map(x.mu, Wm, Hm) && rec_shade[r * (1 + nl) + 1 + light].w == 0) {
+  if (faces_away_in_map(x.mu, Wm, Hm, rec_shade, r, nl, light)) {
     rec_light[at].w = 1;
     rec_light2[at].zw = (real2)(sigma, zb);
     return;

@@ -51,17 +51,15 @@ inline int nearest_texel_counts(__global const real* P) {
   return P[P_WINDOW_R] >= RL(0.5) && exp(RL(-0.25) / P[P_SIGMA_S]) >= 2 * P[P_LAMBDA_EPS];
 }
 
-// A fragment in the map that faces away from the light (rec_shade's flag 0) gets s = 1 without
-// a lookup: s multiplies its direct term, 0, and shade_bwd passes over the light. Its backward
-// (dL/ds = ±0) reads of v and Σg' only whether Σg' > 0, which nearest_texel_counts assures.
+// A fragment facing away from the light (faces_away_in_map) gets s = 1 without a lookup where
+// nearest_texel_counts: of v and Σg' its backward reads only whether Σg' > 0.
 FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm,
                                   int Hm, __global const real* S, __global const real4* rec_shade,
                                   __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
-  if (inside_map(x.xy, Wm, Hm) && rec_shade[r * (1 + nl) + 1 + light].w == 0 &&
-      nearest_texel_counts(P)) {
+  if (faces_away_in_map(x.xy, Wm, Hm, rec_shade, r, nl, light) && nearest_texel_counts(P)) {
     rec_light[r * nl + light].w = 1;
     rec_light2[r * nl + light].zw = (real2)(x.z, 1);
     return;
@@ -328,8 +326,8 @@ inline realR soft_term(realR S, realR Pv, realR dij, SoftCompare k, realR* dd, r
   return front * lit;
 }
 
-// A fragment in the map that faces away from the light gets s = 1 without a lookup, as in
-// shadow_sample; soft_sample_bwd reads nothing of it (dL/ds = ±0 there).
+// A fragment facing away from the light (faces_away_in_map) gets s = 1 without a lookup:
+// soft_sample_bwd reads nothing of it.
 FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                 __global const real* S, __global const real* Pmap,
                                 __global const real4* rec_shade, __global real4* rec_light,
@@ -337,7 +335,7 @@ FORWARD_KERNEL void soft_sample(__global const real* P, int nrec, int light, int
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
-  if (inside_map(x.xy, Wm, Hm) && rec_shade[r * (1 + nl) + 1 + light].w == 0) {
+  if (faces_away_in_map(x.xy, Wm, Hm, rec_shade, r, nl, light)) {
     rec_light[r * nl + light].w = 1;
     return;
   }

@@ -349,6 +349,11 @@ bool finite_image(const Image& im) {
   return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
 }
 
+std::string kernels_looking_up_every_fragment(const std::string& name) {
+  return patched_kernels(name, "common/window.clh", "rec_shade[r * (1 + nl) + 1 + light].w == 0",
+                         "0");
+}
+
 void expect_skip_changes_no_bit(const std::string& looking_up, const Scene& scene, Precision p,
                                 const std::string& what) {
   const auto weights = random_loss_weights(scene, 11);

@@ -146,6 +146,11 @@ bool same_images(const std::vector<penumbra::RenderOutput>& a,
                  const std::vector<penumbra::RenderOutput>& b);
 bool finite_image(const penumbra::Image& im);
 
+// The project's kernels with no lookup skipped for a fragment facing away from the light
+// (faces_away_in_map never true), in the folder `name` (one per test: ctest runs tests side by
+// side); returns the folder.
+std::string kernels_looking_up_every_fragment(const std::string& name);
+
 // A lookup skipped where it cannot matter changes no bit: `scene` gives the same images and
 // gradients (random loss weights) with the project's kernels and with `looking_up`'s, which
 // skip nothing.

@@ -660,14 +660,12 @@ TEST(PenumbraDeterminism, BackwardIsBitIdentical) {
 // without a lookup: kernels that look every fragment up give the same images and gradients bit
 // for bit, truncated and exact; kernels that store NaN there give NaN colours (s·0), so the
 // skip happens in these scenes.
-constexpr const char* kFacingTest = "rec_shade[r * (1 + nl) + 1 + light].w == 0) {";
 constexpr const char* kFacingStore =
     "    rec_light[r * nl + light].w = 1;\n    return;\n  }\n  real2";
 
 TEST(PenumbraFacing, SkippedLookupsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
-  const std::string always =
-      patched_kernels("penumbra_soft_look_up_all", "shadow.cl", kFacingTest, "0) {");
+  const std::string always = kernels_looking_up_every_fragment("penumbra_soft_look_up_all");
   for (Precision p : {Precision::Float, Precision::Double})
     for (Sampling sampling : {Sampling::Truncated, Sampling::Exact})
       for (const NamedScene& named : comparison_scenes(sampling))

@@ -757,13 +757,11 @@ TEST(ShadowDeterminism, KeptExactWeightsGiveAFreshRenderersBits) {
 // give the same images and gradients bit for bit, at σ_s and ε_λ that skip and at ones that do
 // not (σ_s = ε_λ = 0.05: the texel nearest μ may weigh less than ε_λ, Σg' may be 0); kernels
 // that store NaN there give NaN colours (s·0), so the skip happens in these scenes.
-constexpr const char* kFacingTest = "rec_shade[r * (1 + nl) + 1 + light].w == 0";
 constexpr const char* kFacingStore = "    rec_light[r * nl + light].w = 1;";
 
 TEST(ShadowFacing, SkippedLookupsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
-  const std::string always =
-      patched_kernels("penumbra_shadow_look_up_all", "shadow.cl", kFacingTest, "0");
+  const std::string always = kernels_looking_up_every_fragment("penumbra_shadow_look_up_all");
   for (Precision p : {Precision::Float, Precision::Double})
     for (const NamedScene& named : comparison_scenes(Method::Truncated))
       for (const double sigma_eps : {0.0, 0.05}) {  // 0: the scene's σ_s = 2, ε_λ = 1e-3
