@@ -149,7 +149,7 @@ MISS_REASONS = [
      "device name of a 2-core `Intel(R) Xeon(R) Processor @ 2.50GHz` VM, `render: prepare` "
      "took 5.1-6.5 ms a call against 6.8-8.2 ms before at 512² and 100 852 faces, and 67-68 "
      "against 82-88 ms at 1 003 552 faces (two alternated runs each, `PENUMBRA_TUNING`, "
-     "2026-11-28 14:50 UTC)."),
+     "2026-11-28 13:30 UTC)."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
      "forward and (per face, over its pixel box) backward, plus the lookups and gathers: per "
      "step `raster_bwd` 45 ms, `raster_count` 43 ms, `raster_fragments` 27 ms, `shadow_gather` "
