@@ -109,16 +109,22 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
   rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
 }
 
-// The texel nearest each fragment's μ as a one-texel box (empty outside the map), for
-// bucketing fragments by texel with bin.cl (tile = 1): the gathers below then find the
-// fragments whose window can cover a texel in the buckets within the window radius.
+// The texel nearest each fragment's μ as a one-texel box, for bucketing fragments by texel
+// with bin.cl (tile = 1): the gathers below then find the fragments whose window can cover a
+// texel in the buckets within the window radius. Empty outside the map and for a fragment with
+// no gradient to pass to the maps, dL/ds and dL/dz_b both ±0 (facing away from the light, or
+// outside the loss): every gather adds nothing for it (shadow_gather, soft_gather and
+// pcf_gather skip it), so leaving it out of the buckets changes no bit.
 BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm,
-                                  int Hm, __global const real4* rec_light, __global int4* boxes) {
+                                  int Hm, __global const real4* rec_light,
+                                  __global const real4* rec_lgrad,
+                                  __global const real4* rec_lgrad2, __global int4* boxes) {
   int r = get_global_id(0);
   if (r >= nrec) return;
-  real2 mu = rec_light[r * nl + light].xy;
+  const int at = r * nl + light;
+  real2 mu = rec_light[at].xy;
   int4 box = (int4)(1, 1, 0, 0);
-  if (inside_map(mu, Wm, Hm)) {
+  if (inside_map(mu, Wm, Hm) && (rec_lgrad[at].x != 0 || rec_lgrad2[at].z != 0)) {
     int bx = clamp((int)floor(mu.x + RL(0.5)), 0, Wm - 1);
     int by = clamp((int)floor(mu.y + RL(0.5)), 0, Hm - 1);
     box = (int4)(bx, by, bx, by);

@@ -307,17 +307,23 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
 
 std::string patched_kernels(const std::string& name, const std::string& file,
                             const std::string& from, const std::string& to) {
+  return patched_kernels(name, {{file, from, to}});
+}
+
+std::string patched_kernels(const std::string& name, const std::vector<KernelEdit>& edits) {
   namespace fs = std::filesystem;
   fs::path dir = fs::path(::testing::TempDir()) / name;
   fs::remove_all(dir);
   fs::copy(fs::path(PENUMBRA_DATA_DIR).parent_path() / "kernels", dir, fs::copy_options::recursive);
-  std::string text = read_text((dir / file).string());
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << file << " no longer holds: " << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  std::ofstream out(dir / file, std::ios::trunc);
-  out << text;
-  EXPECT_TRUE(out.flush().good()) << "cannot write " << (dir / file).string();
+  for (const auto& [file, from, to] : edits) {
+    std::string text = read_text((dir / file).string());
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << file << " no longer holds: " << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+    std::ofstream out(dir / file, std::ios::trunc);
+    out << text;
+    EXPECT_TRUE(out.flush().good()) << "cannot write " << (dir / file).string();
+  }
   return dir.string();
 }
 
@@ -347,6 +353,13 @@ bool same_images(const std::vector<RenderOutput>& a, const std::vector<RenderOut
 
 bool finite_image(const Image& im) {
   return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
+}
+
+bool all_finite(const SceneGrads& g) {
+  for (const auto& mesh : g.vertices)
+    for (const auto& v : mesh)
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
+  return true;
 }
 
 std::string kernels_looking_up_every_fragment(const std::string& name) {

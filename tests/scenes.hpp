@@ -128,6 +128,11 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
 // by `to` (the test fails if `from` is not there); returns the folder.
 std::string patched_kernels(const std::string& name, const std::string& file,
                             const std::string& from, const std::string& to);
+// The same with several passages changed, in order.
+struct KernelEdit {
+  std::string file, from, to;
+};
+std::string patched_kernels(const std::string& name, const std::vector<KernelEdit>& edits);
 
 // The images and gradients of a render and backward of `scene`, with the kernels of
 // `kernel_dir` (empty: the project's), in a context of their own (built after the variable is
@@ -145,6 +150,8 @@ penumbra::SceneGrads grads_with(const std::string& kernel_dir, const penumbra::S
 bool same_images(const std::vector<penumbra::RenderOutput>& a,
                  const std::vector<penumbra::RenderOutput>& b);
 bool finite_image(const penumbra::Image& im);
+// Whether every vertex gradient is finite.
+bool all_finite(const penumbra::SceneGrads& g);
 
 // The project's kernels with no lookup skipped for a fragment facing away from the light
 // (faces_away_in_map never true), in the folder `name` (one per test: ctest runs tests side by

@@ -347,13 +347,6 @@ void for_each_variant(std::initializer_list<Layout> layouts, F&& f) {
             std::string(name_of(layout)) + " " + name_of(sh) + " " + penumbra_tests::name_of(sa));
 }
 
-bool all_finite(const SceneGrads& g) {
-  for (const auto& mesh : g.vertices)
-    for (const auto& v : mesh)
-      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
-  return true;
-}
-
 // pcf_sample_bwd stores a filter scale of 0 where the filter is flat (filter_flat) and
 // pcf_gather skips it: with kernels whose filter_flat finds none, every gradient is the same
 // bit for bit. And the skip happens: kernels that store NaN there instead give NaN gradients.

@@ -17,6 +17,8 @@
 //   ShadowVisible.*    a ground pixel in the occluder's shadow is dark, one outside it is lit
 //   ShadowDeterminism.*  two backward calls give bit-identical gradients
 //   ShadowFacing.*     shadow_sample's skip of fragments facing away from the light changes no bit
+//   ShadowBuckets.*    the gathers' buckets leave out the fragments without a gradient: no bit
+//                      changes, paper and accurate model, hard and soft shadows
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
 
@@ -779,6 +781,71 @@ TEST(ShadowFacing, LookupsSkipped) {
       patched_kernels("penumbra_shadow_facing_nan", "shadow.cl", kFacingStore,
                       "    rec_light[r * nl + light].w = NAN;");
   expect_skip_taken(poisoned, shadow_scene(Lighting::Point), "point");
+}
+
+// ---------------------------------------------------------------------------------------------
+// (i) The gathers' texel buckets.
+
+// shadow_boxes buckets only the fragments with a gradient to pass to the maps (dL/ds or
+// dL/dz_b nonzero). Under a loss that leaves the image's left half out (and so the fragments
+// there, besides those facing away from a light), kernels that bucket every fragment in the map
+// give the same images and gradients bit for bit, for both models and hard and soft shadows.
+// And the buckets leave fragments out: with a soft_gather that turns NaN on meeting a fragment
+// without a gradient, the gradients stay finite with the project's buckets and are NaN with
+// every fragment bucketed.
+constexpr const char* kBucketTest = "(rec_lgrad[at].x != 0 || rec_lgrad2[at].z != 0)";
+
+Scene bucket_scene(Lighting lighting, Shadows shadows, ShadowModel model) {
+  Scene s = shadow_scene(lighting);
+  for (Light& l : s.lights) l.size = l.type == LightType::Point ? 1.0 : 0.6;
+  shadow_params(s, shadows, Method::Truncated, model);
+  fit_light_frusta(s);
+  return s;
+}
+
+std::vector<OutputGrads> right_half_loss(const Scene& scene) {
+  std::vector<OutputGrads> weights = random_loss_weights(scene, 11);
+  for (OutputGrads& w : weights)
+    for (Image* im : {&w.color, &w.silhouette, &w.depth})
+      for (int y = 0; y < im->height; ++y)
+        for (int x = 0; x < im->width / 2; ++x)
+          for (int c = 0; c < im->channels; ++c) im->at(x, y, c) = 0;
+  return weights;
+}
+
+TEST(ShadowBuckets, FragmentsWithoutGradientLeftOutChangeNoBit) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string every =
+      patched_kernels("penumbra_bucket_every", "shadow.cl", kBucketTest, "r < nrec");
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (Lighting lighting : {Lighting::Point, Lighting::Two})
+      for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
+        for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
+          const Scene scene = bucket_scene(lighting, sh, model);
+          const std::string what = std::string(lighting == Lighting::Point ? "point" : "two") +
+                                   (model == ShadowModel::Paper ? " paper " : " accurate ") +
+                                   (sh == Shadows::Hard ? "hard " : "soft ") + name_of(p);
+          const auto weights = right_half_loss(scene);
+          const Results a = results_with("", scene, p, weights),
+                        b = results_with(every, scene, p, weights);
+          EXPECT_TRUE(same_images(a.images, b.images)) << what;
+          expect_identical(a.grads, b.grads, what + ": buckets of fragments with gradients or all",
+                           true);
+        }
+}
+
+TEST(ShadowBuckets, FragmentsWithoutGradientLeftOut) {
+  REQUIRE_CONTEXT(ctx);
+  const KernelEdit poison{"shadow.cl", "    if (k == 0) continue;",
+                          "    if (k == 0) {\n      accS[0] = NAN;\n      continue;\n    }"};
+  const std::string poisoned = patched_kernels("penumbra_bucket_nan", {poison}),
+                    every = patched_kernels("penumbra_bucket_every_nan",
+                                            {poison, {"shadow.cl", kBucketTest, "r < nrec"}});
+  const Scene scene = bucket_scene(Lighting::Point, Shadows::Soft, ShadowModel::Paper);
+  const auto weights = right_half_loss(scene);
+  EXPECT_TRUE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)));
+  EXPECT_FALSE(all_finite(grads_with(every, scene, Precision::Float, weights)))
+      << "no fragment without a gradient was in the buckets";
 }
 
 }  // namespace

@@ -190,7 +190,7 @@ GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const
   }
   b.chunks = alloc_ints(ctx, 4);
   const size_t texels = size_t(at.Wm) * at.Hm;
-  b.bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+  b.bins = texel_buckets(k, v, f, fgr, at.light, at.Wm, at.Hm);
   b.records = gather_records(k, sampling, f, fgr, at, b.bins);
   b.radius = alloc_reals(ctx, k.precision(), texels);
   auto& radius = bind_args(

@@ -15,8 +15,8 @@ struct ShadowBoxesArgs {
   static constexpr const char* kernel = "shadow_boxes";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer &rec_light, &boxes;
-  auto fields() const { return std::tie(at, rec_light, boxes); }
+  const cl::Buffer &rec_light, &rec_lgrad, &rec_lgrad2, &boxes;
+  auto fields() const { return std::tie(at, rec_light, rec_lgrad, rec_lgrad2, boxes); }
 };
 
 struct ShadowSampleArgs {
@@ -192,7 +192,7 @@ MapGrads soft_backward(Kernels& k, Sampling sampling, const View& v, const Fragm
   Bins bins;  // the truncated gather's buckets, or the exact gather's chunks
   cl::Buffer chunks;
   if (sampling_method(sampling).windowed) {
-    bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+    bins = texel_buckets(k, v, f, fgr, at.light, at.Wm, at.Hm);
     chunks = alloc_ints(k.ctx(), 4);
   } else {
     bins.offsets = bins.counts = bins.items = alloc_ints(k.ctx(), 1);
@@ -214,7 +214,7 @@ MapGrads truncated_backward(Kernels& k, const View& v, const Fragments& f, const
   auto& sb = bind_args(k, ShadowSampleBwdArgs{at, lm.S, f.rec_light, f.rec_light2, fgr.rec_lgrad});
   launch_1d(k.ctx(), sb, at.nrec);
   // texels gather from nearby fragments
-  Bins bins = texel_buckets(k, v, f, at.light, at.Wm, at.Hm);
+  Bins bins = texel_buckets(k, v, f, fgr, at.light, at.Wm, at.Hm);
   auto& ga = bind_args(k, ShadowGatherArgs{at, f.rec_light, fgr.rec_lgrad, bins, g.S});
   launch_gather(k, ga, at.Wm, at.Hm);
   return g;
@@ -268,11 +268,16 @@ cl::Buffer gather_chunks(Kernels& k, int nrec,
   return out;
 }
 
-// The fragments bucketed by the texel nearest their μ (bin.cl with one-texel tiles).
-Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, int light, int Wm, int Hm) {
+// The fragments with a gradient bucketed by the texel nearest their μ (bin.cl with one-texel
+// tiles).
+Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
+                   int light, int Wm, int Hm) {
   const int n = int(f.nrec);
   cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
-  auto& bx = bind_args(k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, boxes});
+  auto& bx = bind_args(
+      k,
+      ShadowBoxesArgs{
+          {v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, fgr.rec_lgrad, fgr.rec_lgrad2, boxes});
   launch_1d(k.ctx(), bx, n);
   return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
