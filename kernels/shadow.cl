@@ -44,22 +44,16 @@ inline real compare(real v, real d, __global const real* P) {
   return sigmoid((v - d + P[P_BETA]) / P[P_GAMMA_S]);
 }
 
-// The texel nearest a μ in the map, at most half a texel off along each axis, weighs
-// e^(−1/(4σ_s)) or more: where that is at least 2ε_λ (and the window reaches half a texel), its
-// g' > 0, so Σg' > 0 for every fragment in the map.
-inline int nearest_texel_counts(__global const real* P) {
-  return P[P_WINDOW_R] >= RL(0.5) && exp(RL(-0.25) / P[P_SIGMA_S]) >= 2 * P[P_LAMBDA_EPS];
-}
-
 // A fragment facing away from the light (faces_away_in_map) gets s = 1 without a lookup where
-// nearest_texel_counts: of v and Σg' its backward reads only whether Σg' > 0.
+// the texel nearest its μ weighs g' > 0 (P_NEAREST_TEXEL_COUNTS, from σ_s and ε_λ), so that
+// Σg' > 0: of v and Σg' its backward reads only whether Σg' > 0.
 FORWARD_KERNEL void shadow_sample(__global const real* P, int nrec, int light, int nl, int Wm,
                                   int Hm, __global const real* S, __global const real4* rec_shade,
                                   __global real4* rec_light, __global real4* rec_light2) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   real4 x = rec_light[r * nl + light];
-  if (faces_away_in_map(x.xy, Wm, Hm, rec_shade, r, nl, light) && nearest_texel_counts(P)) {
+  if (faces_away_in_map(x.xy, Wm, Hm, rec_shade, r, nl, light) && P[P_NEAREST_TEXEL_COUNTS] > 0) {
     rec_light[r * nl + light].w = 1;
     rec_light2[r * nl + light].zw = (real2)(x.z, 1);
     return;

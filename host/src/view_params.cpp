@@ -100,6 +100,11 @@ std::vector<double> base_params(const RenderParams& r, double sigma, double gamm
   P[P_LAMBDA_EPS] = r.lambda_eps;
   P[P_WINDOW_R2] = 2 * P[P_SIGMA_S] * std::log(1 / r.lambda_eps);  // once here, not per fragment
   P[P_WINDOW_R] = std::sqrt(P[P_WINDOW_R2]);
+  // The texel nearest a μ, at most half a texel off along each axis, weighs e^(−1/(4σ_s)) or
+  // more: where that is at least 2ε_λ (and the window reaches half a texel), its g' ≥ ε_λ > 0
+  // (the factor 2 absorbs the kernels' rounding).
+  P[P_NEAREST_TEXEL_COUNTS] =
+      P[P_WINDOW_R] >= 0.5 && std::exp(-0.25 / P[P_SIGMA_S]) >= 2 * r.lambda_eps ? 1 : 0;
   P[P_GAMMA_S] = shadow_gamma_s(r);
   P[P_BETA] = shadow_beta(r);
   P[P_GAMMA_P] = r.gamma_p;

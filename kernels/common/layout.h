@@ -41,6 +41,8 @@
                              cast a shadow (transform.cl's casts_no_shadow) */
 #define P_SCENE_LO 41    /* the scene's bounding box, xyz (with P_CASTERS_ONLY) */
 #define P_SCENE_HI 44
+#define P_NEAREST_TEXEL_COUNTS 47 /* 1: the texel nearest any μ in a map weighs g' > 0 in the
+                                     truncated window (shadow.cl's shadow_sample) */
 #define P_LIGHTS 48      /* P_LIGHT_STRIDE reals per light: */
 #define L_POS 0          /*   position (point) or travel direction (directional), xyz */
 #define L_POINT 3        /*   1 point light, 0 directional */
