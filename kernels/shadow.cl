@@ -106,9 +106,10 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
 // The texel nearest each fragment's μ as a one-texel box, for bucketing fragments by texel
 // with bin.cl (tile = 1): the gathers below then find the fragments whose window can cover a
 // texel in the buckets within the window radius. Empty outside the map and for a fragment with
-// no gradient to pass to the maps, dL/ds and dL/dz_b both ±0 (facing away from the light, or
-// outside the loss): every gather adds nothing for it (shadow_gather, soft_gather and
-// pcf_gather skip it), so leaving it out of the buckets changes no bit.
+// no gradient to pass to the maps, whose gather scales (rec_lgrad.x as the lookups' backward
+// left it, and pcf.cl's search scale rec_lgrad2.z) are both ±0, as where it faces away from
+// the light or lies outside the loss. The gathers (shadow_gather, soft_gather, pcf_gather) add
+// nothing for such a fragment, so leaving it out of the buckets changes no bit.
 BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm,
                                   int Hm, __global const real4* rec_light,
                                   __global const real4* rec_lgrad,

@@ -786,8 +786,8 @@ TEST(ShadowFacing, LookupsSkipped) {
 // ---------------------------------------------------------------------------------------------
 // (i) The gathers' texel buckets.
 
-// shadow_boxes buckets only the fragments with a gradient to pass to the maps (dL/ds or
-// dL/dz_b nonzero). Under a loss that leaves the image's left half out (and so the fragments
+// shadow_boxes buckets only the fragments with a gradient to pass to the maps (a nonzero
+// gather scale). Under a loss that leaves the image's left half out (and so the fragments
 // there, besides those facing away from a light), kernels that bucket every fragment in the map
 // give the same images and gradients bit for bit, for both models and hard and soft shadows.
 // And the buckets leave fragments out: with a soft_gather that turns NaN on meeting a fragment
