@@ -152,10 +152,15 @@ struct TinyKernel {
       "  if (i < n) out[i] = scale * i;\n"
       "}\n";
   TinyKernel() : env("PENUMBRA_KERNEL_DIR", dir().string()), kernels(ctx, Precision::Float, {}) {}
-  static fs::path dir() {
-    fs::path d = fs::path(::testing::TempDir()) / "penumbra_errors_tiny_kernel";
+  static fs::path dir() {  // a folder per test: ctest runs the tests side by side
+    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
+    fs::path d =
+        fs::path(::testing::TempDir()) /
+        ("penumbra_tiny_kernel_" + std::string(test->test_suite_name()) + "_" + test->name());
     fs::create_directories(d);
-    std::ofstream(d / "tiny.cl", std::ios::trunc) << kSource;
+    std::ofstream out(d / "tiny.cl", std::ios::trunc);
+    out << kSource;
+    EXPECT_TRUE(out.flush().good()) << "cannot write " << (d / "tiny.cl").string();
     return d;
   }
   ScopedEnv env;
