@@ -368,26 +368,31 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
         // The weight is D·e^{z̃/γ}/Z: d(log weight)/du = 1 − D, d/dz̃ = 1/γ.
         gu += w * (1 - D) * G;
         gzf = gdepth[pix] * w - w * G / gamma / (farz - nearz);
-        real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
-        real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
-        real sign = facing_sign(F.n, X, P);
-        real s[P_MAX_LIGHTS];
-        for (int l = 0; l < nl; ++l) s[l] = shadow_term(r, l, nl, P, rec_light);
-        real3 gX = 0, gnf = 0, gaf = 0;
-        shade_bwd(X, sign * F.n, a, s, P, gimg.xyz * w, &gX, &gnf, &gaf, &gl);
-        for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
-          // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
-          real3 g = rec_lgrad[r * nl + l].yzw;
-          if (receiver_plane)
-            g.z += receiver_gradient_bwd(l, &rf[l], F.V, rec_light[r * nl + l].z,
-                                         rec_lgrad2[r * nl + l].xy, P, gV, &gframe[l]);
-          gX += light_project_bwd(l, X, g, P, &gframe[l]);
-        }
-        gn += sign * gnf;
-        for (int k = 0; k < 3; ++k) {
-          gb[k] = dot(gX, F.V[k]) + dot(gaf, F.a[k]);
-          gV[k] += fr.b[k] * gX;
-          ga[k] += fr.b[k] * gaf;
+        // Through the shading, only with a colour gradient (never in a light's view): without,
+        // each term is a product with dL/dI or with dL/ds (then 0 too), so the sums below would
+        // only add zeros to sums that start at +0, which changes no bit.
+        if (gimg.x != 0 || gimg.y != 0 || gimg.z != 0) {
+          real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
+          real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
+          real sign = facing_sign(F.n, X, P);
+          real s[P_MAX_LIGHTS];
+          for (int l = 0; l < nl; ++l) s[l] = shadow_term(r, l, nl, P, rec_light);
+          real3 gX = 0, gnf = 0, gaf = 0;
+          shade_bwd(X, sign * F.n, a, s, P, gimg.xyz * w, &gX, &gnf, &gaf, &gl);
+          for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
+            // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
+            real3 g = rec_lgrad[r * nl + l].yzw;
+            if (receiver_plane)
+              g.z += receiver_gradient_bwd(l, &rf[l], F.V, rec_light[r * nl + l].z,
+                                           rec_lgrad2[r * nl + l].xy, P, gV, &gframe[l]);
+            gX += light_project_bwd(l, X, g, P, &gframe[l]);
+          }
+          gn += sign * gnf;
+          for (int k = 0; k < 3; ++k) {
+            gb[k] = dot(gX, F.V[k]) + dot(gaf, F.a[k]);
+            gV[k] += fr.b[k] * gX;
+            ga[k] += fr.b[k] * gaf;
+          }
         }
       }
       fragment_bwd(q, F.p, F.z, F.area, P, &fr, gu, gzf, gb, gp, gz);

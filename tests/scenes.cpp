@@ -355,6 +355,12 @@ bool finite_image(const Image& im) {
   return std::all_of(im.data.begin(), im.data.end(), [](double v) { return std::isfinite(v); });
 }
 
+void clear_left_half(Image& im) {
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width / 2; ++x)
+      for (int c = 0; c < im.channels; ++c) im.at(x, y, c) = 0;
+}
+
 bool all_finite(const SceneGrads& g) {
   for (const auto& mesh : g.vertices)
     for (const auto& v : mesh)

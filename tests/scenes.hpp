@@ -152,6 +152,8 @@ bool same_images(const std::vector<penumbra::RenderOutput>& a,
 bool finite_image(const penumbra::Image& im);
 // Whether every vertex gradient is finite.
 bool all_finite(const penumbra::SceneGrads& g);
+// Sets the left half of an image (columns below width / 2) to 0: a loss weight that leaves it out.
+void clear_left_half(penumbra::Image& im);
 
 // The project's kernels with no lookup skipped for a fragment facing away from the light
 // (faces_away_in_map never true), in the folder `name` (one per test: ctest runs tests side by

@@ -6,6 +6,8 @@
 //   RasterFloat.*      float kernels vs reference, ~1e-4
 //   RasterTuning.*     brute force and every tile / pixels-per-item variant agree bit for bit
 //   RasterDeterminism  rendering twice gives the same bits
+//   RasterShadingSkip.*  raster_bwd's skip of the shading where a pixel has no colour gradient
+//                      changes no bit, with and without shadows
 // Every comparison also checks that no output holds NaN or inf.
 #include <gtest/gtest.h>
 
@@ -643,6 +645,67 @@ TEST(RasterFragments, CountsTheKeptFragments) {
     ASSERT_NO_THROW(renderer.render(s));
     EXPECT_EQ(renderer.fragment_counts(), std::vector<size_t>{size_t(2 * W * H)});
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// raster_bwd passes a fragment's gradient through its shading only where the pixel has a colour
+// gradient (never in a light's view): kernels that always do give the same images and gradients
+// bit for bit, with hard and soft shadows of both models, without shadows and without lights,
+// under a loss whose colour part leaves the image's left half out (its silhouette and depth
+// parts cover it all). And the skip happens: kernels that poison the normal's gradient where it
+// would skip give NaN gradients.
+constexpr const char* kShadingTest = "        if (gimg.x != 0 || gimg.y != 0 || gimg.z != 0) {";
+
+Scene shading_scene(Shadows shadows, ShadowModel model) {
+  Scene s;
+  s.meshes = {icosphere({0.0, 1.0, 0.0}, 0.5), penumbra_tests::ground(2.0, 4)};
+  s.cameras = {front_camera(false)};
+  s.lights = {point_light({0.9, 5.0, 0.7}, {0.9, 0.85, 0.8}, 1.0)};
+  shadow_params(s, shadows, Sampling::Truncated, model);
+  fit_light_frusta(s);
+  return s;
+}
+
+std::vector<OutputGrads> colour_loss_on_right_half(const Scene& scene) {
+  std::vector<OutputGrads> weights = random_loss_weights(scene, 13);
+  for (OutputGrads& w : weights) clear_left_half(w.color);
+  return weights;
+}
+
+TEST(RasterShadingSkip, ChangesNoBit) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string always =
+      patched_kernels("penumbra_raster_shade_always", "raster.cl", kShadingTest, "        {");
+  std::vector<NamedScene> scenes;
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+    for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
+      scenes.push_back({std::string(sh == Shadows::Hard ? "hard" : "soft") +
+                            (model == ShadowModel::Paper ? " paper" : " accurate"),
+                        shading_scene(sh, model)});
+  scenes.push_back({"no shadows", shading_scene(Shadows::None, ShadowModel::Accurate)});
+  scenes.push_back({"no lights (ambient only)", scenes.back().scene});
+  scenes.back().scene.lights.clear();
+  for (Precision p : {Precision::Float, Precision::Double})
+    for (const auto& [name, scene] : scenes) {
+      const std::string what = name + " " + name_of(p);
+      const auto weights = colour_loss_on_right_half(scene);
+      const Results a = results_with("", scene, p, weights),
+                    b = results_with(always, scene, p, weights);
+      EXPECT_TRUE(same_images(a.images, b.images)) << what;
+      penumbra_tests::expect_identical(a.grads, b.grads, what + ": shading skipped or not", true);
+    }
+}
+
+TEST(RasterShadingSkip, Taken) {
+  REQUIRE_CONTEXT(ctx);
+  const std::string poisoned = patched_kernels(
+      "penumbra_raster_shade_nan", "raster.cl", kShadingTest,
+      "        if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0) gn = (real3)(NAN);\n        {");
+  const Scene scene = shading_scene(Shadows::None, ShadowModel::Accurate);
+  const auto weights = colour_loss_on_right_half(scene);
+  EXPECT_TRUE(all_finite(grads_with("", scene, Precision::Float, weights)));
+  EXPECT_FALSE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)))
+      << "no fragment's pixel lacked a colour gradient";
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -806,10 +806,7 @@ Scene bucket_scene(Lighting lighting, Shadows shadows, ShadowModel model) {
 std::vector<OutputGrads> right_half_loss(const Scene& scene) {
   std::vector<OutputGrads> weights = random_loss_weights(scene, 11);
   for (OutputGrads& w : weights)
-    for (Image* im : {&w.color, &w.silhouette, &w.depth})
-      for (int y = 0; y < im->height; ++y)
-        for (int x = 0; x < im->width / 2; ++x)
-          for (int c = 0; c < im->channels; ++c) im->at(x, y, c) = 0;
+    for (Image* im : {&w.color, &w.silhouette, &w.depth}) clear_left_half(*im);
   return weights;
 }
 
