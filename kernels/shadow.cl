@@ -10,8 +10,8 @@
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2 K·nl × real4: truncated hard shadows write (·, ·, v, Σg') to .zw, the filtered
 //              depth and the filter's sum, which the backward reads instead of summing again
-//   rec_shade  K·(1+nl) × real4 (raster.cl): shadow_sample and soft_sample read each light's
-//              flag, 0 where the fragment faces away from it
+//   rec_shade  K·(1+nl) × real4 (raster.cl): shadow_sample, soft_sample and exact_weights read
+//              each light's flag, 0 where the fragment faces away from it
 //   rec_lgrad  K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/dv / Σg, dL/dμx, dL/dμy, dL/dd),
 //              where v is the filtered depth
 //   S          W_s·H_s × real (the light's soft depth map); gS the same (its gradient)
@@ -166,7 +166,7 @@ GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, in
 // Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
 // norm n × real4 (Σgx, Σgy, inside?, 0); dsum (backward only) n × real2 (Σgxd, Σgyd);
 // support n × int4: the first and last nonzero entry of the fragment's row of Gx (.xy) and of
-// Gy (.zw), empty (first > last) outside the map. Far from μ the weights are exactly 0
+// Gy (.zw), empty (first > last) outside the map and facing away from the light. Far from μ the weights are exactly 0
 // (exp_or_zero; float: beyond ~19 texels at σ_s = 2), and the products (matmul.cl) skip them.
 // The weight matrices start zero-filled (the host) and hold zeros outside the supports:
 // exact_weights writes only the entries within zero_radius of μ, after clearing the support
@@ -226,7 +226,8 @@ INLINE real2 axis_weights8(real c, int n, real ss, int on, __global real* out,
 }
 
 FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int light, int nl,
-                                  int Wm, int Hm, __global const real4* rec_light,
+                                  int Wm, int Hm, __global const real4* rec_shade,
+                                  __global const real4* rec_light,
                                   __global real* Gx, __global real* Gxd, int with_derivative,
                                   __global real* Gy, __global real* Gyd, __global real4* norm,
                                   __global real2* dsum, __global int4* support) {
@@ -243,7 +244,11 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   }
   real4 x = rec_light[(r0 + k) * nl + light];
   real ss = P[P_SIGMA_S];
-  int inside = inside_map(x.xy, Wm, Hm);
+  // A fragment facing away from the light gets a row of zeros, as one outside the map: s = 1
+  // (exact_finish) and no gradient (exact_finish_bwd), where its s only multiplies a direct
+  // term of 0 and dL/ds is ±0 (faces_away_in_map); the products skip its row.
+  int inside = inside_map(x.xy, Wm, Hm) &&
+               !faces_away_in_map(x.xy, Wm, Hm, rec_shade, r0 + k, nl, light);
   int2 nx, ny;
   real2 sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
                            with_derivative ? Gxd + (size_t)k * Wm : 0, &nx);

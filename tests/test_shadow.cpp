@@ -16,7 +16,7 @@
 //                      on the shadowed ground only (occluder vertices act through S alone)
 //   ShadowVisible.*    a ground pixel in the occluder's shadow is dark, one outside it is lit
 //   ShadowDeterminism.*  two backward calls give bit-identical gradients
-//   ShadowFacing.*     shadow_sample's skip of fragments facing away from the light changes no bit
+//   ShadowFacing.*     the lookups' skip of fragments facing away from the light changes no bit
 //   ShadowBuckets.*    the gathers' buckets leave out the fragments without a gradient: no bit
 //                      changes, paper and accurate model, hard and soft shadows
 // A missing OpenCL device fails these tests; it never skips them.
@@ -755,24 +755,29 @@ TEST(ShadowDeterminism, KeptExactWeightsGiveAFreshRenderersBits) {
 // (h) Fragments facing away from the light.
 
 // shadow_sample gives a fragment in the map that faces away from the light (n·l ≤ 0) s = 1
-// without a lookup where σ_s and ε_λ assure Σg' > 0 there: kernels that look every fragment up
-// give the same images and gradients bit for bit, at σ_s and ε_λ that skip and at ones that do
-// not (σ_s = ε_λ = 0.05: the texel nearest μ may weigh less than ε_λ, Σg' may be 0); kernels
-// that store NaN there give NaN colours (s·0), so the skip happens in these scenes.
+// without a lookup where σ_s and ε_λ assure Σg' > 0 there, and exact_weights gives it a row of
+// zeros (s = 1, no gradient): kernels that look every fragment up give the same images and
+// gradients bit for bit, truncated at σ_s and ε_λ that skip and at ones that do not
+// (σ_s = ε_λ = 0.05: the texel nearest μ may weigh less than ε_λ, Σg' may be 0), exact on
+// penumbra's products and on CLBlast's; kernels that store NaN there give NaN colours (s·0),
+// so the skip happens in these scenes.
 constexpr const char* kFacingStore = "    rec_light[r * nl + light].w = 1;";
+constexpr const char* kExactNorm = "  norm[k] = (real4)(sx.x, sy.x, inside, 0);";
 
 TEST(ShadowFacing, SkippedLookupsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string always = kernels_looking_up_every_fragment("penumbra_shadow_look_up_all");
   for (Precision p : {Precision::Float, Precision::Double})
-    for (const NamedScene& named : comparison_scenes(Method::Truncated))
-      for (const double sigma_eps : {0.0, 0.05}) {  // 0: the scene's σ_s = 2, ε_λ = 1e-3
-        Scene scene = named.scene;
-        if (sigma_eps > 0) scene.params.sigma_s = scene.params.lambda_eps = sigma_eps;
-        expect_skip_changes_no_bit(
-            always, scene, p,
-            named.name + " " + name_of(p) + (sigma_eps > 0 ? " σ_s = ε_λ = 0.05" : ""));
-      }
+    for (Method method : {Method::Truncated, Method::Exact, Method::Gemm})
+      for (const NamedScene& named : comparison_scenes(method))
+        for (const double sigma_eps : {0.0, 0.05}) {  // 0: the scene's σ_s = 2, ε_λ = 1e-3
+          if (sigma_eps > 0 && method != Method::Truncated) continue;
+          Scene scene = named.scene;
+          if (sigma_eps > 0) scene.params.sigma_s = scene.params.lambda_eps = sigma_eps;
+          expect_skip_changes_no_bit(always, scene, p,
+                                     named.name + " " + name_of(method) + " " + name_of(p) +
+                                         (sigma_eps > 0 ? " σ_s = ε_λ = 0.05" : ""));
+        }
 }
 
 TEST(ShadowFacing, LookupsSkipped) {
@@ -781,6 +786,11 @@ TEST(ShadowFacing, LookupsSkipped) {
       patched_kernels("penumbra_shadow_facing_nan", "shadow.cl", kFacingStore,
                       "    rec_light[r * nl + light].w = NAN;");
   expect_skip_taken(poisoned, shadow_scene(Lighting::Point), "point");
+  const std::string exact = patched_kernels(  // s = NaN for the rows left out as facing away
+      "penumbra_shadow_facing_exact_nan", "shadow.cl", kExactNorm,
+      "  norm[k] = (real4)(sx.x, sy.x, inside_map(x.xy, Wm, Hm) && !inside ? NAN : inside, 0);");
+  for (Method method : {Method::Exact, Method::Gemm})
+    expect_skip_taken(exact, shadow_scene(Lighting::Point, method), name_of(method));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -94,12 +94,12 @@ struct ExactWeightsArgs {
   static constexpr const char* kernel = "exact_weights";
   const cl::Buffer& P;
   cl_int r0, m, light, nl, Wm, Hm;
-  const cl::Buffer &rec_light, &Gx, &Gxd;
+  const cl::Buffer &rec_shade, &rec_light, &Gx, &Gxd;
   cl_int with_derivative;
   const cl::Buffer &Gy, &Gyd, &norm, &dsum, &support;
   auto fields() const {
-    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_light, Gx, Gxd, with_derivative, Gy, Gyd, norm,
-                    dsum, support);
+    return std::tie(P, r0, m, light, nl, Wm, Hm, rec_shade, rec_light, Gx, Gxd, with_derivative, Gy,
+                    Gyd, norm, dsum, support);
   }
 };
 
@@ -169,9 +169,9 @@ void exact_forward(Kernels& k, bool clblast, Fragments& f, const MapLookup& at,
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
-    auto& wts = bind_args(
-        k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gx, 0, Gy, Gy, norm,
-                            norm, support});  // no derivatives: Gxd, Gyd and dsum are not written
+    // No derivatives: Gxd, Gyd and dsum are not written.
+    auto& wts = bind_args(k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_shade,
+                                              f.rec_light, Gx, Gx, 0, Gy, Gy, norm, norm, support});
     launch_1d(ctx, wts, m);
     // dot_r = Σ_i U_ri·Gx_ri, U = Gy·S
     matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, nullptr, Hm, lm.S, Wm, Gx, nullptr, Wm, support,
@@ -235,8 +235,9 @@ MapGrads exact_backward(Kernels& k, bool clblast, Fragments& f, const FragmentGr
   for (int r0 = 0; r0 < n; r0 += int(batch)) {
     k.part(r0 / int(batch), (n + int(batch) - 1) / int(batch));
     const int m = std::min(int(batch), n - r0);
-    auto& wts = bind_args(k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_light, Gx, Gxd,
-                                              1, Gy, Gyd, norm, dsum, support});
+    auto& wts =
+        bind_args(k, ExactWeightsArgs{at.P, r0, m, light, nl, Wm, Hm, f.rec_shade, f.rec_light, Gx,
+                                      Gxd, 1, Gy, Gyd, norm, dsum, support});
     launch_1d(ctx, wts, m);
     // dots_r = Σ_i (U_ri·Gx_ri, U_ri·Gxd_ri, Ud_ri·Gx_ri), U = Gy·S, Ud = Gyd·S
     matmul_nn_rowdots(k, clblast, m, Wm, Hm, Gy, &Gyd, Hm, lm.S, Wm, Gx, &Gxd, Wm, support, scratch,
