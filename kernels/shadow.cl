@@ -164,10 +164,11 @@ GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, in
 // ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
 // U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------
 // Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
-// norm n × real4 (Σgx, Σgy, inside?, 0); dsum (backward only) n × real2 (Σgxd, Σgyd);
-// support n × int4: the first and last nonzero entry of the fragment's row of Gx (.xy) and of
-// Gy (.zw), empty (first > last) outside the map and facing away from the light. Far from μ the weights are exactly 0
-// (exp_or_zero; float: beyond ~19 texels at σ_s = 2), and the products (matmul.cl) skip them.
+// norm n × real4 (Σgx, Σgy, looked up?, 0): 0 outside the map and facing away from the light;
+// dsum (backward only) n × real2 (Σgxd, Σgyd); support n × int4: the first and last nonzero
+// entry of the fragment's row of Gx (.xy) and of Gy (.zw), empty (first > last) where not
+// looked up. Far from μ the weights are exactly 0 (exp_or_zero; float: beyond ~19 texels at
+// σ_s = 2), and the products (matmul.cl) skip them.
 // The weight matrices start zero-filled (the host) and hold zeros outside the supports:
 // exact_weights writes only the entries within zero_radius of μ, after clearing the support
 // the batch before left in the row, and exact_finish_bwd scales only the support.
@@ -247,14 +248,14 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   // A fragment facing away from the light gets a row of zeros, as one outside the map: s = 1
   // (exact_finish) and no gradient (exact_finish_bwd), where its s only multiplies a direct
   // term of 0 and dL/ds is ±0 (faces_away_in_map); the products skip its row.
-  int inside = inside_map(x.xy, Wm, Hm) &&
-               !faces_away_in_map(x.xy, Wm, Hm, rec_shade, r0 + k, nl, light);
+  const int looked_up = inside_map(x.xy, Wm, Hm) &&
+                        !faces_away_in_map(x.xy, Wm, Hm, rec_shade, r0 + k, nl, light);
   int2 nx, ny;
-  real2 sx = axis_weights8(x.x, Wm, ss, inside, Gx + (size_t)k * Wm,
+  real2 sx = axis_weights8(x.x, Wm, ss, looked_up, Gx + (size_t)k * Wm,
                            with_derivative ? Gxd + (size_t)k * Wm : 0, &nx);
-  real2 sy = axis_weights8(x.y, Hm, ss, inside, Gy + (size_t)k * Hm,
+  real2 sy = axis_weights8(x.y, Hm, ss, looked_up, Gy + (size_t)k * Hm,
                            with_derivative ? Gyd + (size_t)k * Hm : 0, &ny);
-  norm[k] = (real4)(sx.x, sy.x, inside, 0);
+  norm[k] = (real4)(sx.x, sy.x, looked_up, 0);
   support[k] = (int4)(nx, ny);
   if (with_derivative) dsum[k] = (real2)(sx.y, sy.y);
 }
@@ -273,7 +274,7 @@ FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int ligh
 // Backward: dots_r = (A, Ax, Ay) = Σ_ij S_ji·(gx_i·gy_j, gxd_i·gy_j, gx_i·gyd_j) are given
 // (matmul_nn_rowdots), and dsum from exact_weights; writes dL/dμ, dL/dd into rec_lgrad and
 // scales Gy in place by a_r = dL/dv_r / (Σgx·Σgy), so that dL/dS = (a ⊙ Gy)ᵀ·Gx is one more
-// product (its zeros stay 0; a fragment outside the map has a row of zeros already).
+// product (its zeros stay 0; a fragment not looked up has a row of zeros already).
 BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int light, int nl,
                                       int Hm, __global const real4* dots, __global real* Gy,
                                       __global const real4* norm, __global const real2* dsum,

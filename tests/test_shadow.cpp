@@ -762,7 +762,7 @@ TEST(ShadowDeterminism, KeptExactWeightsGiveAFreshRenderersBits) {
 // penumbra's products and on CLBlast's; kernels that store NaN there give NaN colours (s·0),
 // so the skip happens in these scenes.
 constexpr const char* kFacingStore = "    rec_light[r * nl + light].w = 1;";
-constexpr const char* kExactNorm = "  norm[k] = (real4)(sx.x, sy.x, inside, 0);";
+constexpr const char* kExactNorm = "  norm[k] = (real4)(sx.x, sy.x, looked_up, 0);";
 
 TEST(ShadowFacing, SkippedLookupsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
@@ -788,7 +788,7 @@ TEST(ShadowFacing, LookupsSkipped) {
   expect_skip_taken(poisoned, shadow_scene(Lighting::Point), "point");
   const std::string exact = patched_kernels(  // s = NaN for the rows left out as facing away
       "penumbra_shadow_facing_exact_nan", "shadow.cl", kExactNorm,
-      "  norm[k] = (real4)(sx.x, sy.x, inside_map(x.xy, Wm, Hm) && !inside ? NAN : inside, 0);");
+      std::string(kExactNorm) + "\n  if (inside_map(x.xy, Wm, Hm) && !looked_up) norm[k].z = NAN;");
   for (Method method : {Method::Exact, Method::Gemm})
     expect_skip_taken(exact, shadow_scene(Lighting::Point, method), name_of(method));
 }
