@@ -29,15 +29,16 @@ Command add_devices_command(CLI::App& root) {
   Command c;
   c.app = root.add_subcommand("devices",
                               "list the OpenCL devices (index, platform, name, type, "
-                              "fp64, memory)");
+                              "fp64, memory, transfers: how results and inputs move unless "
+                              "$PENUMBRA_TRANSFERS chooses)");
   c.run = [] {
     const std::vector<DeviceInfo> devices = list_devices();
-    std::printf("%-5s  %-28s  %-40s  %-11s  %-4s  %10s\n", "index", "platform", "name", "type",
-                "fp64", "memory");
+    std::printf("%-5s  %-28s  %-40s  %-11s  %-4s  %10s  %s\n", "index", "platform", "name", "type",
+                "fp64", "memory", "transfers");
     for (const DeviceInfo& d : devices) {
-      std::printf("%-5d  %-28s  %-40s  %-11s  %-4s  %6zu MiB\n", d.index, d.platform.c_str(),
+      std::printf("%-5d  %-28s  %-40s  %-11s  %-4s  %6zu MiB  %s\n", d.index, d.platform.c_str(),
                   d.name.c_str(), device_type(d).c_str(), d.fp64 ? "yes" : "no",
-                  d.global_mem / (1024 * 1024));
+                  d.global_mem / (1024 * 1024), d.shares_host_memory ? "map" : "copy");
     }
     return 0;
   };

@@ -200,7 +200,17 @@ TEST(Cli, Help) {
 TEST(Cli, Devices) {
   const RunResult r = run_cli("devices", "devices");
   EXPECT_EQ(r.exit_code, 0) << show(r);
-  EXPECT_GE(lines(r.out).size(), 2u) << show(r);  // header + at least one device
+  const std::vector<std::string> rows = lines(r.out);
+  ASSERT_GE(rows.size(), 2u) << show(r);  // header + at least one device
+  EXPECT_NE(rows[0].find("transfers"), std::string::npos) << rows[0];
+  const std::vector<penumbra::DeviceInfo> devices = penumbra::list_devices();
+  ASSERT_EQ(rows.size(), devices.size() + 1) << show(r);
+  for (const penumbra::DeviceInfo& d : devices) {
+    const std::string& row = rows[size_t(d.index) + 1];
+    EXPECT_NE(row.find(d.name), std::string::npos) << row;
+    const std::string transfers = d.shares_host_memory ? "map" : "copy";
+    EXPECT_EQ(row.substr(row.size() - transfers.size()), transfers) << row;
+  }
 }
 
 TEST(Cli, RenderBundledSceneWritesPng) {

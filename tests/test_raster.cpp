@@ -576,8 +576,24 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
       *ctx, {&base, &faces, &base, &albedo, &more_vertices, &moved, &seen_anew, &base});
 }
 
+// Unless PENUMBRA_TRANSFERS chooses, a context copies where the device's memory is not the
+// host's (a discrete GPU's driver transfers copies faster, docs/gpu.md) and maps where it is
+// (the test device of CI: PoCL on the CPU, whose maps copy nothing).
+TEST(Transfers, CopiedOnlyWhereTheDeviceMemoryIsNotTheHosts) {
+  REQUIRE_CONTEXT(ctx);
+  ScopedEnv unset("PENUMBRA_TRANSFERS", nullptr);
+  for (const DeviceInfo& d : list_devices()) {
+    const Context context(std::to_string(d.index));
+    EXPECT_EQ(context.copy_transfers(), !d.shares_host_memory) << d.name;
+    if (d.device.getInfo<CL_DEVICE_TYPE>() == CL_DEVICE_TYPE_CPU) {
+      EXPECT_TRUE(d.shares_host_memory)
+          << d.name << ": a CPU device whose memory is not the host's";
+    }
+  }
+}
+
 // Reading results and writing inputs through reused host memory and copies
-// (PENUMBRA_TRANSFERS=copy) gives the bits of mapped buffers (the default): the outputs,
+// (PENUMBRA_TRANSFERS=copy) gives the bits of mapped buffers (the default on PoCL): the outputs,
 // the shadow and penumbra maps, and the gradients, in both precisions, of the accurate and the
 // paper model's soft shadows (their host reads of records and texels), then of the scene with
 // its vertices moved (written into the last render's buffer).

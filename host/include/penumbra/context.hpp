@@ -13,6 +13,7 @@ struct DeviceInfo {
   int index = 0;  // position in list_devices()
   std::string platform, name, vendor, version;
   bool is_gpu = false, fp64 = false;
+  bool shares_host_memory = false;  // its memory is the host's (CL_DEVICE_HOST_UNIFIED_MEMORY)
   size_t global_mem = 0, max_alloc = 0, max_work_group = 0;
   cl::Device device;
 };
@@ -52,9 +53,10 @@ class Context {
   size_t memory_limit() const { return memory_limit_ ? memory_limit_ : info_.global_mem; }
   const std::string& memory_limit_by() const { return memory_limit_by_; }
 
-  // How results are read and inputs written: false (the default), through mapped buffers (no
-  // copy where the device's memory is the host's, as PoCL's); true ($PENUMBRA_TRANSFERS=copy),
-  // through reused host memory and copies, which a discrete GPU may transfer faster.
+  // How results are read and inputs written: false, through mapped buffers (no copy where the
+  // device's memory is the host's, as PoCL's); true, through reused host memory and copies,
+  // which a discrete GPU's driver transfers faster (docs/gpu.md). $PENUMBRA_TRANSFERS (map or
+  // copy) chooses; unset, copies where the device's memory is not the host's.
   bool copy_transfers() const { return copy_transfers_; }
 
  private:

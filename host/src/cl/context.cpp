@@ -140,6 +140,7 @@ std::vector<DeviceInfo> list_devices() {
       info.global_mem = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
       info.max_alloc = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
       info.max_work_group = d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>();
+      info.shares_host_memory = d.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() != CL_FALSE;
       info.device = d;
       out.push_back(info);
     }
@@ -179,6 +180,7 @@ Context::Context(const std::string& device) {
       throw Error("no OpenCL device matches '" + spec + "' (see `penumbra devices`)");
     info_ = *it;
   }
+  copy_transfers_ = !info_.shares_host_memory;
   if (const char* env = std::getenv("PENUMBRA_TRANSFERS")) {
     if (std::string(env) != "map" && std::string(env) != "copy")
       throw Error("PENUMBRA_TRANSFERS must be map or copy, not '" + std::string(env) + "'");

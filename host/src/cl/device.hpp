@@ -56,8 +56,8 @@ const void* staged_read(Context& ctx, const cl::Buffer& buf, size_t bytes);
 // of `buf`: mapped for reading (no host copy: at 100k faces the copies into fresh host memory
 // cost ~18 ms of a backward; on PoCL a map is the buffer itself), or with
 // Context::copy_transfers copied into reused staging memory (staged_read), which a discrete
-// GPU's driver may serve faster than a map of each new buffer (not yet timed on one). `read`
-// must not call read_reals or write_reals.
+// GPU's driver serves faster than a map of each new buffer (docs/gpu.md). `read` must not call
+// read_reals or write_reals.
 template <class Read>
 void read_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count, Read read) {
   if (count == 0) return;
