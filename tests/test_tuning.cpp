@@ -8,6 +8,7 @@
 #include <fstream>
 #include <set>
 
+#include "cli_run.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/renderer.hpp"
@@ -377,6 +378,52 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   t = empty.lookup(dev, w);
   EXPECT_EQ(t.source, "heuristic");
   EXPECT_NO_THROW(validate(t, dev));
+}
+
+// PoCL names a CPU by its model, with or without the clock ("... Processor @ 2.50GHz" on some
+// machines of the same model): an entry for the model serves the name with a clock, and an
+// entry for the exact name wins over it.
+TEST(Tuning, ProcessorModelEntryServesTheNameWithAClock) {
+  DeviceInfo dev;
+  dev.max_work_group = 4096;
+  for (const auto& [name, model] : std::vector<std::pair<std::string, std::string>>{
+           {"Model CPU @ 2.50GHz", "Model CPU"},
+           {"Model CPU@3.1 GHz", "Model CPU"},
+           {"Model CPU @ 800MHz", "Model CPU"},
+           {"Model CPU", "Model CPU"},
+           {"Model @ CPU", "Model @ CPU"},
+           {"Model CPU @ 2.50GHz rev 2", "Model CPU @ 2.50GHz rev 2"}}) {
+    dev.name = name;
+    EXPECT_EQ(TuningDatabase::model_key(dev), model) << name;
+  }
+  const std::string path = ::testing::TempDir() + "/tuning_model.json";
+  {
+    std::ofstream out(path);
+    out << R"({"version": 1, "entries": {
+      "Model CPU": {"raster": {"tile": 8, "pixels_per_item": 8}},
+      "Model CPU @ 3.00GHz": {"raster": {"tile": 32, "pixels_per_item": 4}}}})";
+  }
+  const TuningDatabase db = TuningDatabase::load({path});
+  WorkloadStats w;
+  w.faces = 1000, w.mean_face_pixels = 20, w.cutoff_pixels = 1, w.width = w.height = 256;
+  dev.name = "Model CPU @ 2.50GHz";
+  Tuning t = db.lookup(dev, w);
+  EXPECT_EQ(t.source, "tuned:Model CPU");
+  EXPECT_EQ(t.raster.tile, 8);
+  dev.name = "Model CPU @ 3.00GHz";
+  t = db.lookup(dev, w);
+  EXPECT_EQ(t.source, "tuned:Model CPU @ 3.00GHz");
+  EXPECT_EQ(t.raster.tile, 32);
+  dev.name = "Other CPU @ 2.50GHz";
+  EXPECT_EQ(db.lookup(dev, w).source, "heuristic");
+  // The shipped database's Intel Xeon entry serves that model under both of PoCL's names
+  // (no user cache or $PENUMBRA_TUNING here to override it).
+  const penumbra_tests::ScopedEnv cache("XDG_CACHE_HOME",
+                                        ::testing::TempDir() + "/tuning_no_cache");
+  const penumbra_tests::ScopedEnv extra("PENUMBRA_TUNING", nullptr);
+  dev.name = "pthread-skylake-avx512-Intel(R) Xeon(R) Processor @ 2.50GHz";
+  EXPECT_EQ(TuningDatabase::load_default().lookup(dev, w).source,
+            "tuned:pthread-skylake-avx512-Intel(R) Xeon(R) Processor");
 }
 
 TEST(Tuning, CorruptOrMissingDatabaseFallsBackWithAWarning) {

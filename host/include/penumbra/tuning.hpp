@@ -107,9 +107,9 @@ struct WorkloadStats {
 };
 WorkloadStats workload_stats(const Scene& scene);
 
-// Tuned values per device. Lookup: the exact device name, then "<vendor>/<cpu|gpu>", then
-// "<cpu|gpu>", then the heuristic. A missing or corrupt file is skipped with a warning on
-// stderr, never an error.
+// Tuned values per device. Lookup: the exact device name, then its processor model (the name
+// without a trailing clock), then "<vendor>/<cpu|gpu>", then "<cpu|gpu>", then the heuristic. A
+// missing or corrupt file is skipped with a warning on stderr, never an error.
 class TuningDatabase {
  public:
   // The shipped defaults (embedded from data/tuning/defaults.json at build time), then the
@@ -138,7 +138,10 @@ class TuningDatabase {
                                   const std::string& key, const Tuning& tuning);
 
   static std::string device_key(const DeviceInfo& device);  // the exact device name
-  static std::string class_key(const DeviceInfo& device);   // "<vendor>/<cpu|gpu>"
+  // The device name without a trailing clock ("... Xeon(R) Processor @ 2.50GHz" → "... Xeon(R)
+  // Processor"): the same processor model, which PoCL names with or without the clock.
+  static std::string model_key(const DeviceInfo& device);
+  static std::string class_key(const DeviceInfo& device);  // "<vendor>/<cpu|gpu>"
 
  private:
   void merge_json(const std::string& text, const std::string& origin);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 
 #include "cl/device.hpp"
@@ -279,6 +280,10 @@ ExactBackend exact_backend_in_force(const RenderParams& p, const Tuning& tuning)
 }
 
 std::string TuningDatabase::device_key(const DeviceInfo& d) { return d.name; }
+std::string TuningDatabase::model_key(const DeviceInfo& d) {
+  static const std::regex clock(R"( *@ *[0-9.]+ *[GM]Hz *$)");
+  return std::regex_replace(d.name, clock, "");
+}
 std::string TuningDatabase::class_key(const DeviceInfo& d) { return d.vendor + "/" + type_key(d); }
 
 std::string TuningDatabase::user_path() {
@@ -368,15 +373,17 @@ Tuning TuningDatabase::lookup(const DeviceInfo& device,
       if (e.first == key) return &e.second;
     return nullptr;
   };
-  // A tuned entry for this very device decides everything.
-  if (const Tuning* t = find(device_key(device))) {
+  // A tuned entry for this very device, else for its processor model, decides everything.
+  const std::string key = find(device_key(device)) ? device_key(device) : model_key(device);
+  if (const Tuning* t = find(key)) {
     Tuning out = detail::for_device(*t, device);  // fields the entry leaves at 0
-    out.source = "tuned:" + device_key(device);
+    out.source = "tuned:" + key;
     try {
       validate(out, device);
       return out;
     } catch (const Error& e) {
-      warn(std::string("ignoring tuned entry for '") + device.name + "': " + e.what());
+      warn(std::string("ignoring tuned entry '") + key + "' for '" + device.name +
+           "': " + e.what());
     }
   }
   // Otherwise the heuristic, with the stage parameters of the device's class where shipped.
