@@ -96,6 +96,16 @@ void turn_off_pocl_cq_tracing() {
   (void)done;
 }
 
+// Whether the device's memory is the host's. The query is deprecated since OpenCL 2.0; a driver
+// that refuses it is taken to share it, as maps (the transfers it then gets) work everywhere.
+bool shares_host_memory(const cl::Device& d) {
+  try {
+    return d.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() != CL_FALSE;
+  } catch (const cl::Error&) {
+    return true;
+  }
+}
+
 // PoCL compiles each kernel twice in a process that fills the kernel cache: once for any
 // work-group size when the program's binary is asked for (the binary holds that code), once
 // more at its first launch for that launch's sizes, unless work-group specialization is off —
@@ -140,7 +150,7 @@ std::vector<DeviceInfo> list_devices() {
       info.global_mem = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
       info.max_alloc = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
       info.max_work_group = d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>();
-      info.shares_host_memory = d.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() != CL_FALSE;
+      info.shares_host_memory = shares_host_memory(d);
       info.device = d;
       out.push_back(info);
     }
