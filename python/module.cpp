@@ -359,6 +359,7 @@ NB_MODULE(_penumbra, m) {
       .def_ro("is_gpu", &DeviceInfo::is_gpu)
       .def_ro("fp64", &DeviceInfo::fp64)
       .def_ro("global_mem", &DeviceInfo::global_mem)
+      .def_ro("shares_host_memory", &DeviceInfo::shares_host_memory)
       .def("__repr__", [](const DeviceInfo& d) {
         return "<DeviceInfo " + std::to_string(d.index) + ": " + d.name + " (" + d.platform + ")>";
       });
@@ -368,7 +369,10 @@ NB_MODULE(_penumbra, m) {
       .def(nb::init<const std::string&>(), "device"_a = "",
            "An OpenCL device: an index from list_devices() or part of a device or platform name; "
            "empty: $PENUMBRA_DEVICE, else the first GPU, else the first device.")
-      .def_prop_ro("info", &Context::info);
+      .def_prop_ro("info", &Context::info)
+      .def_prop_ro("copy_transfers", &Context::copy_transfers,
+                   "Whether results and inputs move through copies rather than mapped buffers: "
+                   "$PENUMBRA_TRANSFERS, else copies where the device's memory is not the host's.");
 
   nb::class_<Renderer>(m, "Renderer")
       .def(nb::init<Context&, Precision>(), "context"_a, "precision"_a = Precision::Float,

@@ -195,3 +195,14 @@ def test_version_is_the_projects():
     from conftest import ROOT
     cmake = (ROOT / "CMakeLists.txt").read_text()
     assert penumbra.__version__ == re.search(r"project\(penumbra VERSION ([0-9.]+)", cmake)[1]
+
+
+def test_devices_say_how_transfers_move(monkeypatch):
+    monkeypatch.delenv("PENUMBRA_TRANSFERS", raising=False)
+    devices = penumbra.list_devices()
+    assert devices
+    for d in devices:
+        assert isinstance(d.shares_host_memory, bool)
+        assert penumbra.Context(str(d.index)).copy_transfers == (not d.shares_host_memory)
+    monkeypatch.setenv("PENUMBRA_TRANSFERS", "copy")
+    assert penumbra.Context(str(devices[0].index)).copy_transfers
