@@ -146,8 +146,12 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     realP lw = log_D + (zt - m) / gamma;
     maskP kept = in_range && lw >= keep;
     if (!ANY(kept)) continue;
-    real lws[PPW], zs[PPW], keptj[PPW];
+    real lws[PPW], zs[PPW], keptj[PPW], weights[PPW];
     VSTOREP(lw, 0, lws);
+    // The scalar exp of every lane, unrolled: the compiler evaluates the lanes' copies as one
+    // vector (the same bits per lane), where one kept lane at a time had been a serial chain.
+#pragma unroll
+    for (int j = 0; j < PPW; ++j) weights[j] = exp(lws[j]);
     VSTOREP(zq, 0, zs);
     VSTOREP(kept ? (realP)1 : (realP)0, 0, keptj);
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
@@ -157,7 +161,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
       if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
       int r = first[j] + n[j]++;
       rec_face[r] = f;
-      rec_frag[r] = (real2)(exp(lws[j]), zs[j]);
+      rec_frag[r] = (real2)(weights[j], zs[j]);
       rec_shade[r * (1 + nl)] = (real4)(t.ambient[0][j], t.ambient[1][j], t.ambient[2][j], 0);
       for (int l = 0; l < nl; ++l)
         rec_shade[r * (1 + nl) + 1 + l] =
