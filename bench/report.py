@@ -139,7 +139,7 @@ MISS_REASONS = [
      "samples. On a 2-core VM of this Xeon model, slower that day (`raster_count` 57-73 ms a "
      "launch), `raster_fragments` per launch went from 1.14 to 0.975 times `raster_count`'s "
      "(medians over five alternated runs each, `PENUMBRA_KERNEL_DIR` choosing the kernels, "
-     "2026-11-29 00:50 UTC; 1.08 to 1.01 over seven earlier), 71.4 to 60.2 ms. Tiles of 16 "
+     "2026-11-29 00:40 UTC; 1.08 to 1.01 over seven earlier), 71.4 to 60.2 ms. Tiles of 16 "
      "with 16 pixels per "
      "work-item took 71.3-71.7 ms a frame against the entry's 75.2-79.8 ms, and the 100k-face "
      "step 172.7-173.3 ms against 155.2-162.7 ms (two alternated runs, `PENUMBRA_TUNING`): the "
