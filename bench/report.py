@@ -512,7 +512,46 @@ def load_profiles(folder):
     return out
 
 
-def profile_section(res, profiles):
+def profiled_case(res, mode):
+    """The forward case a profile mode ran: exact-dense is hard exact at σ_s = DENSE_SIGMA_S."""
+    sh, sa = mode
+    if sa == "exact-dense":
+        return res.render("fwd", shadows=sh, sampling="exact", sigma_s=DENSE_SIGMA_S)
+    return res.render("fwd", shadows=sh, sampling=sa)
+
+
+def kernel_rates(r, kernels, peak, exp_rate):
+    """The throughput of each profiled kernel whose work a ceiling measures, against it, from
+    case r's counters and the kernel's device time per frame: the truncated samplers weigh
+    samples_per_s·time texels a frame (one exp each, as the targets count them), exact_weights
+    evaluates at most N·(W_s + H_s) exps per light, a product (penumbra's kernels, CLBlast's
+    GEMM) 2·N·W_s·H_s flops per light; penumbra's skip the weights that are exactly 0, so their
+    rate is dense-equivalent unless every weight is nonzero (dense_products). The raster, bin
+    and transform kernels mix their arithmetic with branches and memory: no one ceiling."""
+    if not r or not r.get("fragments"):
+        return "–"
+    n, side, lights = r["fragments"], r["map"], r.get("lights", 1)
+    flops = 2.0 * n * side * side * lights
+    out = []
+    for name, _, ns in sorted(kernels, key=lambda k: -k[2]):
+        if not ns:
+            continue
+        if name in ("shadow_sample", "soft_sample") and r.get("samples_per_s") and exp_rate:
+            rate = r["samples_per_s"] * ms(r) * 1e-3 / (ns * 1e-9)
+            out.append(f"`{name}` {si(rate)} samples/s = {fmt(rate / exp_rate * 100, 2)} % of "
+                       f"exp rate")
+        elif name == "exact_weights" and exp_rate:
+            rate = n * 2 * side * lights / (ns * 1e-9)
+            out.append(f"`{name}` ≤ {si(rate)} exp/s = {fmt(rate / exp_rate * 100, 2)} % of "
+                       f"exp rate")
+        elif (name == "clblast_gemm" or name.startswith("matmul_")) and peak:
+            rate = flops / (ns * 1e-9) / 1e9
+            out.append(f"`{name}` {fmt(rate)} GFLOP/s = {fmt(rate / peak * 100, 2)} % of FMA peak"
+                       if dense_products(r) else f"`{name}` {fmt(rate)} GFLOP/s dense-equivalent")
+    return "; ".join(out) if out else "–"
+
+
+def profile_section(res, profiles, peak=None, exp_rate=None):
     if not profiles:
         return None
     frames = sorted({p["frames"] for p in profiles.values() if p["kernels"]})
@@ -527,12 +566,14 @@ def profile_section(res, profiles):
          "The raster kernels serve both the light pass and the camera pass; the exact case runs",
          "penumbra's direct product kernels, the gemm case CLBlast's GEMM; exact-dense is the",
          "exact case at σ_s = 400 (`sigma_s:400` in the filter), where no weight is 0 and the",
-         "products skip nothing.", ""]
+         "products skip nothing. *Against the ceiling*: kernel_rates in bench/report.py, each",
+         "kernel's work per frame (samples, exps, flops) over its device time per frame, against",
+         "the machine's ceiling above.", ""]
     rows = []
     for (sh, sa), p in profiles.items():
         if not p["kernels"]:
             rows.append((f"{sh} / {sa}", f"unavailable (the profiled run exited with status "
-                                         f"{p['status']})", "", ""))
+                                         f"{p['status']})", "", "", ""))
             continue
         total = sum(ns for _, _, ns in p["kernels"])
         stages = {}
@@ -542,8 +583,11 @@ def profile_section(res, profiles):
                               for k, v in sorted(stages.items(), key=lambda kv: -kv[1]))
         top = ", ".join(f"`{n}` {fmt(ns / 1e6)} ms ×{l:g}" for n, l, ns in
                         sorted(p["kernels"], key=lambda k: -k[2])[:4])
-        rows.append((f"{sh} / {sa}", f"{fmt(total / 1e6)} ms", stage_txt, top))
-    L.append(table(("mode", "kernel time", "by stage", "largest kernels (time × launches per frame)"), rows))
+        rates = kernel_rates(profiled_case(res, (sh, sa)) if res else None, p["kernels"], peak,
+                             exp_rate)
+        rows.append((f"{sh} / {sa}", f"{fmt(total / 1e6)} ms", stage_txt, top, rates))
+    L.append(table(("mode", "kernel time", "by stage", "largest kernels (time × launches per frame)",
+                    "against the ceiling"), rows))
     dominant = []
     for (sh, sa), p in profiles.items():
         if p["kernels"]:
@@ -767,7 +811,7 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("")
     w(stage_notes(res, peak, exp_rate, profiles))
     w("")
-    prof = profile_section(res, profiles)
+    prof = profile_section(res, profiles, peak, exp_rate)
     if prof:
         w(prof)
         w("")

@@ -160,3 +160,26 @@ def test_the_floor_paragraph_quotes_the_median_run_and_judges_it_against_a_secon
     text = " ".join(first_call.floor_paragraph(slow))
     assert "cannot take under a second" in text and "leaves" not in text
     assert first_call.floor_paragraph(None) == []
+
+
+def test_kernels_are_judged_against_the_ceiling_their_work_has():
+    name = "fwd/hard/{}/img:256/map:256/faces:1312/sigma_s:{}/lights:1/manual_time"
+    trunc, dense = (report.parse_name(name.format(*a)) for a in (("truncated", 2), ("exact", 400)))
+    trunc.update(name="", error=None, ms_median=8.0, fragments=1000.0, samples_per_s=1e9)
+    dense.update(name="", error=None, ms_median=50.0, fragments=1000.0)
+    res = report.Results([trunc, dense])
+    profiles = {("hard", "truncated"): {"frames": 2, "status": 0, "kernels": [
+                    ("shadow_sample", 1.0, 4e6), ("raster_count", 2.0, 1e6)]},
+                ("hard", "exact-dense"): {"frames": 2, "status": 0, "kernels": [
+                    ("matmul_nn_rowdot", 1.0, 2.0 * 1000 * 256 * 256 / 100.0),
+                    ("exact_weights", 1.0, 1000 * 2 * 256 / 5.0)]}}
+    text = report.profile_section(res, profiles, peak=200.0, exp_rate=10e9)
+    # 8 M samples a frame in 4 ms; 131 MFLOP in 1.31 ms; 512 k exps in 102 µs.
+    assert "`shadow_sample` 2 G samples/s = 20 % of exp rate" in text
+    assert "`matmul_nn_rowdot` 100 GFLOP/s = 50 % of FMA peak" in text
+    assert "`exact_weights` ≤ 5 G exp/s = 50 % of exp rate" in text
+    row = next(line for line in text.splitlines() if line.startswith("| hard / truncated"))
+    assert "raster_count" not in row.split("|")[5]  # the raster's kernels have no one ceiling
+    # Where the products skip zero weights, a dense-equivalent rate and no share of the peak.
+    assert "dense-equivalent" in report.kernel_rates(trunc, [("matmul_nn_rowdot", 1, 1e6)], 200.0,
+                                                     10e9)
