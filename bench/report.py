@@ -462,9 +462,11 @@ def copy_comparisons(folder, image_dir):
 
 # ---- per-kernel profiles ------------------------------------------------------------------
 
-# exact-dense: the hard exact case at σ_s = DENSE_SIGMA_S, where the products skip nothing.
+# exact-dense: the hard exact case at σ_s = DENSE_SIGMA_S, where the products skip nothing;
+# accurate: the truncated case of the accurate model (the renderer's default).
 PROFILE_MODES = [("none", "truncated"), ("hard", "truncated"), ("hard", "exact"),
-                 ("hard", "exact-dense"), ("hard", "gemm"), ("soft", "truncated")]
+                 ("hard", "exact-dense"), ("hard", "gemm"), ("soft", "truncated"),
+                 ("hard", "accurate"), ("soft", "accurate")]
 # A row of the PENUMBRA_PROFILE=1 table: kernel, device ms, launches.
 KERNEL_LINE = re.compile(r"^\s+([A-Za-z_]\w*)\s+(\d+(?:\.\d+)?)\s+(\d+)\s*$")
 
@@ -477,7 +479,7 @@ def stage_of(kernel):
         return "CLBlast"
     for prefix, stage in (("bin_", "bin"), ("raster_", "raster"), ("shadow_", "shadow"),
                           ("exact_", "shadow"), ("soft_", "shadow"), ("matmul_", "matmul"), ("row_dot", "matmul"),
-                          ("penumbra_", "penumbra")):
+                          ("penumbra_", "penumbra"), ("pcf_", "pcf")):
         if kernel.startswith(prefix):
             return stage
     # penumbra's kernels are snake_case; CLBlast's (Xgemm, TransposeMatrix, ...) are not.
@@ -513,8 +515,10 @@ def load_profiles(folder):
 
 
 def profiled_case(res, mode):
-    """The forward case a profile mode ran: exact-dense is hard exact at σ_s = DENSE_SIGMA_S."""
+    """The forward case a profile mode ran (PROFILE_MODES)."""
     sh, sa = mode
+    if sa == "accurate":
+        return res.render("fwd", shadows=sh, sampling="truncated", model="accurate")
     if sa == "exact-dense":
         return res.render("fwd", shadows=sh, sampling="exact", sigma_s=DENSE_SIGMA_S)
     return res.render("fwd", shadows=sh, sampling=sa)
@@ -568,7 +572,11 @@ def profile_section(res, profiles, peak=None, exp_rate=None):
          "exact case at σ_s = 400 (`sigma_s:400` in the filter), where no weight is 0 and the",
          "products skip nothing. *Against the ceiling*: kernel_rates in bench/report.py, each",
          "kernel's work per frame (samples, exps, flops) over its device time per frame, against",
-         "the machine's ceiling above.", ""]
+         "the machine's ceiling above."]
+    if any(sa == "accurate" and p["kernels"] for (_, sa), p in profiles.items()):
+        L += ["The accurate rows are the accurate model's truncated cases (`/model:accurate`",
+              "after `lights:1` in the filter), the renderer's default."]
+    L.append("")
     rows = []
     for (sh, sa), p in profiles.items():
         if not p["kernels"]:

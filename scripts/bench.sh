@@ -4,8 +4,8 @@
 #      ground truth, plus python3-matplotlib for the plots),
 #   2. builds penumbra_bench (Release) into build/ (or $PENUMBRA_BUILD_DIR),
 #   3. runs the default suite (a few minutes on two cores) with JSON output in out/bench/,
-#   4. profiles the forward case of each shadow mode (PENUMBRA_PROFILE=1: device time per
-#      kernel, per frame) into out/bench/profile_*.txt,
+#   4. profiles the forward case of each shadow mode, and the accurate model's truncated ones
+#      (PENUMBRA_PROFILE=1: device time per kernel, per frame), into out/bench/profile_*.txt,
 #   5. times the first render of new processes with the kernel caches cold and warm, and
 #      PoCL's floor for as many programs of trivial kernels (bench/first_call.py, which runs
 #      penumbra_bench --build-floor) into out/bench/first_call.json,
@@ -129,13 +129,15 @@ fi
 # profiler corrupts memory in PoCL 3.1: docs/faults.md). A failed run's exit status is recorded
 # and the report says the profile is unavailable.
 # exact-dense is the exact case at σ_s = 400, where no Gaussian weight is 0 (the products run
-# on every weight).
+# on every weight); accurate the truncated case of the accurate model.
 rm -f out/bench/profile_*.txt
 while read -r shadows sampling sigma; do
   f="out/bench/profile_fwd_${shadows}_${sampling}.txt"
   status=0
+  case=${sampling%-dense} model=
+  [[ $sampling == accurate ]] && case=truncated model=/model:accurate
   PENUMBRA_PROFILE=1 timeout 600 "$BENCH" --benchmark_min_time=0.5 \
-    --benchmark_filter="^fwd/$shadows/${sampling%-dense}/img:256/map:256/faces:1312/sigma_s:$sigma/lights:1/manual_time" \
+    --benchmark_filter="^fwd/$shadows/$case/img:256/map:256/faces:1312/sigma_s:$sigma/lights:1$model/manual_time" \
     > "$f" 2>&1 || status=$?
   echo "exit status $status" >> "$f"
   echo "bench: profile $shadows/$sampling: exit status $status"
@@ -146,6 +148,8 @@ hard exact 2
 hard exact-dense 400
 hard gemm 2
 soft truncated 2
+hard accurate 2
+soft accurate 2
 MODES
 
 # --- first call in a new process ------------------------------------------------------------

@@ -29,6 +29,26 @@ def test_profiles_are_per_frame(tmp_path):
     assert "unavailable" in report.profile_section(None, p)
 
 
+# The accurate model's soft case: a light pass and a camera pass per frame, like the paper's.
+SOFT_ACCURATE = """penumbra profile (device ms, launches):
+  pcf_sample                    40.00      4
+  raster_resolve                16.00      8
+exit status 0
+"""
+
+
+def test_the_accurate_models_profile_is_a_mode_of_its_own(tmp_path):
+    (tmp_path / "profile_fwd_soft_accurate.txt").write_text(SOFT_ACCURATE)
+    (tmp_path / "profile_fwd_hard_truncated.txt").write_text(HARD)
+    p = report.load_profiles(str(tmp_path))
+    assert p[("soft", "accurate")]["frames"] == 4
+    text = report.profile_section(None, p)
+    assert "| soft / accurate | 14.0 ms | pcf 10.0 ms (71 %), raster 4.00 ms (29 %) |" in text
+    assert "the renderer's default" in text
+    paper_only = {k: v for k, v in p.items() if k[1] != "accurate"}
+    assert "the renderer's default" not in report.profile_section(None, paper_only)
+
+
 PAGE = "# Page\n\n## First\n\nold one\n\n## Second\n\nkept\n"
 
 
