@@ -46,7 +46,7 @@
 #endif
 #define MIN_BAND_ROWS 8  // a work-item of raster_bwd walks at least this many rows of a box
 #ifndef PPW
-#define PPW 1          // pixels per work-item, a power of two up to 16 that divides TILE
+#define PPW 1          // pixels per work-item, a power of two up to 16; TILE holds whole blocks
 #endif
 #ifndef BLOCK_W
 #define BLOCK_W 1      // width of a work-item's block of PPW pixels (below); divides PPW

@@ -492,9 +492,9 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
     int penumbra_tile;
   };
   const std::vector<Variant> variants = {
-      {16, 8, false, 16}, {8, 1, false, 16},  {8, 8, false, 8},
-      {16, 1, false, 16}, {16, 4, false, 4},  {16, 16, false, 32},
-      {32, 2, false, 16}, {32, 8, false, 64}, {16, 8, true, 16}};
+      {16, 8, false, 16}, {8, 1, false, 16},   {8, 8, false, 8},   {16, 1, false, 16},
+      {16, 4, false, 4},  {16, 16, false, 32}, {32, 2, false, 16}, {32, 8, false, 64},
+      {8, 16, false, 16}, {16, 8, true, 16}};
   for (Precision p : {Precision::Float, Precision::Double})
     for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
       const std::string label = std::string(p == Precision::Float ? "float" : "double") +

@@ -437,7 +437,7 @@ std::vector<RasterTuning> all_tunings() {
   brute.brute_force = true;
   tunings.push_back(brute);
   for (int tile : {8, 16, 32})
-    for (int ppi : {1, 4, 8}) {
+    for (int ppi : {1, 4, 8, 16}) {
       RasterTuning t;
       t.tile = tile;
       t.pixels_per_item = ppi;

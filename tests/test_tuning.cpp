@@ -277,8 +277,12 @@ TEST(Tuning, IllegalValuesAreRejectedWithAClearMessage) {
     }
   };
   Tuning t;
-  t.raster = {12, 8, false};
-  EXPECT_THROW(validate(t, context().info()), Error);
+  t.raster = {6, 8, false};
+  expect_refused(t, "tile (6) must be a positive multiple of the 4×2 block of 8 pixel(s)");
+  t.raster = {8, 3, false};
+  expect_refused(t, "pixels_per_item (3) must be a power of two up to 16");
+  t.raster = {8, 16, false};  // four 4×4 blocks
+  EXPECT_NO_THROW(validate(t, context().info()));
   t = Tuning{};
   t.raster.pixels_per_item = 1;
   t.exact.vector_width = 3;

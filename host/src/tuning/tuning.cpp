@@ -171,12 +171,19 @@ void validate(const XgemmParameters& x, const DeviceInfo& device) {
 
 void validate(const Tuning& t, const DeviceInfo& device) {
   const RasterTuning& r = t.raster;
-  if (r.tile < 1 || r.pixels_per_item < 1 || r.tile % r.pixels_per_item ||
-      (r.pixels_per_item & (r.pixels_per_item - 1)) || r.pixels_per_item > 16)
-    throw Error("raster tuning: tile (" + std::to_string(r.tile) +
-                ") must be a positive multiple of pixels_per_item (" +
-                std::to_string(r.pixels_per_item) + "), a power of two up to 16");
-  const size_t group = size_t(r.tile / r.pixels_per_item) * r.tile;
+  const bool ppw_legal = r.pixels_per_item >= 1 && r.pixels_per_item <= 16 &&
+                         (r.pixels_per_item & (r.pixels_per_item - 1)) == 0;
+  if (!ppw_legal)
+    throw Error("raster tuning: pixels_per_item (" + std::to_string(r.pixels_per_item) +
+                ") must be a power of two up to 16");
+  // A work-item's pixels are a block (raster_block_width wide): the tile holds whole blocks.
+  const int block_w = detail::raster_block_width(r.pixels_per_item),
+            block_h = r.pixels_per_item / block_w;
+  if (r.tile < 1 || r.tile % block_w || r.tile % block_h)
+    throw Error("raster tuning: tile (" + std::to_string(r.tile) + ") must be a positive " +
+                "multiple of the " + std::to_string(block_w) + "×" + std::to_string(block_h) +
+                " block of " + std::to_string(r.pixels_per_item) + " pixel(s) per work-item");
+  const size_t group = size_t(r.tile) * r.tile / r.pixels_per_item;
   if (group > device.max_work_group)
     throw Error("raster tuning: a " + std::to_string(r.tile) + "-pixel tile with " +
                 std::to_string(r.pixels_per_item) + " pixel(s) per work-item needs " +
@@ -265,7 +272,7 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
   double best = INFINITY;
   for (int tile : {8, 16, 32}) {
-    if (size_t(tile / t.raster.pixels_per_item) * tile > device.max_work_group) continue;
+    if (size_t(tile) * tile / t.raster.pixels_per_item > device.max_work_group) continue;
     const double tiles_per_face = std::pow((box + tile) / tile, 2);
     const double cost = w.faces * (tiles_per_face * tile * tile + 64 * tiles_per_face);
     if (cost < best) best = cost, t.raster.tile = tile;
