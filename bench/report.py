@@ -527,6 +527,16 @@ def profiled_case(res, mode):
     return res.render("fwd", shadows=sh, sampling=sa)
 
 
+def product_flops(r):
+    """Flops of the exact sum's forward products per frame: 2·N·W_s·H_s per light."""
+    return 2.0 * r["fragments"] * r["map"] ** 2 * r.get("lights", 1)
+
+
+def weight_exps(r):
+    """The most exps exact_weights evaluates per frame: N·(W_s + H_s) per light."""
+    return r["fragments"] * 2 * r["map"] * r.get("lights", 1)
+
+
 def kernel_rates(r, kernels, peak, exp_rate):
     """The throughput of each profiled kernel whose work a ceiling measures, against it, from
     case r's counters and the kernel's device time per frame: the truncated samplers weigh
@@ -537,8 +547,6 @@ def kernel_rates(r, kernels, peak, exp_rate):
     and transform kernels mix their arithmetic with branches and memory: no one ceiling."""
     if not r or not r.get("fragments"):
         return "–"
-    n, side, lights = r["fragments"], r["map"], r.get("lights", 1)
-    flops = 2.0 * n * side * side * lights
     out = []
     for name, _, ns in sorted(kernels, key=lambda k: -k[2]):
         if not ns:
@@ -548,11 +556,11 @@ def kernel_rates(r, kernels, peak, exp_rate):
             out.append(f"`{name}` {si(rate)} samples/s = {fmt(rate / exp_rate * 100, 2)} % of "
                        f"exp rate")
         elif name == "exact_weights" and exp_rate:
-            rate = n * 2 * side * lights / (ns * 1e-9)
+            rate = weight_exps(r) / (ns * 1e-9)
             out.append(f"`{name}` ≤ {si(rate)} exp/s = {fmt(rate / exp_rate * 100, 2)} % of "
                        f"exp rate")
         elif (name == "clblast_gemm" or name.startswith("matmul_")) and peak:
-            rate = flops / (ns * 1e-9) / 1e9
+            rate = product_flops(r) / (ns * 1e-9) / 1e9
             out.append(f"`{name}` {fmt(rate)} GFLOP/s = {fmt(rate / peak * 100, 2)} % of FMA peak"
                        if dense_products(r) else f"`{name}` {fmt(rate)} GFLOP/s dense-equivalent")
     return "; ".join(out) if out else "–"
@@ -627,15 +635,13 @@ def dense_products(r):
 def matmul_rate(res, profiles, dense=False):
     """GFLOP/s of the exact path's product kernels alone, from the profile (dense-equivalent
     but at σ_s = DENSE_SIGMA_S), their ms, exact_weights' ms and the frame's kernel ms."""
-    p = profiles.get(("hard", "exact-dense" if dense else "exact"))
-    r = res.render("fwd", shadows="hard", sampling="exact",
-                   **({"sigma_s": DENSE_SIGMA_S} if dense else {}))
+    mode = ("hard", "exact-dense" if dense else "exact")
+    p, r = profiles.get(mode), profiled_case(res, mode)
     if not p or not p["kernels"] or not r or not r.get("fragments"):
         return None
     ns = sum(t for n, _, t in p["kernels"] if stage_of(n) == "matmul")
     weights = sum(t for n, _, t in p["kernels"] if n == "exact_weights")
-    flops = 2.0 * r["fragments"] * r["map"] ** 2
-    return (flops / (ns * 1e-9) / 1e9 if ns else None, ns / 1e6, weights / 1e6,
+    return (product_flops(r) / (ns * 1e-9) / 1e9 if ns else None, ns / 1e6, weights / 1e6,
             sum(t for _, _, t in p["kernels"]) / 1e6)
 
 
@@ -1142,7 +1148,7 @@ def stage_notes(res, peak, exp_rate, profiles):
                           f"ceiling")
                 s += "."
             if exp_rate and r.get("fragments"):
-                exps = r["fragments"] * 2 * r["map"]
+                exps = weight_exps(r)
                 s += (f" Those weights are N·(W_s + H_s) = {si(exps)} exps at most, "
                       f"{fmt(exps / exp_rate * 1e3)} ms at the measured exp rate (the exps "
                       f"below the smallest normal number are skipped).")

@@ -198,6 +198,7 @@ def test_kernels_are_judged_against_the_ceiling_their_work_has():
     assert "`shadow_sample` 2 G samples/s = 20 % of exp rate" in text
     assert "`matmul_nn_rowdot` 100 GFLOP/s = 50 % of FMA peak" in text
     assert "`exact_weights` ≤ 5 G exp/s = 50 % of exp rate" in text
+    assert abs(report.matmul_rate(res, profiles, dense=True)[0] - 100.0) < 1e-9  # the same count
     row = next(line for line in text.splitlines() if line.startswith("| hard / truncated"))
     assert "raster_count" not in row.split("|")[5]  # the raster's kernels have no one ceiling
     # Where the products skip zero weights, a dense-equivalent rate and no share of the peak.

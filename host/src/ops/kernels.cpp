@@ -32,13 +32,14 @@ std::string program_options(const std::string& file, Precision precision, const 
                             const DeviceInfo& device, const std::string& variant, KernelPart part) {
   std::string o = precision_options(precision);
   const RasterTuning& r = tuning.raster;
-  const int lanes =
-      part == KernelPart::Backward ? raster_backward_lanes(r.pixels_per_item) : r.pixels_per_item;
-  if (file == "raster.cl")
+  if (file == "raster.cl") {
+    const int lanes =
+        part == KernelPart::Backward ? raster_backward_lanes(r.pixels_per_item) : r.pixels_per_item;
     o += " -DTILE=" + std::to_string(r.tile) + " -DPPW=" + std::to_string(lanes) +
          " -DBLOCK_W=" + std::to_string(raster_block_width(lanes)) +
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0) +
          " -DFACE_LANES=" + std::to_string(r.face_lanes);
+  }
   if (file == "shadow.cl" || file == "pcf.cl") {  // the gathers' program: the tuning's block
     const GatherTuning& g = tuning.gather;
     o += part == KernelPart::Gather
