@@ -166,37 +166,54 @@ ShadowMap light_pass_with_penumbra(const Scene& scene, size_t index) {
   return map;
 }
 
+// Texel coordinates μ of screen point s in the map (the shadow-map convention above).
+dvec2 map_texel(const ShadowMap& map, dvec2 s) {
+  const double Ws = map.S.width, Hs = map.S.height;
+  return {(s.x * Hs + Ws - 1) / 2.0, (Hs - 1 - s.y * Hs) / 2.0};
+}
+bool inside_map(const ShadowMap& map, dvec2 mu) {
+  return mu.x >= -0.5 && mu.x < map.S.width - 0.5 && mu.y >= -0.5 && mu.y < map.S.height - 0.5;
+}
+
+// Calls visit(i, j, dx, dy, g') for every texel (i, j) = μ + (dx, dy), of every stride-th row
+// and column, where the weight g' = g − ε of the Gaussian g of variance σ around μ is positive,
+// in row order: truncated, ε = cut and only the texels within R = sqrt(2σ·ln(1/ε)); exact,
+// ε = 0 and every texel.
+template <class Visit>
+void for_each_weight(const ShadowMap& map, const RenderParams& p, dvec2 mu, double sigma,
+                     double cut, int stride, Visit visit) {
+  const int Ws = map.S.width, Hs = map.S.height;
+  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
+  double eps = 0.0;
+  if (p.sampling == Sampling::Truncated) {
+    eps = cut;
+    const double R = std::sqrt(2.0 * sigma * std::log(1.0 / eps));
+    i0 = std::max(int(std::ceil(mu.x - R)), 0);
+    i1 = std::min(int(std::floor(mu.x + R)), Ws - 1);
+    j0 = std::max(int(std::ceil(mu.y - R)), 0);
+    j1 = std::min(int(std::floor(mu.y + R)), Hs - 1);
+  }
+  for (int j = j0; j <= j1; ++j)
+    for (int i = i0; i <= i1; ++i) {
+      if (i % stride != 0 || j % stride != 0) continue;
+      const double dx = i - mu.x, dy = j - mu.y;
+      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * sigma)) - eps;
+      if (g > 0.0) visit(i, j, dx, dy, g);
+    }
+}
+
 // Shadow term s of world point X for one light (SPEC §4, hard shadows, eq. 7): Gaussian-
 // filtered map depth around X's texel position, compared with X's light depth.
 double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) {
-  const int Ws = map.S.width, Hs = map.S.height;
-  const dvec2 s = map.view.screen(X);
+  const dvec2 mu = map_texel(map, map.view.screen(X));
   const double d = map.view.depth(X);
-  const double mux = (s.x * Hs + Ws - 1) / 2.0;
-  const double muy = (Hs - 1 - s.y * Hs) / 2.0;
-  if (!(mux >= -0.5 && mux < Ws - 0.5 && muy >= -0.5 && muy < Hs - 0.5)) return 1.0;  // outside
-
-  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
-  double eps = 0.0;  // exact (and gemm): every texel, weights g
-  if (p.sampling == Sampling::Truncated) {
-    // g' = max(0, g − ε_λ), zero beyond R = sqrt(2σ_s·ln(1/ε_λ)).
-    eps = p.lambda_eps;
-    const double R = std::sqrt(2.0 * shadow_sigma_s(p) * std::log(1.0 / eps));
-    i0 = std::max(int(std::ceil(mux - R)), 0);
-    i1 = std::min(int(std::floor(mux + R)), Ws - 1);
-    j0 = std::max(int(std::ceil(muy - R)), 0);
-    j1 = std::min(int(std::floor(muy + R)), Hs - 1);
-  }
+  if (!inside_map(map, mu)) return 1.0;
   double sum = 0.0, acc = 0.0;
-  for (int j = j0; j <= j1; ++j)
-    for (int i = i0; i <= i1; ++i) {
-      const double dx = i - mux, dy = j - muy;
-      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * shadow_sigma_s(p))) - eps;
-      if (g > 0.0) {
-        sum += g;
-        acc += g * map.S.at(i, j);
-      }
-    }
+  for_each_weight(map, p, mu, shadow_sigma_s(p), p.lambda_eps, 1,
+                  [&](int i, int j, double, double, double g) {
+                    sum += g;
+                    acc += g * map.S.at(i, j);
+                  });
   if (!(sum > 0.0)) return 1.0;  // no texel has weight: lit
   return sigmoid((acc / sum - d + shadow_beta(p)) / shadow_gamma_s(p));
 }
@@ -207,12 +224,10 @@ double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) 
 // 1/d is affine in μ: ∇d = −d²·Σ_k n_k/(A·z_k); orthographic ∇d = Σ_k n_k·z_k/A. Zero for a face
 // edge-on to the light (|A| ≤ machine ε relative to its squared edge lengths).
 dvec2 receiver_gradient(const ShadowMap& map, const Face& face, double d) {
-  const int Ws = map.S.width, Hs = map.S.height;
   std::array<dvec2, 3> mu;
   std::array<double, 3> z;
   for (int k = 0; k < 3; ++k) {
-    const dvec2 s = map.view.screen(face.V[k]);
-    mu[k] = {(s.x * Hs + Ws - 1) / 2.0, (Hs - 1 - s.y * Hs) / 2.0};
+    mu[k] = map_texel(map, map.view.screen(face.V[k]));
     z[k] = map.view.depth(face.V[k]);
   }
   const dvec2 e1 = mu[1] - mu[0], e2 = mu[2] - mu[0];
@@ -234,37 +249,20 @@ dvec2 receiver_gradient(const ShadowMap& map, const Face& face, double d) {
 // at = σ((d_ij − S + β)/γ_s), term = front·(1 − at·(1 − P)); s = Σ g'·term / Σ g'.
 double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face& face,
                         const dvec3& X) {
-  const int Ws = map.S.width, Hs = map.S.height;
-  const dvec2 s = map.view.screen(X);
+  const dvec2 mu = map_texel(map, map.view.screen(X));
   const double d = map.view.depth(X);
-  const double mux = (s.x * Hs + Ws - 1) / 2.0;
-  const double muy = (Hs - 1 - s.y * Hs) / 2.0;
-  if (!(mux >= -0.5 && mux < Ws - 0.5 && muy >= -0.5 && muy < Hs - 0.5)) return 1.0;  // outside
+  if (!inside_map(map, mu)) return 1.0;
   const dvec2 grad = receiver_gradient(map, face, d);
-
-  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
-  double eps = 0.0;  // exact: every texel, weights g
-  if (p.sampling == Sampling::Truncated) {
-    eps = p.lambda_eps;
-    const double R = std::sqrt(2.0 * shadow_sigma_s(p) * std::log(1.0 / eps));
-    i0 = std::max(int(std::ceil(mux - R)), 0);
-    i1 = std::min(int(std::floor(mux + R)), Ws - 1);
-    j0 = std::max(int(std::ceil(muy - R)), 0);
-    j1 = std::min(int(std::floor(muy + R)), Hs - 1);
-  }
   double sum = 0.0, acc = 0.0;
-  for (int j = j0; j <= j1; ++j)
-    for (int i = i0; i <= i1; ++i) {
-      const double dx = i - mux, dy = j - muy;
-      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * shadow_sigma_s(p))) - eps;
-      if (!(g > 0.0)) continue;
-      const double dij = d + grad.x * dx + grad.y * dy;
-      const double S = map.S.at(i, j), P = map.P.at(i, j);
-      const double front = sigmoid((S - dij + shadow_beta(p)) / shadow_gamma_s(p));
-      const double at = sigmoid((dij - S + shadow_beta(p)) / shadow_gamma_s(p));
-      sum += g;
-      acc += g * front * (1.0 - at * (1.0 - P));
-    }
+  for_each_weight(map, p, mu, shadow_sigma_s(p), p.lambda_eps, 1,
+                  [&](int i, int j, double dx, double dy, double g) {
+                    const double dij = d + grad.x * dx + grad.y * dy;
+                    const double S = map.S.at(i, j), P = map.P.at(i, j);
+                    const double front = sigmoid((S - dij + shadow_beta(p)) / shadow_gamma_s(p));
+                    const double at = sigmoid((dij - S + shadow_beta(p)) / shadow_gamma_s(p));
+                    sum += g;
+                    acc += g * front * (1.0 - at * (1.0 - P));
+                  });
   if (!(sum > 0.0)) return 1.0;  // no texel has weight: lit
   return acc / sum;
 }
@@ -280,28 +278,13 @@ double lit_step(double delta, double A, const RenderParams& p) {
 // `stride`-th texel of each axis.
 std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec2 mu, double d,
                                dvec2 grad, double sigma, double cut, int stride = 1) {
-  const int Ws = map.S.width, Hs = map.S.height;
-  int i0 = 0, i1 = Ws - 1, j0 = 0, j1 = Hs - 1;
-  double eps = 0.0;
-  if (p.sampling == Sampling::Truncated) {
-    eps = cut;
-    const double R = std::sqrt(2.0 * sigma * std::log(1.0 / eps));
-    i0 = std::max(int(std::ceil(mu.x - R)), 0);
-    i1 = std::min(int(std::floor(mu.x + R)), Ws - 1);
-    j0 = std::max(int(std::ceil(mu.y - R)), 0);
-    j1 = std::min(int(std::floor(mu.y + R)), Hs - 1);
-  }
   std::array<double, 4> sums{};
-  for (int j = j0; j <= j1; ++j)
-    for (int i = i0; i <= i1; ++i) {
-      if (i % stride != 0 || j % stride != 0) continue;
-      const double dx = i - mu.x, dy = j - mu.y;
-      const double g = std::exp(-(dx * dx + dy * dy) / (2.0 * sigma)) - eps;
-      if (!(g > 0.0)) continue;
-      const double S = map.S.at(i, j);
-      const double c = lit_step(d + grad.x * dx + grad.y * dy - S, map.A.at(i, j), p);
-      sums[0] += g, sums[1] += g * c, sums[2] += g * S, sums[3] += g * c * S;
-    }
+  for_each_weight(map, p, mu, sigma, cut, stride,
+                  [&](int i, int j, double dx, double dy, double g) {
+                    const double S = map.S.at(i, j);
+                    const double c = lit_step(d + grad.x * dx + grad.y * dy - S, map.A.at(i, j), p);
+                    sums[0] += g, sums[1] += g * c, sums[2] += g * S, sums[3] += g * c * S;
+                  });
   return sums;
 }
 
@@ -309,11 +292,10 @@ std::array<double, 4> pcf_sums(const ShadowMap& map, const RenderParams& p, dvec
 // filtering with σ_s (hard), or with σ widened by the penumbra width from a blocker search (soft).
 double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light& light,
                        const Face& face, const dvec3& X) {
-  const int Ws = map.S.width, Hs = map.S.height;
-  const dvec2 s = map.view.screen(X);
+  const dvec2 mu = map_texel(map, map.view.screen(X));
   const double d = map.view.depth(X);
-  const dvec2 mu((s.x * Hs + Ws - 1) / 2.0, (Hs - 1 - s.y * Hs) / 2.0);
-  if (!(mu.x >= -0.5 && mu.x < Ws - 0.5 && mu.y >= -0.5 && mu.y < Hs - 0.5)) return 1.0;
+  if (!inside_map(map, mu)) return 1.0;
+  const int Hs = map.S.height;
   dvec2 grad = receiver_gradient(map, face, d);
   const bool ortho = light.type == LightType::Directional;
   const double k =
