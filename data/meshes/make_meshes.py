@@ -11,8 +11,12 @@ The files are written next to this script.
 """
 import math
 import os
+import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.dont_write_bytecode = True  # no __pycache__ among the bundled data
+sys.path.insert(0, os.path.dirname(HERE))
+from datafiles import write_obj  # noqa: E402  (data/datafiles.py)
 
 
 def normalize(v):
@@ -91,17 +95,6 @@ def plane(size=8.0, cells=4):
             # Counter-clockwise seen from +y: a -> c -> d and a -> d -> b.
             faces += [(a, c, d), (a, d, b)]
     return verts, faces
-
-
-def write_obj(path, verts, faces, comment):
-    with open(path, "w", newline="\n") as f:
-        for line in comment:
-            f.write("# %s\n" % line)
-        f.write("# %d vertices, %d faces\n" % (len(verts), len(faces)))
-        for v in verts:
-            f.write("v %.9g %.9g %.9g\n" % v)
-        for a, b, c in faces:
-            f.write("f %d %d %d\n" % (a + 1, b + 1, c + 1))
 
 
 def main():

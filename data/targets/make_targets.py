@@ -31,10 +31,14 @@ Pixel (px, py), row 0 at the top, is the point x = (2 px + 1 - W)/W, y = (W - 2 
 """
 import math
 import os
+import sys
 import struct
 import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.dont_write_bytecode = True  # no __pycache__ among the bundled data
+sys.path.insert(0, os.path.dirname(HERE))
+from datafiles import write_atomic, write_obj  # noqa: E402  (data/datafiles.py)
 
 
 # --------------------------------------------------------------------------------------------
@@ -48,11 +52,9 @@ def write_png(path, rows):
         body = kind + data
         return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
 
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n")
-        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)))
-        f.write(chunk(b"IDAT", zlib.compress(raw, 9)))
-        f.write(chunk(b"IEND", b""))
+    write_atomic(path, b"\x89PNG\r\n\x1a\n" +
+                 chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)) +
+                 chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
 
 
 def save_mask(name, mask):
@@ -126,17 +128,6 @@ def loft(w_of_y, d_of_y, y0, y1, levels):
     last = 4 * (levels - 1)
     faces += [(0, 2, 1), (0, 3, 2), (last, last + 1, last + 2), (last, last + 2, last + 3)]
     return verts, faces
-
-
-def write_obj(path, verts, faces, comment):
-    with open(path, "w", newline="\n") as f:
-        for line in comment:
-            f.write("# %s\n" % line)
-        f.write("# %d vertices, %d faces\n" % (len(verts), len(faces)))
-        for v in verts:
-            f.write("v %.9g %.9g %.9g\n" % v)
-        for a, b, c in faces:
-            f.write("f %d %d %d\n" % (a + 1, b + 1, c + 1))
 
 
 # Screen coordinates (image x, image up) of a world point for each named view.
