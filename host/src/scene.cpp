@@ -218,6 +218,18 @@ void validate_params(const RenderParams& p) {
 }  // namespace
 
 template <>
+const std::vector<std::pair<Projection, std::string>>& enum_words<Projection>() {
+  static const std::vector<std::pair<Projection, std::string>> words{
+      {Projection::Perspective, "perspective"}, {Projection::Orthographic, "orthographic"}};
+  return words;
+}
+template <>
+const std::vector<std::pair<LightType, std::string>>& enum_words<LightType>() {
+  static const std::vector<std::pair<LightType, std::string>> words{
+      {LightType::Point, "point"}, {LightType::Directional, "directional"}};
+  return words;
+}
+template <>
 const std::vector<std::pair<Shadows, std::string>>& enum_words<Shadows>() {
   static const std::vector<std::pair<Shadows, std::string>> words{
       {Shadows::None, "none"}, {Shadows::Hard, "hard"}, {Shadows::Soft, "soft"}};

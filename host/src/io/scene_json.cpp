@@ -185,6 +185,16 @@ Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::
   return mesh;
 }
 
+// A string naming a value of enum E (its enum_words), as that value.
+template <class E>
+E get_enum(const json& j, const std::string& where) {
+  const std::string v = get_string(j, where);
+  E value{};
+  if (!from_word(v, &value))
+    fail("'" + where + "' is \"" + v + "\" (expected " + word_choices<E>() + ")");
+  return value;
+}
+
 Camera parse_camera(const json& j, const std::string& where) {
   check_object(j, where,
                {"eye", "target", "up", "projection", "fov", "half_height", "near", "far", "width",
@@ -193,16 +203,7 @@ Camera parse_camera(const json& j, const std::string& where) {
   opt(j, where, "eye", c.eye, get_vec3);
   opt(j, where, "target", c.target, get_vec3);
   opt(j, where, "up", c.up, get_vec3);
-  if (j.contains("projection")) {
-    const std::string p = get_string(j["projection"], child(where, "projection"));
-    if (p == "perspective")
-      c.projection = Projection::Perspective;
-    else if (p == "orthographic")
-      c.projection = Projection::Orthographic;
-    else
-      fail("'" + child(where, "projection") + "' is \"" + p +
-           "\" (expected \"perspective\" or \"orthographic\")");
-  }
+  opt(j, where, "projection", c.projection, get_enum<Projection>);
   opt(j, where, "fov", c.fov_deg, get_number);
   opt(j, where, "half_height", c.half_height, get_number);
   opt(j, where, "near", c.near, get_number);
@@ -210,16 +211,6 @@ Camera parse_camera(const json& j, const std::string& where) {
   opt(j, where, "width", c.width, get_int);
   opt(j, where, "height", c.height, get_int);
   return c;
-}
-
-// A string naming one of `names`, as the matching entry of `values`.
-template <class E>
-E get_enum(const json& j, const std::string& where) {
-  const std::string v = get_string(j, where);
-  E value{};
-  if (!from_word(v, &value))
-    fail("'" + where + "' is \"" + v + "\" (expected " + word_choices<E>() + ")");
-  return value;
 }
 
 LightFrustum parse_frustum(const json& j, const std::string& where) {
@@ -240,16 +231,7 @@ Light parse_light(const json& j, const std::string& where) {
   check_object(j, where,
                {"type", "position", "direction", "color", "intensity", "size", "frustum"});
   Light l;
-  if (j.contains("type")) {
-    const std::string t = get_string(j["type"], child(where, "type"));
-    if (t == "point")
-      l.type = LightType::Point;
-    else if (t == "directional")
-      l.type = LightType::Directional;
-    else
-      fail("'" + child(where, "type") + "' is \"" + t +
-           "\" (expected \"point\" or \"directional\")");
-  }
+  opt(j, where, "type", l.type, get_enum<LightType>);
   opt(j, where, "position", l.position, get_vec3);
   opt(j, where, "direction", l.direction, get_vec3);
   opt(j, where, "color", l.color, get_vec3);
@@ -277,7 +259,7 @@ RenderParams parse_render(const json& j, const std::string& where) {
   opt(j, where, "beta", p.beta, get_number);
   opt(j, where, "gamma_p", p.gamma_p, get_number);
   opt(j, where, "cull_backfaces", p.cull_backfaces, get_bool);
-  if (j.contains("shadows")) p.shadows = get_enum<Shadows>(j["shadows"], child(where, "shadows"));
+  opt(j, where, "shadows", p.shadows, get_enum<Shadows>);
   std::optional<ExactBackend> implied;  // by "sampling": "gemm"
   if (j.contains("sampling")) {
     const std::string w = get_string(j["sampling"], child(where, "sampling"));
@@ -285,8 +267,7 @@ RenderParams parse_render(const json& j, const std::string& where) {
       fail("'" + child(where, "sampling") + "' is \"" + w + "\" (expected " +
            sampling_word_choices() + ")");
   }
-  if (j.contains("exact_backend"))
-    p.exact_backend = get_enum<ExactBackend>(j["exact_backend"], child(where, "exact_backend"));
+  opt(j, where, "exact_backend", p.exact_backend, get_enum<ExactBackend>);
   if (implied) {
     if (j.contains("exact_backend") && p.exact_backend != *implied)
       fail("'" + child(where, "sampling") + "' is \"" + gemm_shorthand() +
@@ -294,8 +275,7 @@ RenderParams parse_render(const json& j, const std::string& where) {
            child(where, "exact_backend") + "' is \"" + word(p.exact_backend) + "\"");
     p.exact_backend = *implied;
   }
-  if (j.contains("shadow_model"))
-    p.shadow_model = get_enum<ShadowModel>(j["shadow_model"], child(where, "shadow_model"));
+  opt(j, where, "shadow_model", p.shadow_model, get_enum<ShadowModel>);
   opt(j, where, "shadow_map_size", p.shadow_map_size, get_int);
   opt(j, where, "light_sigma", p.light_sigma, get_number);
   opt(j, where, "light_gamma", p.light_gamma, get_number);
