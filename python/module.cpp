@@ -219,12 +219,8 @@ NB_MODULE(_penumbra, m) {
   nb::enum_<AlbedoMode>(m, "AlbedoMode")
       .value("per_vertex", AlbedoMode::PerVertex)
       .value("per_face", AlbedoMode::PerFace);
-  nb::enum_<Projection>(m, "Projection")
-      .value("perspective", Projection::Perspective)
-      .value("orthographic", Projection::Orthographic);
-  nb::enum_<LightType>(m, "LightType")
-      .value("point", LightType::Point)
-      .value("directional", LightType::Directional);
+  bind_words<Projection>(m, "Projection");
+  bind_words<LightType>(m, "LightType");
   bind_words<Shadows>(m, "Shadows");
   bind_words<Sampling>(m, "Sampling");
   bind_words<ExactBackend>(m, "ExactBackend");
