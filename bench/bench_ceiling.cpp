@@ -22,46 +22,27 @@ const char* kSource = R"CLC(
 #define CHAINS 12
 #define DECL(k) float16 x##k = (float16)(seed + 0.001f * k);
 #define SUM(k) acc += x##k;
+#define COMMA ,
 #define ALL(M) M(0) M(1) M(2) M(3) M(4) M(5) M(6) M(7) M(8) M(9) M(10) M(11)
 
-__kernel void fma_peak(__global float16* out, int iters, float a, float b) {
-  float seed = get_global_id(0) * 1e-6f;
-  ALL(DECL)
-  for (int i = 0; i < iters; ++i) {
-#define STEP(k) x##k = fma(x##k, a, b);
-    ALL(STEP)
-#undef STEP
+// A kernel of CHAINS independent chains x = STEP(x), `iters` steps each, summed into out.
+#define PEAK_KERNEL(name, PARAMS, STEP)                         \
+  __kernel void name(__global float16* out, int iters PARAMS) { \
+    float seed = get_global_id(0) * 1e-6f;                      \
+    ALL(DECL)                                                   \
+    for (int i = 0; i < iters; ++i) {                           \
+      ALL(STEP)                                                 \
+    }                                                           \
+    float16 acc = 0;                                            \
+    ALL(SUM)                                                    \
+    out[get_global_id(0)] = acc;                                \
   }
-  float16 acc = 0;
-  ALL(SUM)
-  out[get_global_id(0)] = acc;
-}
-
-__kernel void exp_peak(__global float16* out, int iters) {
-  float seed = get_global_id(0) * 1e-6f;
-  ALL(DECL)
-  for (int i = 0; i < iters; ++i) {
-#define STEP(k) x##k = exp(-x##k);
-    ALL(STEP)
-#undef STEP
-  }
-  float16 acc = 0;
-  ALL(SUM)
-  out[get_global_id(0)] = acc;
-}
-
-__kernel void native_exp_peak(__global float16* out, int iters) {
-  float seed = get_global_id(0) * 1e-6f;
-  ALL(DECL)
-  for (int i = 0; i < iters; ++i) {
-#define STEP(k) x##k = native_exp(-x##k);
-    ALL(STEP)
-#undef STEP
-  }
-  float16 acc = 0;
-  ALL(SUM)
-  out[get_global_id(0)] = acc;
-}
+#define FMA_STEP(k) x##k = fma(x##k, a, b);
+#define EXP_STEP(k) x##k = exp(-x##k);
+#define NATIVE_EXP_STEP(k) x##k = native_exp(-x##k);
+PEAK_KERNEL(fma_peak, COMMA float a COMMA float b, FMA_STEP)
+PEAK_KERNEL(exp_peak, , EXP_STEP)
+PEAK_KERNEL(native_exp_peak, , NATIVE_EXP_STEP)
 )CLC";
 
 // The kernels' arguments, bound as the library binds its own (ops/args.hpp).
