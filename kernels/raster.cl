@@ -144,21 +144,21 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     int f = FACE_AT(i);
     LANES_OF_FACE(f)
     realP lw = log_D + (zt - m) / gamma;
-    maskP kept = in_range && lw >= keep;
-    if (!ANY(kept)) continue;
-    real lws[PPW], zs[PPW], keptj[PPW], weights[PPW];
+    const uint kept = mask_bits(in_range && lw >= keep);  // lane j's bit: a kept fragment
+    if (kept == 0) continue;
+    real lws[PPW], zs[PPW], weights[PPW];
     VSTOREP(lw, 0, lws);
     // The scalar exp of every lane, unrolled: the compiler evaluates the lanes' copies as one
     // vector (the same bits per lane), where one kept lane at a time had been a serial chain.
 #pragma unroll
     for (int j = 0; j < PPW; ++j) weights[j] = exp(lws[j]);
     VSTOREP(zq, 0, zs);
-    VSTOREP(kept ? (realP)1 : (realP)0, 0, keptj);
     Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
     FragmentTerms t;
     fragment_terms(b, &F, shadowed, P, &t);
-    for (int j = 0; j < PPW; ++j) {  // the kept lanes, one at a time: their records
-      if (keptj[j] == 0 || n[j] >= bound[j]) continue;  // (the bound holds by construction)
+    for (uint lanes = kept; lanes != 0; lanes &= lanes - 1) {  // the kept lanes: their records
+      const int j = lowest_bit(lanes);
+      if (n[j] >= bound[j]) continue;  // (the bound holds by construction)
       int r = first[j] + n[j]++;
       rec_face[r] = f;
       rec_frag[r] = (real2)(weights[j], zs[j]);
