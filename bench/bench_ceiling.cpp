@@ -19,13 +19,12 @@ constexpr int kChains = 12;
 constexpr int kItems = 64;  // work-items (local size 1: each is one vector "thread")
 
 const char* kSource = R"CLC(
-#define CHAINS 12
 #define DECL(k) float16 x##k = (float16)(seed + 0.001f * k);
 #define SUM(k) acc += x##k;
 #define COMMA ,
 #define ALL(M) M(0) M(1) M(2) M(3) M(4) M(5) M(6) M(7) M(8) M(9) M(10) M(11)
 
-// A kernel of CHAINS independent chains x = STEP(x), `iters` steps each, summed into out.
+// A kernel of kChains (12) independent chains x = STEP(x), `iters` steps each, summed into out.
 #define PEAK_KERNEL(name, PARAMS, STEP)                         \
   __kernel void name(__global float16* out, int iters PARAMS) { \
     float seed = get_global_id(0) * 1e-6f;                      \
