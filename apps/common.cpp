@@ -177,47 +177,33 @@ void require(bool ok, const std::string& option, const std::string& what, double
   if (!ok) throw Error(option + " must be " + what + " (got " + number(value) + ")");
 }
 
+// target = value where the command line gave the option, once `ok` (the value's check) holds;
+// the error names the option by its first long name.
+template <class T, class Target>
+void set_if_given(const CLI::Option* option, T value, bool ok, const std::string& what,
+                  Target& target) {
+  if (!given(option)) return;
+  require(ok, "--" + option->get_lnames().at(0), what, value);
+  target = value;
+}
+
 }  // namespace
 
 void apply_render_options(const RenderOptions& o, Scene& scene) {
   RenderParams& p = scene.params;
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
-  if (given(o.o_sigma)) {
-    require(positive(o.sigma), "--sigma", "a positive finite number", o.sigma);
-    p.sigma = o.sigma;
-  }
-  if (given(o.o_gamma)) {
-    require(positive(o.gamma), "--gamma", "a positive finite number", o.gamma);
-    p.gamma = o.gamma;
-  }
-  if (given(o.o_eps)) {
-    require(std::isfinite(o.eps), "--eps", "a finite number", o.eps);
-    p.eps = o.eps;
-  }
-  if (given(o.o_dist_eps)) {
-    require(positive(o.dist_eps) && o.dist_eps < 1, "--dist-eps", "in (0, 1)", o.dist_eps);
-    p.dist_eps = o.dist_eps;
-  }
-  if (given(o.o_sigma_s)) {
-    require(positive(o.sigma_s), "--sigma-s", "a positive finite number", o.sigma_s);
-    p.sigma_s = o.sigma_s;
-  }
-  if (given(o.o_lambda_eps)) {
-    require(positive(o.lambda_eps) && o.lambda_eps < 1, "--lambda-eps", "in (0, 1)", o.lambda_eps);
-    p.lambda_eps = o.lambda_eps;
-  }
-  if (given(o.o_gamma_s)) {
-    require(positive(o.gamma_s), "--gamma-s", "a positive finite number", o.gamma_s);
-    p.gamma_s = o.gamma_s;
-  }
-  if (given(o.o_beta)) {
-    require(std::isfinite(o.beta), "--beta", "a finite number", o.beta);
-    p.beta = o.beta;
-  }
-  if (given(o.o_gamma_p)) {
-    require(positive(o.gamma_p), "--gamma-p", "a positive finite number", o.gamma_p);
-    p.gamma_p = o.gamma_p;
-  }
+  const char* const kPositive = "a positive finite number";
+  set_if_given(o.o_sigma, o.sigma, positive(o.sigma), kPositive, p.sigma);
+  set_if_given(o.o_gamma, o.gamma, positive(o.gamma), kPositive, p.gamma);
+  set_if_given(o.o_eps, o.eps, std::isfinite(o.eps), "a finite number", p.eps);
+  set_if_given(o.o_dist_eps, o.dist_eps, positive(o.dist_eps) && o.dist_eps < 1, "in (0, 1)",
+               p.dist_eps);
+  set_if_given(o.o_sigma_s, o.sigma_s, positive(o.sigma_s), kPositive, p.sigma_s);
+  set_if_given(o.o_lambda_eps, o.lambda_eps, positive(o.lambda_eps) && o.lambda_eps < 1,
+               "in (0, 1)", p.lambda_eps);
+  set_if_given(o.o_gamma_s, o.gamma_s, positive(o.gamma_s), kPositive, p.gamma_s);
+  set_if_given(o.o_beta, o.beta, std::isfinite(o.beta), "a finite number", p.beta);
+  set_if_given(o.o_gamma_p, o.gamma_p, positive(o.gamma_p), kPositive, p.gamma_p);
   if (given(o.o_shadows)) p.shadows = parse_shadows(o.shadows);
   if (given(o.o_sampling)) {
     std::optional<ExactBackend> implied;  // --sampling gemm
@@ -234,30 +220,21 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
   }
   if (given(o.o_shadow_model))
     p.shadow_model = parse_word<ShadowModel>("--shadow-model", o.shadow_model);
-  if (given(o.o_map_size)) {
-    require(o.map_size >= 1 && o.map_size <= 8192, "--map-size",
-            "a positive number of texels (at most 8192)", o.map_size);
-    p.shadow_map_size = o.map_size;
-  }
+  set_if_given(o.o_map_size, o.map_size, o.map_size >= 1 && o.map_size <= 8192,
+               "a positive number of texels (at most 8192)", p.shadow_map_size);
   if (given(o.o_light_size)) {
     require(std::isfinite(o.light_size) && o.light_size >= 0, "--light-size",
             "a non-negative diameter", o.light_size);
     for (Light& light : scene.lights) light.size = o.light_size;
   }
-  if (given(o.o_light_sigma)) {
-    require(std::isfinite(o.light_sigma) && o.light_sigma >= 0 && o.light_sigma < 1,
-            "--light-sigma", "in [0, 1) (0: a tenth of --sigma)", o.light_sigma);
-    p.light_sigma = o.light_sigma;
-  }
-  if (given(o.o_light_gamma)) {
-    require(std::isfinite(o.light_gamma) && o.light_gamma >= 0 && o.light_gamma < 1,
-            "--light-gamma", "in [0, 1) (0: the same as --gamma)", o.light_gamma);
-    p.light_gamma = o.light_gamma;
-  }
-  if (given(o.o_weight_eps)) {
-    require(positive(o.weight_eps) && o.weight_eps < 1, "--weight-eps", "in (0, 1)", o.weight_eps);
-    p.weight_eps = o.weight_eps;
-  }
+  set_if_given(o.o_light_sigma, o.light_sigma,
+               std::isfinite(o.light_sigma) && o.light_sigma >= 0 && o.light_sigma < 1,
+               "in [0, 1) (0: a tenth of --sigma)", p.light_sigma);
+  set_if_given(o.o_light_gamma, o.light_gamma,
+               std::isfinite(o.light_gamma) && o.light_gamma >= 0 && o.light_gamma < 1,
+               "in [0, 1) (0: the same as --gamma)", p.light_gamma);
+  set_if_given(o.o_weight_eps, o.weight_eps, positive(o.weight_eps) && o.weight_eps < 1,
+               "in (0, 1)", p.weight_eps);
   constexpr int kMaxSize = 16384;
   if (given(o.o_width)) {
     require(o.width > 0 && o.width <= kMaxSize, "--width",
