@@ -112,7 +112,12 @@ MISS_REASONS = [
      "8 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/soft/truncated/img:256/"
      "map:256/faces:1312/ --benchmark_min_time=3`, 2026-11-27, this Xeon). Each sigmoid's "
      "divisions and exponential are most of both kernels; rewriting them (a reciprocal of γ_s, "
-     "e/(e + c) for 1/(1 + c/e)) would change the gradients' last bits."),
+     "e/(e + c) for 1/(1 + c/e)) would change the gradients' last bits, and would not lower "
+     "the quotient: with multiplications by the reciprocals of γ_s and σ_s in place of their "
+     "divisions (kernels modified for the measurement only, two alternated runs, 2026-11-29) "
+     "`soft_sample_bwd` took 15.2-16.8 ms a step against 17.6-20.4 and `soft_gather` "
+     "25.0-26.3 against 26.9-27.4, but the forward's `soft_sample` gained as much (10.8-12.5 "
+     "against 12.3-13.1), and the quotient moved only from 2.92-2.93 to 2.87-2.91."),
     ("512²", "with the 8×8 tiles of this Xeon's tuned entry (the heuristic picks the same for a "
      "100k-face sphere at 512²), a tile's "
      "list holds about 77 faces; `raster_count` tests each against the box of each of the "
