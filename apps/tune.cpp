@@ -24,6 +24,7 @@ struct TuneArgs {
   std::string device, output;
   bool quick = false;
   int runs = 5;
+  double clblast_fraction = 0;  // TuneOptions::clblast_fraction
 };
 
 // The database file as it is now, "" when there is none.
@@ -51,6 +52,7 @@ int run_tune(const TuneArgs& a) {
   TuneOptions options;
   options.quick = a.quick;
   options.runs = a.runs;
+  options.clblast_fraction = a.clblast_fraction;
   std::fprintf(stderr, "tuning on %s (%s)...\n", context.info().name.c_str(),
                a.quick ? "quick" : "full");
   const TuneReport report = tune(context, scene, options);
@@ -78,6 +80,12 @@ Command add_tune_command(CLI::App& root) {
   c.app->add_flag("--quick", args->quick, "fewer candidates, smaller images, fewer runs");
   c.app->add_option("--runs", args->runs, "timed runs per candidate (median)")
       ->capture_default_str();
+  c.app
+      ->add_option("--clblast-fraction", args->clblast_fraction,
+                   "share of CLBlast's Xgemm parameter space its own tuner searches first, its "
+                   "fastest set then timed and checked as an exact-stage candidate (0: skip; "
+                   "1e-4: about 20 s on a 2-core CPU)")
+      ->check(CLI::Range(0.0, 1.0));
   c.app->add_option("-o,--output", args->output,
                     "database file to update (default: the user's cache, see README)");
   c.app->add_option("--device", args->device, "OpenCL device (index or part of its name)");

@@ -587,6 +587,15 @@ TEST(FaultsCli, TuneChecksItsOutputBeforeTuning) {
   EXPECT_EQ(names_in(dir), (std::vector<std::string>{"corrupt.json", "file"}));
 }
 
+TEST(FaultsCli, TuneRefusesAClblastFractionOutsideZeroToOne) {
+  for (const char* f : {"2", "-0.5", "x"}) {
+    const RunResult r =
+        run_cli(std::string("tune --quick --runs 1 --clblast-fraction ") + f, "tune_fraction");
+    EXPECT_EQ(r.exit_code, 2) << show(r);
+    expect_clean_error(r, "--clblast-fraction");  // one line, before any tuning
+  }
+}
+
 TEST(FaultsCli, TuneLeavesOtherDevicesEntriesByteIdentical) {
   const std::string dir = fresh_dir("tune_roundtrip");
   write_text(dir + "/db.json", kOtherEntries);

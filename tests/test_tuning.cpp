@@ -346,6 +346,49 @@ TEST(Tuning, CorruptOrMissingDatabaseFallsBackWithAWarning) {
   EXPECT_NE(warned.find("ignoring tuning database"), std::string::npos) << warned;
 }
 
+// The report's rows of CLBlast's own tuner: its set as an exact candidate, or its failure.
+std::vector<TuneReport::Candidate> clblast_tuner_rows(const TuneReport& report) {
+  std::vector<TuneReport::Candidate> rows;
+  for (const auto& c : report.candidates)
+    if (c.name.find("CLBlast's tuner") != std::string::npos || c.name == "CLBlast's Xgemm tuner")
+      rows.push_back(c);
+  return rows;
+}
+
+TEST(Tuning, ClblastTunersSetIsTimedAndCheckedLikeTheOtherCandidates) {
+  Scene s = small_scene(Shadows::None, Sampling::Truncated);
+  s.params.shadow_map_size = 128;  // the tuner's product: 128³, where its search finds sets
+  TuneOptions o;
+  o.quick = true;
+  o.runs = 1;
+  o.clblast_fraction = 1e-4;
+  const TuneReport report = tune(context(), s, o);
+  const auto rows = clblast_tuner_rows(report);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].stage, "exact");
+  EXPECT_EQ(rows[0].name.rfind("CLBlast GEMM ", 0), 0u) << rows[0].name << ": " << rows[0].note;
+  if (rows[0].accepted)
+    EXPECT_GT(rows[0].median_ms, 0.0);
+  else
+    EXPECT_NE(rows[0].note.find("differs"), std::string::npos) << rows[0].note;
+  EXPECT_NO_THROW(validate(report.best, context().info()));
+}
+
+TEST(Tuning, AFailedClblastTunerIsAReportedRowAndTheTuneGoesOn) {
+  Scene s = small_scene(Shadows::None, Sampling::Truncated);
+  TuneOptions o;
+  o.quick = true;
+  o.runs = 1;
+  o.clblast_fraction = 1e-9;  // no configuration at all: CLBlast's tuner fails
+  const TuneReport report = tune(context(), s, o);
+  const auto rows = clblast_tuner_rows(report);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_FALSE(rows[0].accepted);
+  EXPECT_NE(rows[0].note.find("CLBlast's Xgemm tuner failed"), std::string::npos) << rows[0].note;
+  EXPECT_NO_THROW(validate(report.best, context().info()));
+  EXPECT_EQ(report.best.source.rfind("tuned:", 0), 0u);
+}
+
 TEST(Tuning, TunerTimesEveryStageAndReturnsALegalWinner) {
   Scene s = small_scene(Shadows::None, Sampling::Truncated);
   TuneOptions o;

@@ -159,6 +159,10 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& workload)
 struct TuneOptions {
   bool quick = false;  // fewer candidates and runs
   int runs = 5;        // timed runs per candidate (quick: 3)
+  // Above 0: first CLBlast's own Xgemm tuner (clblast::TuneXgemm) searches this fraction of its
+  // parameter space (1e-4: about 20 s on a 2-core CPU), and its fastest set joins the exact
+  // stage's candidates, timed and checked like them.
+  double clblast_fraction = 0;
 };
 struct TuneReport {
   struct Candidate {

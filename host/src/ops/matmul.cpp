@@ -230,4 +230,31 @@ void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl
          cl::NDRange(8, 8));  // no barriers: the group size only sets scheduling
 }
 
+std::optional<XgemmParameters> clblast_tuned_xgemm(Context& ctx, size_t m, size_t n, size_t k,
+                                                   double fraction, std::string* why) {
+  ClblastParams found;
+  cl_command_queue q = ctx.queue()();
+  clblast::StatusCode status;
+  try {
+    status = clblast::TuneXgemm<float>(&q, m, n, k, fraction, found);
+  } catch (const std::exception& e) {  // the API reports by status; be sure nothing escapes
+    *why = std::string("CLBlast's Xgemm tuner failed: ") + e.what();
+    return std::nullopt;
+  }
+  if (status != clblast::StatusCode::kSuccess) {
+    *why = "CLBlast's Xgemm tuner failed (" + status_name(status) + ")";
+    return std::nullopt;
+  }
+  XgemmParameters x;
+  for (const auto& [name, field] : XgemmParameters::fields()) {
+    const auto it = found.find(name);
+    if (it == found.end()) {
+      *why = std::string("CLBlast's Xgemm tuner gave no ") + name;
+      return std::nullopt;
+    }
+    x.*field = int(it->second);
+  }
+  return x;
+}
+
 }  // namespace penumbra::detail

@@ -7,6 +7,7 @@
 #include <cctype>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -271,6 +272,12 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
                        const cl::Buffer* Ad, size_t lda, const cl::Buffer& B, size_t ldb,
                        const cl::Buffer& D, const cl::Buffer* Dd, size_t ldd,
                        const cl::Buffer& support, ProductScratch& scratch, cl::Buffer& out);
+
+// CLBlast's own tuner of its Xgemm kernel (clblast::TuneXgemm, float): a random search over
+// `fraction` of its parameter space on an m × n × k product. Its fastest set; nothing, with the
+// reason in *why, where the tuner failed (too small a fraction finds no legal set).
+std::optional<XgemmParameters> clblast_tuned_xgemm(Context& ctx, size_t m, size_t n, size_t k,
+                                                   double fraction, std::string* why);
 
 // Whether `p` samples shadows by the paper model's exact lookups of hard shadows (exact or gemm
 // sampling), whose weights the fragments keep (ExactWeights).

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
+#include "ops/ops.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/renderer.hpp"
 #include "penumbra/tuning.hpp"
@@ -183,6 +185,60 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
 
 }  // namespace detail
 
+namespace {
+
+// The scene a stage times: the stage's shadows, at most 128² images and maps when quick.
+Scene stage_scene(const Scene& base, const detail::TuneStage& stage, bool quick) {
+  Scene scene = base;
+  scene.params.shadows = stage.shadows;
+  scene.params.sampling = stage.sampling;
+  scene.params.shadow_model = ShadowModel::Paper;  // the products and the penumbra map are its
+  if (quick) {
+    for (Camera& c : scene.cameras)
+      c.width = std::min(c.width, 128), c.height = std::min(c.height, 128);
+    scene.params.shadow_map_size = std::min(shadow_map_side(scene.params), 128);
+  }
+  // e^(−d²/(2σ_s)) stays above the least normal float (e^−87) for every offset d < side.
+  if (stage.dense) scene.params.sigma_s = std::pow(shadow_map_side(scene.params), 2) / 170.0;
+  refit_light_frusta(scene);
+  return scene;
+}
+
+// With options.clblast_fraction > 0, CLBlast's own tuner's set (on a side³ product, side the
+// exact stage's map side) as one more candidate of the exact stage, starting from `start`; a
+// rejected row of the report where the tuner failed or its set is not legal here.
+std::optional<XgemmParameters> add_clblast_tuned(Context& context, const Scene& base,
+                                                 const TuneOptions& options, const Tuning& start,
+                                                 std::vector<detail::TuneStage>& stages,
+                                                 TuneReport& report) {
+  const auto exact = std::find_if(stages.begin(), stages.end(),
+                                  [](const detail::TuneStage& s) { return s.name == "exact"; });
+  if (!(options.clblast_fraction > 0) || exact == stages.end()) return std::nullopt;
+  const size_t n = size_t(shadow_map_side(stage_scene(base, *exact, options.quick).params));
+  std::string why;
+  std::optional<XgemmParameters> x =
+      detail::clblast_tuned_xgemm(context, n, n, n, options.clblast_fraction, &why);
+  if (!x) {
+    report.candidates.push_back({"exact", "CLBlast's Xgemm tuner", 0, false, why});
+    return x;
+  }
+  Tuning t = start;
+  t.exact.clblast = true;
+  t.exact.xgemm = *x;
+  t.exact.min_indirect_size = 1;  // as the other sets: its Xgemm kernel at every size
+  try {
+    validate(t, context.info());
+  } catch (const Error& e) {
+    report.candidates.push_back(
+        {"exact", "CLBlast GEMM " + x->describe() + " (CLBlast's tuner)", 0, false, e.what()});
+    return std::nullopt;
+  }
+  exact->candidates.push_back(t);
+  return x;
+}
+
+}  // namespace
+
 TuneReport tune(Context& context, const Scene& base, const TuneOptions& options) {
   const DeviceInfo& device = context.info();
   const int runs = std::max(1, options.quick ? std::min(options.runs, 3) : options.runs);
@@ -190,19 +246,11 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
   // Start from what the database would pick today for this scene.
   Tuning best = TuningDatabase::load_default().lookup(device, workload_stats(base));
 
-  for (detail::TuneStage& stage : detail::tune_stages(device, best, options.quick)) {
-    Scene scene = base;
-    scene.params.shadows = stage.shadows;
-    scene.params.sampling = stage.sampling;
-    scene.params.shadow_model = ShadowModel::Paper;  // the products and the penumbra map are its
-    if (options.quick) {
-      for (Camera& c : scene.cameras)
-        c.width = std::min(c.width, 128), c.height = std::min(c.height, 128);
-      scene.params.shadow_map_size = std::min(shadow_map_side(scene.params), 128);
-    }
-    // e^(−d²/(2σ_s)) stays above the least normal float (e^−87) for every offset d < side.
-    if (stage.dense) scene.params.sigma_s = std::pow(shadow_map_side(scene.params), 2) / 170.0;
-    refit_light_frusta(scene);
+  std::vector<detail::TuneStage> stages = detail::tune_stages(device, best, options.quick);
+  const std::optional<XgemmParameters> clblast_tuned =
+      add_clblast_tuned(context, base, options, best, stages, report);
+  for (detail::TuneStage& stage : stages) {
+    const Scene scene = stage_scene(base, stage, options.quick);
     // The reference output: the configuration the stage starts from.
     Tuning reference = best;
     const Trial ref = time_candidate(context, scene, reference, 1);
@@ -215,6 +263,9 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
       if (stage.name != "exact") candidate.exact = best.exact;
       if (stage.name != "penumbra") candidate.penumbra = best.penumbra;
       TuneReport::Candidate row{stage.name, describe(candidate, stage.name), 0, true, ""};
+      if (stage.name == "exact" && candidate.exact.clblast && candidate.exact.xgemm &&
+          candidate.exact.xgemm == clblast_tuned)
+        row.name += " (CLBlast's tuner)";
       try {
         const Trial trial = time_candidate(context, scene, candidate, runs);
         row.median_ms = trial.median_ms;
