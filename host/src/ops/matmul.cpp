@@ -3,6 +3,7 @@
 #include <clblast.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <mutex>
 #include <tuple>
@@ -43,6 +44,38 @@ std::string status_name(clblast::StatusCode s) {
   }
 }
 
+// What is wrong with CLBlast's GEMM under the parameters now set, "" if nothing: a 64³ product of
+// small whole numbers (exact in float and double, in any order of summation) against the host's,
+// through the Xgemm kernel (routine `min_indirect_size` 1 during the check). CLBlast 1.5 accepts
+// sets that compute wrong products (docs/tuning.md, "CLBlast's own tuner").
+std::string xgemm_check(Kernels& k) {
+  const size_t n = 64;
+  std::vector<double> a(n * n), b(n * n), want(n * n, 0.0);
+  for (size_t i = 0; i < n * n; ++i) a[i] = double(i * 7 % 5), b[i] = double(i * 3 % 4);
+  for (size_t i = 0; i < n; ++i)  // column-major, as asked below
+    for (size_t j = 0; j < n; ++j)
+      for (size_t l = 0; l < n; ++l) want[j * n + i] += a[l * n + i] * b[j * n + l];
+  Context& ctx = k.ctx();
+  const cl::Buffer A = upload_reals(ctx, k.precision(), a), B = upload_reals(ctx, k.precision(), b);
+  cl::Buffer C = upload_reals(ctx, k.precision(), std::vector<double>(n * n, 0.0));
+  cl_command_queue q = ctx.queue()();
+  const auto col = clblast::Layout::kColMajor;
+  const auto no = clblast::Transpose::kNo;
+  const clblast::StatusCode status =
+      k.precision() == Precision::Double
+          ? clblast::Gemm<double>(col, no, no, n, n, n, 1.0, A(), 0, n, B(), 0, n, 0.0, C(), 0, n,
+                                  &q, nullptr)
+          : clblast::Gemm<float>(col, no, no, n, n, n, 1.0f, A(), 0, n, B(), 0, n, 0.0f, C(), 0, n,
+                                 &q, nullptr);
+  if (status != clblast::StatusCode::kSuccess) return "it failed (" + status_name(status) + ")";
+  const std::vector<double> got = download_reals(ctx, k.precision(), C, n * n);
+  double worst = 0;
+  for (size_t i = 0; i < n * n; ++i) worst = std::max(worst, std::abs(got[i] - want[i]));
+  if (!(worst == 0))
+    return "an error of " + std::to_string(worst) + " in a 64³ product of whole numbers";
+  return "";
+}
+
 // CLBlast keeps one parameter set per (device, precision, kernel) for the whole process, so
 // the tuning's set is applied only when it differs from the one applied last (an unset one
 // restores CLBlast's own, read before the first override). Each new set makes the next GEMM
@@ -71,12 +104,13 @@ void apply_clblast_parameters(Kernels& k) {
       a.current = a.defaults;
     }
     const ClblastParams& target = wanted ? *wanted : a.defaults;
-    if (target == a.current) return;
+    if (target == a.current) return false;
     const auto status = clblast::OverrideParameters(device, kernel, precision, target);
     if (status != clblast::StatusCode::kSuccess)
       throw Error(std::string("CLBlast rejected the ") + kernel + " parameters (" +
                   status_name(status) + ")");
     a.current = target;
+    return true;
   };
 
   std::lock_guard<std::mutex> lock(mutex);
@@ -85,7 +119,17 @@ void apply_clblast_parameters(Kernels& k) {
     for (const auto& [name, field] : XgemmParameters::fields())
       xgemm[name] = size_t((*e.xgemm).*field);
   if (e.min_indirect_size > 0) routine["XGEMM_MIN_INDIRECT_SIZE"] = size_t(e.min_indirect_size);
-  apply("Xgemm", e.xgemm ? &xgemm : nullptr);
+  if (apply("Xgemm", e.xgemm ? &xgemm : nullptr) && e.xgemm) {  // a new set: does it multiply?
+    const ClblastParams always{{"XGEMM_MIN_INDIRECT_SIZE", 1}};
+    apply("GemmRoutine", &always);
+    const std::string wrong = xgemm_check(k);
+    if (!wrong.empty()) {
+      apply("Xgemm", nullptr);
+      throw Error("CLBlast's GEMM computes wrong products with the tuning's Xgemm set (" +
+                  e.xgemm->describe() + "): " + wrong +
+                  "; remove the set from the tuning database or run penumbra tune");
+    }
+  }
   apply("GemmRoutine", e.min_indirect_size > 0 ? &routine : nullptr);
 }
 
