@@ -251,10 +251,13 @@ TEST(Tuning, AClblastSetThatMultipliesWrongIsRefusedAtItsFirstGemm) {
         << m;
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
   }
+  const auto after_refusal = clblast_xgemm(Precision::Float);
   Tuning own;
   own.exact.clblast = true;
   const auto ref = render_with(s, Tuning{}, Precision::Float);
   EXPECT_LE(max_difference(render_with(s, own, Precision::Float), ref), 2e-5);
+  EXPECT_EQ(after_refusal, clblast_xgemm(Precision::Float));  // CLBlast's own, back at once
+  EXPECT_NE(after_refusal.at("KWG"), size_t(wrong.KWG));
 }
 
 TEST(Tuning, IllegalClblastParametersAreRejectedWithAClearMessage) {
