@@ -5,25 +5,21 @@ import torch
 import penumbra
 import penumbra.torch as pt
 
-scene = penumbra.bundled_scene()  # a sphere on a ground plane
-camera, light = penumbra.Camera(), penumbra.Light()
-camera.eye, camera.target, camera.up = (0, 8, 0), (0, 0, 0), (0, 0, -1)
-camera.near, camera.far, camera.width, camera.height = 7.9, 8.1, 96, 96
-light.type, light.direction = penumbra.LightType.directional, (-0.3, -1, -0.2)
-scene.cameras, scene.lights = [camera], [light]
-p = scene.params  # shadow edges soft enough to move: docs/applications.md, "Shadow parameters"
-p.shadow_map_size, p.light_sigma, p.light_gamma = 128, (1.1 / 128) ** 2, 0.1
-p.beta, p.gamma_s = 0.8, 0.2
-render = pt.SceneRenderer(scene)
-x = render.parameters(torch.float32)
-n = len(scene.meshes[0].vertices)  # the sphere's vertices come first, then the ground's
-sphere, ground = x["vertices"][:n] - x["vertices"][:n].mean(0), x["vertices"][n:]
+sphere, faces = pt.load_mesh(penumbra.data_dir() / "meshes" / "icosphere.obj")
+ground, ground_faces = pt.load_mesh(penumbra.data_dir() / "meshes" / "plane.obj")
+camera = pt.Camera.look_at((0, 8, 0), (0, 0, 0), up=(0, 0, -1), fov=40, width=96, height=96,
+                           near=7.9, far=8.1)
+light = pt.Light.directional((-0.3, -1, -0.2))
+params = penumbra.RenderParams()  # shadow edges soft enough to move: docs/applications.md
+params.shadows, params.shadow_map_size = penumbra.Shadows.hard, 128
+params.light_sigma, params.light_gamma = (1.1 / 128) ** 2, 0.1
 
 
 def shadow(scale, shift):  # the sphere lifted by 0.6, stretched and moved across the ground
     centre = torch.stack([shift[0], torch.tensor(1.6), shift[1]])
-    v = torch.cat([sphere * torch.stack([scale[0], torch.tensor(1.0), scale[1]]) + centre, ground])
-    return render(v, x["albedo"], x["lights"], x["ambient"])[0][0]
+    v = sphere * torch.stack([scale[0], torch.tensor(1.0), scale[1]]) + centre
+    colour, _, _ = pt.render([v, ground], [faces, ground_faces], camera, light, params=params)
+    return colour[0]
 
 
 target = shadow(torch.tensor([1.4, 0.7]), torch.tensor([0.3, -0.2]))

@@ -1,6 +1,7 @@
 // The renderer's backward pipeline, the forward's mirror (renderer.cpp): every camera's pass
 // back to its fragments' shadow lookups and faces, then every light's pass back from the
 // gradients of its shadow map (and penumbra map) summed over the cameras.
+#include <cmath>
 #include <string>
 
 #include "penumbra/error.hpp"
@@ -18,6 +19,15 @@ void check_grad_image(const Image& g, int W, int H, int C, const char* what, siz
                 " is " + std::to_string(g.width) + "x" + std::to_string(g.height) + "x" +
                 std::to_string(g.channels) + ", expected " + std::to_string(W) + "x" +
                 std::to_string(H) + "x" + std::to_string(C));
+  // A NaN or infinite value would turn every gradient it reaches into NaN.
+  for (size_t i = 0; i < g.data.size(); ++i) {
+    if (std::isfinite(g.data[i])) continue;
+    const size_t pixel = i / size_t(C);
+    throw Error("gradient of " + std::string(what) + " for camera " + std::to_string(view) +
+                " is " + (std::isnan(g.data[i]) ? "NaN" : "infinite") + " at pixel (" +
+                std::to_string(pixel % size_t(W)) + ", " + std::to_string(pixel / size_t(W)) +
+                "); gradients must be finite");
+  }
 }
 
 // Adds the `rows` rows of `sum.size()` reals of `buf` to `sum`, in row order (reproducible).
@@ -79,6 +89,12 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
   if (grads.size() != given.cameras.size())
     throw Error("backward: got gradients for " + std::to_string(grads.size()) +
                 " camera(s), the scene has " + std::to_string(given.cameras.size()));
+  for (size_t c = 0; c < grads.size(); ++c) {
+    const int W = camera_passes[c].view.W, H = camera_passes[c].view.H;
+    check_grad_image(grads[c].color, W, H, 3, "color", c);
+    check_grad_image(grads[c].silhouette, W, H, 1, "silhouette", c);
+    check_grad_image(grads[c].depth, W, H, 1, "depth", c);
+  }
 }
 
 BackwardSums& Renderer::Impl::start_backward() {
@@ -116,9 +132,6 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
   ViewPass& cp = camera_passes[camera];  // its fragments keep the exact lookups' weights
   const int W = cp.view.W, H = cp.view.H;
   stage("resolve");
-  check_grad_image(g.color, W, H, 3, "color", camera);
-  check_grad_image(g.silhouette, W, H, 1, "silhouette", camera);
-  check_grad_image(g.depth, W, H, 1, "depth", camera);
   const size_t npix = size_t(W) * H;
   std::vector<double> gimage(npix * 4, 0.0);
   for (size_t i = 0; i < npix; ++i) {
@@ -243,10 +256,11 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
 }
 
 // Every camera's pass backwards, then every light's.
-SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
-  Impl& m = *impl_;
+SceneGrads Renderer::Impl::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
+  Impl& m = *this;
   const Impl::CallProfile profile(m, "backward", "check");
   m.check_backward(scene, grads);
+  m.started = true;
   m.mark("sums");
   BackwardSums& sums = m.start_backward();
   const int nc = int(m.camera_passes.size()), lights = int(m.light_passes.size());

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 #include "common/layout.h"
@@ -101,6 +102,7 @@ void Renderer::Impl::mark(const char* name) { detail::profile_stage(ctx, call, n
 
 void Renderer::Impl::stage(const char* name) {
   mark(name);
+  if (interrupt_check) interrupt_check();
   if (!observer) return;
   progress.stage = name;
   progress.part = progress.parts = 0;
@@ -108,10 +110,11 @@ void Renderer::Impl::stage(const char* name) {
 }
 
 size_t Renderer::Impl::prepare(const Scene& given) {
-  validate(given);
+  validate(given, DegenerateFaces::Allow);
   if (given.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(given.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
+  started = true;
   // An optimisation moves the vertices of fixed faces: the last render's faces and albedo, packed
   // and on the device, stay (at 100k faces, packing and uploading them took 3-4 ms a render).
   vertices_only = geometry_current && same_faces_and_albedo(given.meshes, meshes_as_given());
@@ -121,6 +124,7 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   else
     scene = given;
   meshes_normalised = false;
+  check_given_frusta(given);
   fit_light_frusta(scene);  // frusta not given are fitted to this scene and then fixed
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);
@@ -276,6 +280,7 @@ Renderer::~Renderer() = default;
 
 void Renderer::set_progress(ProgressObserver observer) {
   Impl& m = *impl_;
+  const std::lock_guard<std::mutex> lock(m.busy);
   m.observer = std::move(observer);
   if (!m.observer) {
     m.kernels.on_part = nullptr;
@@ -290,9 +295,44 @@ void Renderer::set_progress(ProgressObserver observer) {
 Precision Renderer::precision() const { return impl_->precision; }
 const Tuning& Renderer::tuning() const { return impl_->kernels.tuning(); }
 
-// Every light's shadow map first (when shadows are on), then every camera's image.
+void Renderer::Impl::check_given_frusta(const Scene& given) {
+  if (warned_frustum || given.params.shadows == Shadows::None) return;
+  for (size_t l = 0; l < given.lights.size(); ++l) {
+    if (!given.lights[l].frustum.fitted || frustum_holds_casters(given, given.lights[l])) continue;
+    std::fprintf(stderr,
+                 "penumbra: warning: the shadow-map frustum given for light %zu leaves out faces "
+                 "that cast its shadows, which are cut off at its edge; leave it unfitted (or "
+                 "refit it) to follow the geometry\n",
+                 l);
+    warned_frustum = true;
+    return;
+  }
+}
+
+void Renderer::Impl::abandon() {
+  ctx.queue().finish();  // nothing of the call still runs on buffers released below
+  geometry_current = false;
+  camera_passes.clear();
+  light_passes.clear();
+  view_P.clear();
+}
+
 std::vector<RenderOutput> Renderer::render(const Scene& scene) {
-  Impl& m = *impl_;
+  return impl_->exclusive([&] { return impl_->render(scene); });
+}
+
+SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
+  return impl_->exclusive([&] { return impl_->backward(scene, grads); });
+}
+
+void Renderer::set_interrupt_check(std::function<void()> check) {
+  const std::lock_guard<std::mutex> lock(impl_->busy);
+  impl_->interrupt_check = std::move(check);
+}
+
+// Every light's shadow map first (when shadows are on), then every camera's image.
+std::vector<RenderOutput> Renderer::Impl::render(const Scene& scene) {
+  Impl& m = *this;
   const Impl::CallProfile profile(m, "render", "prepare");
   const size_t estimate = m.prepare(scene);
   m.mark("upload");
@@ -343,16 +383,19 @@ std::vector<Image> light_maps(Context& ctx, Precision p, const std::vector<Light
 }  // namespace
 
 std::vector<Image> Renderer::shadow_maps() const {
+  const std::lock_guard<std::mutex> lock(impl_->busy);
   return light_maps(impl_->ctx, impl_->precision, impl_->light_passes, &detail::LightMaps::S,
                     1 / impl_->norm.scale);
 }
 
 std::vector<Image> Renderer::penumbra_maps() const {
+  const std::lock_guard<std::mutex> lock(impl_->busy);
   return light_maps(impl_->ctx, impl_->precision, impl_->light_passes,
                     &detail::LightMaps::penumbra);
 }
 
 std::vector<size_t> Renderer::fragment_counts() const {
+  const std::lock_guard<std::mutex> lock(impl_->busy);
   std::vector<size_t> counts;
   for (const ViewPass& cp : impl_->camera_passes) {
     const std::vector<int> n = detail::download_ints(impl_->ctx, cp.fragments.pix_n,

@@ -1,6 +1,7 @@
 #pragma once
 // The renderer's state between render() and backward(), and the stages of both pipelines:
 // renderer.cpp runs the forward pipeline, backward.cpp its mirror.
+#include <mutex>
 #include <vector>
 
 #include "ops/ops.hpp"
@@ -78,6 +79,28 @@ struct Renderer::Impl {
   ProgressObserver observer;
   RenderProgress progress;
   int pass_done = 0, pass_total = 1;
+  std::function<void()> interrupt_check;  // set_interrupt_check
+  std::mutex busy;                        // held by each public call: one at a time
+  bool warned_frustum = false;            // the given-frustum warning, once per renderer
+
+  // Waits for the device and forgets the last render: what a call that threw leaves once it
+  // had `started` (past the checks of its input, which leave the last render as it was).
+  void abandon();
+  bool started = false;
+  // Runs one public call alone (`busy`), abandoning it on an exception once it started.
+  template <class Call>
+  auto exclusive(Call&& call) {
+    const std::lock_guard<std::mutex> lock(busy);
+    started = false;
+    try {
+      return call();
+    } catch (...) {
+      if (started) abandon();
+      throw;
+    }
+  }
+  // Warns (once) where a light's given frustum leaves out faces that cast its shadows.
+  void check_given_frusta(const Scene& given);
 
   Impl(Context& c, Precision p, bool automatic_, const Tuning& t);
 
@@ -101,6 +124,7 @@ struct Renderer::Impl {
   };
 
   // Forward (renderer.cpp), in order.
+  std::vector<RenderOutput> render(const Scene& scene);
   // Checked, frusta fitted, normalised, tuned, packed; returns its device memory estimate.
   size_t prepare(const Scene& scene);
   void upload_geometry();
@@ -113,6 +137,7 @@ struct Renderer::Impl {
   RenderOutput download(const ViewPass& cp);
 
   // Backward (backward.cpp), in order.
+  SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
   void check_backward(const Scene& scene, const std::vector<OutputGrads>& grads);
   // Zero sums, in the last backward's storage (fresh host memory faults its pages in: 12 MB
   // at 100k faces); the vertex adjacency on the device.

@@ -62,7 +62,7 @@ bool clearly_not_degenerate(const glm::dvec3& a, const glm::dvec3& b, const glm:
   return l2 > 1e-100 && l2 < 1e100 && glm::dot(n, n) > 1.1e-24 * l2 * l2;
 }
 
-void validate_mesh(const Mesh& mesh, const std::string& label) {
+void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces degenerate) {
   if (mesh.faces.empty()) fail(label + " has no faces");
   if (mesh.vertices.empty()) fail(label + " has no vertices");
 
@@ -83,7 +83,7 @@ void validate_mesh(const Mesh& mesh, const std::string& label) {
     if (t.x == t.y || t.y == t.z || t.z == t.x)
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) + " repeats a vertex index");
     const glm::dvec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
-    if (clearly_not_degenerate(a, b, c)) continue;
+    if (degenerate == DegenerateFaces::Allow || clearly_not_degenerate(a, b, c)) continue;
     const double area = relative_area(a, b, c);
     if (!(area > 1e-12))
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) +
@@ -287,13 +287,16 @@ const std::vector<std::pair<ShadowModel, std::string>>& enum_words<ShadowModel>(
   return words;
 }
 
-void validate(const Mesh& mesh) { validate_mesh(mesh, mesh_label(mesh)); }
+void validate(const Mesh& mesh, DegenerateFaces degenerate) {
+  validate_mesh(mesh, mesh_label(mesh), degenerate);
+}
 
-void validate(const Scene& scene) {
+void validate(const Scene& scene, DegenerateFaces degenerate) {
   if (scene.meshes.empty()) fail("scene has no meshes");
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& m = scene.meshes[i];
-    validate_mesh(m, "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'"));
+    validate_mesh(m, "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'"),
+                  degenerate);
   }
   if (scene.cameras.empty()) fail("scene has no cameras");
   for (size_t i = 0; i < scene.cameras.size(); ++i)

@@ -2,9 +2,9 @@
 
 The C++ library for Python: scenes, devices, and a Renderer whose render() gives colour,
 silhouette and depth per camera as NumPy arrays and whose backward() gives the gradients of a
-loss with respect to vertices, albedo, lights and ambient light. penumbra.torch wraps both in a
-torch.autograd.Function. Errors raise penumbra.Error with the library's one-line message (the
-same one the penumbra tool prints). docs/api.md documents it all.
+loss with respect to vertices, albedo, lights and ambient light. penumbra.torch renders
+tensors differentiably (penumbra.torch.render). Errors raise penumbra.Error with the library's
+one-line message (the same one the penumbra tool prints). docs/api.md documents it all.
 """
 from ._penumbra import *  # noqa: F401,F403  every class and function of the C++ module
 from ._penumbra import __version__, Scene, load_scene

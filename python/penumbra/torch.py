@@ -1,113 +1,289 @@
-"""penumbra for PyTorch: rendering as a torch.autograd.Function.
+"""penumbra for PyTorch: differentiable rendering of tensors.
 
-    import penumbra, penumbra.torch
-    scene = penumbra.bundled_scene()
-    render = penumbra.torch.SceneRenderer(scene)
-    p = render.parameters(dtype=torch.float64)     # vertices, albedo, lights, ambient
-    colour, silhouette, depth = render(p["vertices"].requires_grad_(), p["albedo"], ...)
-    loss.backward()                                # calls penumbra's backward
+    import torch, penumbra.torch as pt
+    vertices, faces = pt.load_mesh("bunny.ply")                 # (V, 3) float32, (F, 3) int64
+    camera = pt.Camera.look_at((0, 1, 4), (0, 0, 0), width=128, height=128)
+    light = pt.Light.point(torch.tensor([1.0, 4.0, 1.0]), size=0.3)
+    colour, silhouette, depth = pt.render(vertices, faces, camera, light)
+    colour.mean().backward()                                     # penumbra's exact backward
 
-The parameters are laid out as Scene.parameters(): vertices (V, 3) and albedo (A, 3) with the
-rows of every mesh in turn, lights (L, 7) (position, or direction for a directional light,
-colour, size D_L: the tool's lights.npy), ambient (3,). The outputs stack every camera: colour (C, H, W, 3), silhouette and
-depth (C, H, W). float64 inputs render in double precision, float32 ones in float (the tool's
-default); the outputs have the inputs' dtype. Tensors live on the CPU; penumbra's own device
-(any OpenCL device) is chosen by the Context.
+render() takes vertices (V, 3), a batch (B, V, 3) of shapes sharing faces, or a list of meshes;
+it returns colour (C, H, W, 3), silhouette and depth (C, H, W) for the C cameras, with a leading
+B for a batch. It is differentiable in the vertices, albedo, light positions (directions),
+colours and sizes, and ambient light. float32 tensors render in float, float64 in double.
+Each light's shadow-map frustum, unless given, is fitted to the geometry of the call, and the
+derivative treats it as a constant of the call. SceneRenderer renders a penumbra.Scene whose
+parameters come from tensors. Tensors live on the CPU; penumbra's own device (any OpenCL device)
+is chosen by the Context. docs/api.md documents it all.
 """
+import threading
+
 import numpy as np
 import torch
 
 import penumbra
 
-__all__ = ["Render", "SceneRenderer", "render"]
+__all__ = ["Camera", "Light", "RenderParams", "render", "load_mesh", "SceneRenderer", "Render"]
+
+Camera = penumbra.Camera
+RenderParams = penumbra.RenderParams
+
+
+class Light:
+    """A light whose position (or direction), colour and size may be tensors: render() then
+    gives them gradients. `frustum` (a penumbra.LightFrustum) fixes its shadow map's frustum;
+    None fits it to the geometry of every call."""
+
+    def __init__(self, type, vector, color=(1.0, 1.0, 1.0), size=0.0, frustum=None):
+        self.type, self.frustum = type, frustum
+        self.vector, self.color, self.size = vector, color, size
+
+    @classmethod
+    def point(cls, position, *, color=(1.0, 1.0, 1.0), size=0.0, frustum=None):
+        """A point light at `position`: a sphere of diameter `size` for soft shadows."""
+        return cls(penumbra.LightType.point, position, color, size, frustum)
+
+    @classmethod
+    def directional(cls, direction, *, color=(1.0, 1.0, 1.0), size=0.0, frustum=None):
+        """A directional light travelling along `direction`."""
+        return cls(penumbra.LightType.directional, direction, color, size, frustum)
+
+    def row(self, dtype):
+        """The light as its parameters row (7,): vector, colour, size."""
+        parts = [_real(x, name, dtype).reshape(-1) for x, name in
+                 ((self.vector, "a light's position or direction"), (self.color, "a light's colour"),
+                  (self.size, "a light's size"))]
+        if [p.numel() for p in parts] != [3, 3, 1]:
+            raise penumbra.Error("a light needs a 3-vector position or direction, a 3-vector "
+                                 "colour and one size")
+        return torch.cat(parts)
+
+    def template(self):
+        """A penumbra.Light of this type and frustum (its values come from row())."""
+        light = penumbra.Light(type=self.type)
+        if self.frustum is not None:
+            light.frustum = self.frustum
+        return light
+
+
+def load_mesh(path, dtype=torch.float32):
+    """An OBJ file's mesh as tensors: vertices (V, 3) of `dtype`, faces (F, 3) int64."""
+    mesh = penumbra.load_obj(str(path))
+    return (torch.from_numpy(np.array(mesh.vertices)).to(dtype),
+            torch.from_numpy(np.array(mesh.faces)).long())
+
+
+class _Slot:
+    """A Renderer and the scene it rendered last, for one element of a batch: backward
+    differentiates the most recent render, so it renders its own scene again first when
+    another render came in between (from torch running several forwards, or another thread)."""
+
+    def __init__(self, context, precision):
+        self.renderer = penumbra.Renderer(context, precision)
+        self.lock = threading.Lock()
+        self.last = None
+
+    def render_into(self, scene, colour, silhouette, depth):
+        with self.lock:
+            self.renderer.render_into(scene, colour, silhouette, depth)
+            self.last = scene
+
+    def backward(self, scene, colour, silhouette, depth):
+        with self.lock:
+            if self.last is not scene:
+                self.renderer.render(scene)
+                self.last = scene
+            return self.renderer.backward_parameters(scene, colour, silhouette, depth)
+
+
+class _Slots:
+    """The slots of one context and precision, made as batches need them."""
+
+    def __init__(self, context):
+        self.context, self.lock, self.slots = context, threading.Lock(), {}
+
+    def get(self, precision, count):
+        with self.lock:
+            slots = self.slots.setdefault(precision, [])
+            while len(slots) < count:
+                slots.append(_Slot(self.context, precision))
+            return slots[:count]
+
+
+_default = {}
+_default_lock = threading.Lock()
+
+
+def _default_slots(context):
+    """The slots of `context`, or of a Context on the default device made once."""
+    with _default_lock:
+        if context is None:
+            if "context" not in _default:
+                _default["context"] = penumbra.Context()
+            context = _default["context"]
+        key = id(context)
+        if key not in _default:
+            _default[key] = (context, _Slots(context))
+        return _default[key][1]
+
+
+def _precision(dtype):
+    if dtype == torch.float64:
+        return penumbra.Precision.double
+    if dtype == torch.float32:
+        return penumbra.Precision.float
+    raise penumbra.Error(f"vertices must be float32 or float64, not {str(dtype)[6:]}")
+
+
+def _real(x, name, dtype):
+    """`x` as a tensor of `dtype`: a tensor must be float32 or float64, the rest is converted."""
+    if not isinstance(x, torch.Tensor):
+        return torch.as_tensor(x, dtype=dtype)
+    if x.dtype not in (torch.float32, torch.float64):
+        raise penumbra.Error(f"{name} must be float32 or float64, not {str(x.dtype)[6:]}")
+    return x.to(dtype)
+
+
+def _array(t):
+    """A tensor's values as a NumPy array without a copy where it is contiguous."""
+    return t.detach().contiguous().numpy()
+
+
+class Render(torch.autograd.Function):
+    """(scene, slots, vertices (B, V, 3), albedo ((B,) A, 3), lights (L, 7), ambient (3,))
+    -> colour (B, C, H, W, 3), silhouette and depth (B, C, H, W): scene's cameras, faces and
+    settings, with its parameters from the tensors (laid out as Scene.parameters())."""
+
+    @staticmethod
+    def forward(ctx, scene, slots, vertices, albedo, lights, ambient):
+        batch, cameras = vertices.shape[0], scene.cameras
+        if len({(c.width, c.height) for c in cameras}) != 1:
+            raise penumbra.Error("every camera must have the same image size (got "
+                                 f"{sorted({(c.width, c.height) for c in cameras})})")
+        size = (batch, len(cameras), cameras[0].height, cameras[0].width)
+        colour = torch.empty(size + (3,), dtype=vertices.dtype)
+        silhouette, depth = torch.empty(size, dtype=vertices.dtype), torch.empty(size, dtype=vertices.dtype)
+        scenes = []
+        for b in range(batch):
+            s = penumbra.Scene(scene)
+            s.set_parameters(_array(vertices[b]), _array(albedo[b] if albedo.dim() == 3 else albedo),
+                             _array(lights), _array(ambient))
+            slots[b].render_into(s, colour[b].numpy(), silhouette[b].numpy(), depth[b].numpy())
+            scenes.append(s)
+        ctx.slots, ctx.scenes, ctx.batched_albedo = slots, scenes, albedo.dim() == 3
+        ctx.dtypes = [t.dtype for t in (vertices, albedo, lights, ambient)]
+        return colour, silhouette, depth
+
+    @staticmethod
+    @torch.autograd.function.once_differentiable
+    def backward(ctx, d_colour, d_silhouette, d_depth):
+        grads = [ctx.slots[b].backward(s, _array(d_colour[b]), _array(d_silhouette[b]),
+                                       _array(d_depth[b])) for b, s in enumerate(ctx.scenes)]
+        stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
+        d_albedo = stack("albedo") if ctx.batched_albedo else stack("albedo").sum(0)
+        out = [stack("vertices"), d_albedo, stack("lights").sum(0), stack("ambient").sum(0)]
+        return (None, None, *(g.to(t) for g, t in zip(out, ctx.dtypes)))
+
+
+def _meshes(vertices, faces):
+    """(vertices (B, V, 3), faces per mesh, vertex count per mesh, batched)."""
+    if isinstance(vertices, (list, tuple)):
+        if not isinstance(faces, (list, tuple)) or len(faces) != len(vertices):
+            raise penumbra.Error("a list of meshes needs a list of as many face tensors")
+        counts = [v.shape[-2] for v in vertices]
+        vertices = torch.cat(list(vertices), dim=-2)
+    else:
+        counts, faces = [vertices.shape[-2]], [faces]
+    if not isinstance(vertices, torch.Tensor) or vertices.dim() not in (2, 3) or vertices.shape[-1] != 3:
+        raise penumbra.Error(f"vertices must be a (V, 3) or (B, V, 3) tensor, not "
+                             f"{tuple(getattr(vertices, 'shape', ())) or type(vertices).__name__}")
+    batched = vertices.dim() == 3
+    return (vertices if batched else vertices[None]), faces, counts, batched
+
+
+def _albedo(albedo, vertices):
+    """Albedo rows per vertex: (A, 3) or (B, A, 3); None is 0.8 grey, a (3,) is every vertex's."""
+    if albedo is None:
+        return torch.full((vertices.shape[1], 3), 0.8, dtype=vertices.dtype)
+    if isinstance(albedo, (list, tuple)) and isinstance(albedo[0], torch.Tensor):
+        albedo = torch.cat([_real(a, "albedo", vertices.dtype) for a in albedo], dim=-2)
+    albedo = _real(albedo, "albedo", vertices.dtype)
+    if albedo.shape == (3,):
+        return albedo.expand(vertices.shape[1], 3)
+    return albedo
+
+
+def _as_list(x):
+    return list(x) if isinstance(x, (list, tuple)) else [x]
+
+
+def _scene(faces, counts, cameras, lights, params):
+    scene = penumbra.Scene()
+    scene.meshes = [penumbra.Mesh(vertices=np.zeros((n, 3)), faces=_array(torch.as_tensor(f)))
+                    for n, f in zip(counts, faces)]
+    scene.cameras = cameras
+    scene.lights = [light.template() for light in lights]
+    scene.params = params
+    return scene
+
+
+def render(vertices, faces, cameras, lights, *, albedo=None, ambient=0.2, params=None,
+           context=None):
+    """Renders meshes from tensors; differentiable. Returns (colour, silhouette, depth).
+
+    vertices: (V, 3) float32 or float64, (B, V, 3) for B shapes sharing `faces`, or a list of
+    meshes' vertices (with a list of their faces). faces: (F, 3) integers. cameras: one
+    penumbra.Camera (Camera.look_at) or a list, of one image size. lights: Light.point /
+    Light.directional (or penumbra.Light), one or a list; [] for ambient light alone. albedo:
+    None (0.8 grey), (3,), or per vertex (V, 3) or (B, V, 3). ambient: a number or (3,).
+    params: a penumbra.RenderParams (None: the defaults with hard shadows). context: a
+    penumbra.Context (None: the default device, made once).
+    """
+    vertices, faces, counts, batched = _meshes(vertices, faces)
+    dtype = vertices.dtype
+    precision = _precision(dtype)
+    lights = [l if isinstance(l, Light) else _torch_light(l) for l in _as_list(lights)]
+    if params is None:
+        params = penumbra.RenderParams()
+        params.shadows = penumbra.Shadows.hard
+    scene = _scene(faces, counts, _as_list(cameras), lights, params)
+    rows = torch.stack([l.row(dtype) for l in lights]) if lights else torch.zeros((0, 7), dtype=dtype)
+    ambient = _real(ambient, "ambient", dtype).expand(3)
+    slots = _default_slots(context).get(precision, vertices.shape[0])
+    out = Render.apply(scene, slots, vertices, _albedo(albedo, vertices), rows, ambient)
+    return out if batched else tuple(o[0] for o in out)
+
+
+def _torch_light(light):
+    if not isinstance(light, penumbra.Light):
+        raise penumbra.Error(f"lights must be penumbra.torch.Light or penumbra.Light, not "
+                             f"{type(light).__name__}")
+    vector = light.direction if light.type == penumbra.LightType.directional else light.position
+    return Light(light.type, vector, light.color, light.size,
+                 light.frustum if light.frustum.fitted else None)
 
 
 class SceneRenderer:
-    """Renders one scene whose geometry and lights come from tensors.
+    """Renders one scene whose parameters come from tensors (laid out as Scene.parameters()).
 
     The scene is copied; the shadow-map frustum of every light that is not given is fitted
-    once, here, to the scene and its shadow settings as they are, and then stays fixed (as in
-    the tool and its gradient check), so that the rendered function of the parameters is the
-    one whose derivative backward computes.
+    once, here, to the scene as it is, and then stays fixed (as in the tool and its gradient
+    check), so that the rendered function of the parameters is the one whose derivative
+    backward computes. A render whose casters leave a fixed frustum prints one warning line.
     """
 
     def __init__(self, scene, context=None, device=""):
         self.scene = penumbra.Scene(scene)
         penumbra.refit_light_frusta(self.scene)
         self.context = context if context is not None else penumbra.Context(device)
-        self._renderers = {}
-        self._last = {}  # precision -> the scene its renderer rendered last
+        self._slots = _Slots(self.context)
 
     def parameters(self, dtype=torch.float64):
         """The scene's parameters as tensors: a dict of vertices, albedo, lights, ambient."""
         return {k: torch.from_numpy(v).to(dtype) for k, v in self.scene.parameters().items()}
 
     def __call__(self, vertices, albedo, lights, ambient):
-        return Render.apply(vertices, albedo, lights, ambient, self)
-
-    def _renderer(self, precision):
-        if precision not in self._renderers:
-            self._renderers[precision] = penumbra.Renderer(self.context, precision)
-        return self._renderers[precision]
-
-    def render(self, scene, precision):
-        views = self._renderer(precision).render(scene)
-        self._last[precision] = scene
-        return views
-
-    def backward(self, scene, precision, grads):
-        # The renderer's backward differentiates its most recent render: render this scene
-        # again if another render came in between (torch may run several forwards first).
-        if self._last.get(precision) is not scene:
-            self.render(scene, precision)
-        return self._renderer(precision).backward(scene, grads)
-
-
-def _stack(arrays, name):
-    if len({a.shape for a in arrays}) != 1:
-        raise penumbra.Error(f"penumbra.torch needs every camera to have the same image size "
-                             f"({name} sizes {sorted({a.shape[:2] for a in arrays})})")
-    # One camera: a view of the array that C++ handed over, no copy.
-    return arrays[0][None] if len(arrays) == 1 else np.stack(arrays)
-
-
-def _numpy(t):
-    return np.ascontiguousarray(t.detach().cpu().numpy(), dtype=np.float64)
-
-
-class Render(torch.autograd.Function):
-    """(vertices, albedo, lights, ambient, SceneRenderer) -> (colour, silhouette, depth)."""
-
-    @staticmethod
-    def forward(ctx, vertices, albedo, lights, ambient, renderer):
-        dtype = vertices.dtype
-        if dtype not in (torch.float32, torch.float64):
-            raise penumbra.Error(f"vertices must be float32 or float64, not {dtype}")
-        precision = penumbra.Precision.double if dtype == torch.float64 else penumbra.Precision.float
-        scene = penumbra.Scene(renderer.scene)
-        scene.set_parameters(_numpy(vertices), _numpy(albedo), _numpy(lights), _numpy(ambient))
-        views = renderer.render(scene, precision)
-        ctx.renderer, ctx.scene, ctx.precision = renderer, scene, precision
-        ctx.dtypes = [t.dtype for t in (vertices, albedo, lights, ambient)]
-        out = [torch.from_numpy(_stack([v[k] for v in views], k)).to(dtype)
-               for k in ("color", "silhouette", "depth")]
-        return tuple(out)
-
-    @staticmethod
-    @torch.autograd.function.once_differentiable
-    def backward(ctx, d_colour, d_silhouette, d_depth):
-        dc, ds, dd = (_numpy(g) for g in (d_colour, d_silhouette, d_depth))
-        grads = [{"color": dc[i], "silhouette": ds[i], "depth": dd[i]} for i in range(len(dc))]
-        g = ctx.renderer.backward(ctx.scene, ctx.precision, grads)
-        d_vertices = np.concatenate(g["vertices"]) if g["vertices"] else np.zeros((0, 3))
-        d_albedo = np.concatenate(g["albedo"]) if g["albedo"] else np.zeros((0, 3))
-        d_lights = np.concatenate([g["light_position"], g["light_color"],
-                                   g["light_size"][:, None]], axis=1)
-        out = [torch.from_numpy(a).to(t)
-               for a, t in zip((d_vertices, d_albedo, d_lights, g["ambient"]), ctx.dtypes)]
-        return (*out, None)
-
-
-def render(renderer, vertices, albedo, lights, ambient):
-    """Renders renderer.scene (a SceneRenderer) with the given parameters; differentiable."""
-    return Render.apply(vertices, albedo, lights, ambient, renderer)
+        """(colour (C, H, W, 3), silhouette (C, H, W), depth (C, H, W)); differentiable."""
+        slots = self._slots.get(_precision(vertices.dtype), 1)
+        out = Render.apply(self.scene, slots, vertices[None], albedo, lights, ambient)
+        return tuple(o[0] for o in out)

@@ -145,10 +145,15 @@ def test_parameters_round_trip_and_shape_errors():
     scene.set_parameters(moved, p["albedo"], p["lights"], p["ambient"])
     assert np.array_equal(scene.parameters()["vertices"], moved)
     assert np.array_equal(scene.meshes[1].vertices, moved[len(scene.meshes[0].vertices):])
-    with pytest.raises(penumbra.Error, match=r"vertices has shape \(3, 3\); the scene needs"):
+    n = len(moved)
+    with pytest.raises(penumbra.Error, match=rf"vertices has shape \(3, 3\); expected \({n}, 3\)"):
         scene.set_parameters(moved[:3], p["albedo"], p["lights"], p["ambient"])
-    with pytest.raises(penumbra.Error, match=r"lights has shape \(1, 3\); the scene needs \(1, 7\)"):
+    with pytest.raises(penumbra.Error, match=r"lights has shape \(1, 3\); expected \(1, 7\)"):
         scene.set_parameters(moved, p["albedo"], p["lights"][:, :3], p["ambient"])
+    with pytest.raises(penumbra.Error, match="albedo must be float32 or float64, not float16"):
+        scene.set_parameters(moved, p["albedo"].astype(np.float16), p["lights"], p["ambient"])
+    scene.set_parameters(moved.astype(np.float32), p["albedo"], p["lights"], p["ambient"])
+    assert np.array_equal(scene.parameters()["vertices"], moved.astype(np.float32))
 
 
 def test_model_defaults_read_and_take_none():
@@ -178,7 +183,9 @@ def test_backward_input_errors(context):
     cases = [([{"color": np.zeros((3, 3, 3))}],
               "gradient of color for camera 0 is 3x3x3, expected 16x16x3"),
              ([{"colour": np.zeros((16, 16, 3))}], "unknown output 'colour'"),
-             ([{"depth": "deep"}], "depth of camera 0 must be an array of numbers, not str"),
+             ([{"depth": "deep"}], "depth of camera 0 must be an array, not str"),
+             ([{"depth": np.zeros((16, 16), dtype=np.int64)}],
+              "depth of camera 0 must be float32 or float64, not int64"),
              ([{"depth": np.zeros(16)}], r"must be an array of shape \(H, W\) or \(H, W, C\)"),
              (["x"], "the gradients of camera 0 must be a dict or None"),
              ([None, None], "got gradients for 2 camera")]
@@ -206,3 +213,93 @@ def test_devices_say_how_transfers_move(monkeypatch):
         assert penumbra.Context(str(d.index)).copy_transfers == (not d.shares_host_memory)
     monkeypatch.setenv("PENUMBRA_TRANSFERS", "copy")
     assert penumbra.Context(str(devices[0].index)).copy_transfers
+
+
+def test_lists_are_copies_that_outlive_their_scene():
+    """docs/api.md's pattern, 100 times: each camera read back is the one set, never freed
+    memory (list getters used to hand out handles into the scene's list)."""
+    scene = penumbra.bundled_scene()
+    for i in range(100):
+        cams = scene.cameras
+        cams[0].eye = (float(i), 2.0, 5.0)
+        cams[0].width = 16 + i
+        scene.cameras = cams
+        assert scene.cameras[0].eye == (float(i), 2.0, 5.0) and scene.cameras[0].width == 16 + i
+        assert cams[0].fov_deg == scene.cameras[0].fov_deg > 0  # the old copy is still whole
+    lights = scene.lights
+    frustum = lights[0].frustum  # a handle that keeps its light alive
+    del lights
+    scene.lights = []
+    assert frustum.fov_deg > 0
+
+
+def test_arrays_read_out_are_read_only_copies():
+    mesh = penumbra.bundled_scene().meshes[0]
+    v = mesh.vertices
+    with pytest.raises(ValueError, match="read-only"):
+        v[:, 1] += 0.3  # would change nothing: refused rather than silently ignored
+    mesh.vertices = v + 0.3  # assigning is the way
+    assert np.array_equal(mesh.vertices, v + 0.3)
+    with pytest.raises(penumbra.Error, match="faces must be integers .* not float64"):
+        mesh.faces = mesh.faces.astype(np.float64)
+
+
+def test_threads_sharing_a_renderer_take_turns(context):
+    import threading
+    renderer = penumbra.Renderer(context)
+    scenes = [bundled(s, 24) for s in ("hard", "soft")]
+    expected = [penumbra.Renderer(context).render(s)[0]["color"] for s in scenes]
+    failures = []
+
+    def work(k):
+        try:
+            for _ in range(6):
+                (view,) = renderer.render(scenes[k])
+                if not np.array_equal(view["color"], expected[k]):
+                    failures.append(k)
+        except Exception as e:  # noqa: BLE001  any error fails the test below
+            failures.append(repr(e))
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in (0, 1)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert failures == []
+
+
+def test_ctrl_c_interrupts_a_long_render_and_leaves_the_renderer_usable():
+    import subprocess
+    import sys
+    script = """
+import os, signal, threading, time
+import numpy as np, penumbra
+scene = penumbra.bundled_scene()
+scene.params.shadows = penumbra.Shadows.soft
+cams = scene.cameras * 40
+scene.cameras = cams
+small = penumbra.bundled_scene()
+renderer = penumbra.Renderer(penumbra.Context())
+renderer.render(small)
+threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+start = time.monotonic()
+try:
+    renderer.render(scene)
+    print("finished")
+except KeyboardInterrupt:
+    print("interrupted after", round(time.monotonic() - start, 1))
+try:
+    renderer.backward(small, [None])
+except penumbra.Error as e:
+    print("backward:", e)
+(again,) = renderer.render(small)
+(fresh,) = penumbra.Renderer(penumbra.Context()).render(small)
+print("same", np.array_equal(again["color"], fresh["color"]))
+"""
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("interrupted after"), r.stdout
+    assert float(lines[0].split()[-1]) < 2.5
+    assert "call render() first" in lines[1]
+    assert lines[2] == "same True"

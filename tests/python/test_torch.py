@@ -51,7 +51,35 @@ def test_backward_after_other_renders(context):
 def test_errors(context):
     render = pt.SceneRenderer(small_scene(), context)
     p = render.parameters()
-    with pytest.raises(penumbra.Error, match=r"vertices has shape \(3, 3\); the scene needs"):
+    with pytest.raises(penumbra.Error, match=r"vertices has shape \(3, 3\); expected \(10, 3\)"):
         render(p["vertices"][:3], p["albedo"], p["lights"], p["ambient"])
-    with pytest.raises(penumbra.Error, match="float32 or float64"):
+    with pytest.raises(penumbra.Error, match="vertices must be float32 or float64, not int32"):
         render(p["vertices"].int(), p["albedo"], p["lights"], p["ambient"])
+    with pytest.raises(penumbra.Error, match="albedo must be float32 or float64, not float16"):
+        render(p["vertices"], p["albedo"].half(), p["lights"], p["ambient"])
+
+
+def test_threads_sharing_a_scene_renderer_get_their_own_gradients(context):
+    import threading
+    render = pt.SceneRenderer(small_scene("hard"), context)
+    p = render.parameters()
+
+    def gradient(shift):
+        v = (p["vertices"] + shift).requires_grad_()
+        (g,) = torch.autograd.grad(render(v, p["albedo"], p["lights"], p["ambient"])[0].sum(), v)
+        return g
+
+    expected = {shift: gradient(shift) for shift in (0.0, 0.05)}
+    failures = []
+
+    def work(shift):
+        for _ in range(5):
+            if not torch.equal(gradient(shift), expected[shift]):
+                failures.append(shift)
+
+    threads = [threading.Thread(target=work, args=(s,)) for s in expected]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert failures == []

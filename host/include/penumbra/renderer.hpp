@@ -84,6 +84,8 @@ struct RenderProgress {
 };
 using ProgressObserver = std::function<void(const RenderProgress&)>;
 
+// A Renderer may be shared by several threads: its calls run one at a time, each waiting for
+// the one in progress (a backward() differentiates the most recent render() of any thread).
 class Renderer {
  public:
   // Launch parameters chosen per render from the tuning database (TuningDatabase::load_default:
@@ -95,11 +97,15 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // Renders every camera of the scene (validated first).
+  // Renders every camera of the scene (validated first; faces of zero area are allowed and
+  // contribute nothing). A light whose frustum is given (fitted before the call) and leaves
+  // out some of the faces that cast its shadows gets one warning line on stderr, once per
+  // renderer: those shadows are cut off at the frustum's edge.
   std::vector<RenderOutput> render(const Scene& scene);
 
   // Gradients of a scalar loss given dL/d(outputs) for every camera, by the exact derivative of
   // the most recent render(), which must have been of this same scene (same sizes and values).
+  // Every gradient value must be finite.
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
 
   // The shadow map S of every light (SPEC §3) from the most recent render() with shadows on
@@ -120,6 +126,12 @@ class Renderer {
   // it (so that what it reports is what runs; without an observer nothing waits). Outputs are
   // the same with or without one. Empty: none.
   void set_progress(ProgressObserver observer);
+  // Calls `check` at the start of every stage of render() and backward(), without waiting for
+  // the device; it may throw to abandon the call (the Python module raises KeyboardInterrupt
+  // so). A call that throws once past the checks of its input waits for the device, then
+  // leaves the renderer as if it had never rendered (backward() asks for a render first); a
+  // refused input leaves the last render as it was. Empty: none.
+  void set_interrupt_check(std::function<void()> check);
 
   Precision precision() const;
   // The launch parameters of the most recent render() (or the fixed ones).

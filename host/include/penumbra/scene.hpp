@@ -178,10 +178,15 @@ struct Scene {
   RenderParams params;
 };
 
+// What validate() makes of a face whose corners are on one line (zero area): `Refuse` it (a
+// file's mesh: a fault of the file) or `Allow` it (what render() does: such a face contributes
+// nothing and gets a zero gradient, so an optimisation step that collapses a face goes on).
+enum class DegenerateFaces { Refuse, Allow };
 // Throws penumbra::Error naming the first problem: NaN/inf values, out-of-range indices,
-// zero-area faces, albedo count mismatch, zero-size images, non-positive σ/γ, near ≥ far, ...
-void validate(const Scene& scene);
-void validate(const Mesh& mesh);
+// zero-area faces (unless allowed), albedo count mismatch, zero-size images, non-positive σ/γ,
+// near ≥ far, ...
+void validate(const Scene& scene, DegenerateFaces degenerate = DegenerateFaces::Refuse);
+void validate(const Mesh& mesh, DegenerateFaces degenerate = DegenerateFaces::Refuse);
 
 // Axis-aligned bounds and bounding sphere of all meshes.
 struct Bounds {
@@ -220,6 +225,10 @@ int blocker_search_stride(double sigma_b);
 
 // Fits again the frusta fit_light_frusta fitted (after render parameters changed).
 void refit_light_frusta(Scene& scene);
+
+// Whether `light`'s frustum (fitted or given) holds every vertex of the faces that can cast a
+// shadow in `scene`: where it does not, those shadows are cut off at the map's edge.
+bool frustum_holds_casters(const Scene& scene, const Light& light);
 
 // Every vertex of every mesh, in order.
 std::vector<glm::dvec3> scene_vertices(const Scene& scene);

@@ -1,0 +1,274 @@
+// Arrays between Python and the library (arrays.hpp).
+#include "arrays.hpp"
+
+#include <algorithm>
+#include <cstdint>
+
+#include "penumbra/error.hpp"
+
+namespace penumbra::python {
+
+namespace {
+
+using Code = nb::dlpack::dtype_code;
+
+bool is(nb::dlpack::dtype t, Code code, int bits) {
+  return t.code == uint8_t(code) && t.bits == bits && t.lanes == 1;
+}
+bool is_real(nb::dlpack::dtype t) { return is(t, Code::Float, 32) || is(t, Code::Float, 64); }
+bool is_index(nb::dlpack::dtype t) { return is(t, Code::Int, 32) || is(t, Code::Int, 64); }
+
+// Element `i` (in elements from the start, strides applied by the caller) as a T.
+template <typename T>
+T element(const AnyArray& a, int64_t i) {
+  const nb::dlpack::dtype t = a.dtype();
+  const void* p = a.data();
+  if (is(t, Code::Float, 32)) return T(static_cast<const float*>(p)[i]);
+  if (is(t, Code::Float, 64)) return T(static_cast<const double*>(p)[i]);
+  if (is(t, Code::Int, 32)) return T(static_cast<const int32_t*>(p)[i]);
+  return T(static_cast<const int64_t*>(p)[i]);
+}
+
+template <class Array>
+bool c_contiguous(const Array& a) {
+  int64_t step = 1;
+  for (size_t d = a.ndim(); d-- > 0;) {
+    if (a.shape(d) != 1 && a.stride(d) != step) return false;
+    step *= int64_t(a.shape(d));
+  }
+  return true;
+}
+
+// Every element of a real array in C order, as doubles (any shape, any strides).
+std::vector<double> flatten(const AnyArray& a) {
+  const size_t n = a.size(), nd = a.ndim();
+  std::vector<double> out(n);
+  if (c_contiguous(a)) {
+    if (is(a.dtype(), Code::Float, 32)) {
+      const auto* p = static_cast<const float*>(a.data());
+      std::copy(p, p + n, out.begin());
+    } else {
+      std::memcpy(out.data(), a.data(), n * sizeof(double));
+    }
+    return out;
+  }
+  std::vector<size_t> at(nd, 0);
+  int64_t offset = 0;
+  for (size_t k = 0; k < n; ++k) {
+    out[k] = element<double>(a, offset);
+    for (size_t d = nd; d-- > 0;) {  // the next index, last axis fastest
+      if (++at[d] < a.shape(d)) {
+        offset += a.stride(d);
+        break;
+      }
+      offset -= a.stride(d) * int64_t(a.shape(d) - 1);
+      at[d] = 0;
+    }
+  }
+  return out;
+}
+
+void check_real(const AnyArray& a, const std::string& name) {
+  if (!is_real(a.dtype()))
+    throw Error(name + " must be float32 or float64, not " + dtype_name(a.dtype()));
+}
+
+void check_dims(const AnyArray& a, const std::string& name, size_t ndim, long rows, long cols) {
+  const bool ok = a.ndim() == ndim && (rows < 0 || long(a.shape(0)) == rows) &&
+                  (ndim < 2 || cols < 0 || long(a.shape(1)) == cols);
+  if (ok) return;
+  std::string want = "(" + (rows < 0 ? std::string("N") : std::to_string(rows));
+  want += ndim == 1 ? ",)" : ", " + (cols < 0 ? std::string("M") : std::to_string(cols)) + ")";
+  throw Error(name + " has shape " + shape_text(a) + "; expected " + want);
+}
+
+// The rows of an (N, cols) real array (cols 0: an (N,) vector) as doubles, row-major.
+std::vector<double> reals(const AnyArray& a, const std::string& name, long rows, long cols) {
+  check_real(a, name);
+  check_dims(a, name, cols == 0 ? 1 : 2, rows, cols);
+  return flatten(a);
+}
+
+std::vector<glm::dvec3> to_rows(const std::vector<double>& flat) {
+  std::vector<glm::dvec3> v(flat.size() / 3);
+  for (size_t i = 0; i < v.size(); ++i) v[i] = {flat[3 * i], flat[3 * i + 1], flat[3 * i + 2]};
+  return v;
+}
+
+size_t total_rows(const Scene& scene, bool albedo) {
+  size_t n = 0;
+  for (const Mesh& mesh : scene.meshes) n += albedo ? mesh.albedo.size() : mesh.vertices.size();
+  return n;
+}
+
+}  // namespace
+
+std::string dtype_name(nb::dlpack::dtype t) {
+  const char* kinds[] = {"int", "uint", "float", "opaque", "bfloat", "complex", "bool"};
+  if (t.code == uint8_t(Code::Bool)) return "bool";
+  const std::string kind = t.code < 7 ? kinds[t.code] : "unknown";
+  return kind + std::to_string(int(t.bits)) + (t.lanes > 1 ? "x" + std::to_string(t.lanes) : "");
+}
+
+template <class Array>
+std::string shape_of(const Array& a) {
+  std::string s = "(";
+  for (size_t i = 0; i < a.ndim(); ++i) s += (i ? ", " : "") + std::to_string(a.shape(i));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+std::string shape_text(const AnyArray& a) { return shape_of(a); }
+
+AnyArray any_array(nb::handle obj, const std::string& name) {
+  AnyArray a;
+  if (!nb::try_cast(obj, a, false))
+    throw Error(name + " must be an array, not " +
+                nb::cast<std::string>(nb::str(obj.type().attr("__name__"))));
+  return a;
+}
+
+std::vector<glm::dvec3> real_rows(const AnyArray& a, const std::string& name, long rows) {
+  return to_rows(reals(a, name, rows, 3));
+}
+
+std::vector<glm::ivec3> index_rows(const AnyArray& a, const std::string& name) {
+  if (!is_index(a.dtype()))
+    throw Error(name + " must be integers (int32 or int64), not " + dtype_name(a.dtype()));
+  check_dims(a, name, 2, -1, 3);
+  std::vector<glm::ivec3> v(a.shape(0));
+  for (size_t i = 0; i < v.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const auto x = element<int64_t>(a, int64_t(i) * a.stride(0) + k * a.stride(1));
+      if (x < INT32_MIN || x > INT32_MAX)
+        throw Error(name + ": index " + std::to_string(x) + " of row " + std::to_string(i) +
+                    " is out of range");
+      v[i][k] = int(x);
+    }
+  return v;
+}
+
+void set_parameters(Scene& scene, nb::handle vertices, nb::handle albedo, nb::handle lights,
+                    nb::handle ambient) {
+  const auto v = real_rows(any_array(vertices, "vertices"), "vertices", long(total_rows(scene, false)));
+  const auto a = real_rows(any_array(albedo, "albedo"), "albedo", long(total_rows(scene, true)));
+  const auto l = reals(any_array(lights, "lights"), "lights", long(scene.lights.size()), 7);
+  const auto amb = reals(any_array(ambient, "ambient"), "ambient", 3, 0);
+  size_t vi = 0, ai = 0;
+  for (Mesh& mesh : scene.meshes) {
+    for (glm::dvec3& x : mesh.vertices) x = v[vi++];
+    for (glm::dvec3& x : mesh.albedo) x = a[ai++];
+  }
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    Light& light = scene.lights[i];
+    const double* r = &l[7 * i];
+    (light.type == LightType::Directional ? light.direction : light.position) = {r[0], r[1], r[2]};
+    light.color = {r[3], r[4], r[5]};
+    light.size = r[6];
+  }
+  scene.ambient = {amb[0], amb[1], amb[2]};
+}
+
+Owned<double> image_out(Image&& image) {
+  const size_t h = size_t(image.height), w = size_t(image.width), c = size_t(image.channels);
+  if (c == 1) return adopt<double>(std::move(image.data), {h, w});
+  return adopt<double>(std::move(image.data), {h, w, c});
+}
+
+Image image_in(nb::handle obj, const std::string& name) {
+  const AnyArray a = any_array(obj, name);
+  check_real(a, name);
+  if (a.ndim() != 2 && a.ndim() != 3)
+    throw Error(name + " must be an array of shape (H, W) or (H, W, C), not " + shape_text(a));
+  Image image(int(a.shape(1)), int(a.shape(0)), a.ndim() == 3 ? int(a.shape(2)) : 1);
+  image.data = flatten(a);
+  return image;
+}
+
+namespace {
+// `out`'s elements from `from` (as many), in out's dtype: float32 or float64.
+void write_reals(const OutArray& out, size_t offset, const std::vector<double>& from) {
+  if (is(out.dtype(), Code::Float, 32)) {
+    float* p = static_cast<float*>(out.data()) + offset;
+    for (size_t i = 0; i < from.size(); ++i) p[i] = float(from[i]);
+  } else {
+    std::memcpy(static_cast<double*>(out.data()) + offset, from.data(), from.size() * sizeof(double));
+  }
+}
+
+// An output array: float32 or float64 like `like`, C-contiguous, of shape (C, H, W[, 3]).
+void check_output(const OutArray& out, const char* name, nb::dlpack::dtype like, size_t cameras,
+                  const Image& first) {
+  if (!is_real(out.dtype()) || out.dtype() != like)
+    throw Error(std::string(name) + " must be float32 or float64 like colour, not " +
+                dtype_name(out.dtype()));
+  const size_t nd = first.channels == 1 ? 3 : 4;
+  const bool ok = out.ndim() == nd && out.shape(0) == cameras &&
+                  out.shape(1) == size_t(first.height) && out.shape(2) == size_t(first.width) &&
+                  (nd == 3 || out.shape(3) == size_t(first.channels));
+  if (!ok || !c_contiguous(out))
+    throw Error(std::string(name) + " has shape " + shape_of(out) + "; expected a C-contiguous (" +
+                std::to_string(cameras) + ", " + std::to_string(first.height) + ", " +
+                std::to_string(first.width) + (nd == 4 ? ", 3)" : ")"));
+}
+}  // namespace
+
+void outputs_into(std::vector<RenderOutput>&& views, const OutArray& colour,
+                  const OutArray& silhouette, const OutArray& depth) {
+  const size_t n = views.size();
+  for (const RenderOutput& v : views)
+    if (v.color.width != views[0].color.width || v.color.height != views[0].color.height)
+      throw Error("every camera must have the same image size to fill one array");
+  check_output(colour, "colour", colour.dtype(), n, views[0].color);
+  check_output(silhouette, "silhouette", colour.dtype(), n, views[0].silhouette);
+  check_output(depth, "depth", colour.dtype(), n, views[0].depth);
+  for (size_t c = 0; c < n; ++c) {
+    write_reals(colour, c * views[c].color.size(), views[c].color.data);
+    write_reals(silhouette, c * views[c].silhouette.size(), views[c].silhouette.data);
+    write_reals(depth, c * views[c].depth.size(), views[c].depth.data);
+  }
+}
+
+std::vector<OutputGrads> grads_from(nb::handle colour, nb::handle silhouette, nb::handle depth) {
+  std::vector<OutputGrads> grads;
+  const auto split = [&](nb::handle obj, const char* name, Image OutputGrads::*image) {
+    if (obj.is_none()) return;
+    const AnyArray a = any_array(obj, std::string("the gradient of ") + name);
+    check_real(a, name);
+    const size_t nd = std::string(name) == "colour" ? 4 : 3;
+    if (a.ndim() != nd || (nd == 4 && a.shape(3) != 3))
+      throw Error(std::string("the gradient of ") + name + " has shape " + shape_text(a) +
+                  "; expected (C, H, W" + (nd == 4 ? ", 3)" : ")"));
+    const std::vector<double> all = flatten(a);
+    const int H = int(a.shape(1)), W = int(a.shape(2)), C = nd == 4 ? 3 : 1;
+    if (grads.size() < a.shape(0)) grads.resize(a.shape(0));
+    const size_t per = all.size() / std::max<size_t>(a.shape(0), 1);
+    for (size_t c = 0; c < a.shape(0); ++c) {
+      Image& g = grads[c].*image;
+      g = Image(W, H, C);
+      std::copy(all.begin() + long(c * per), all.begin() + long((c + 1) * per), g.data.begin());
+    }
+  };
+  split(colour, "colour", &OutputGrads::color);
+  split(silhouette, "silhouette", &OutputGrads::silhouette);
+  split(depth, "depth", &OutputGrads::depth);
+  return grads;
+}
+
+nb::dict parameter_grads(SceneGrads&& g) {
+  std::vector<glm::dvec3> vertices, albedo;
+  for (const auto& v : g.vertices) vertices.insert(vertices.end(), v.begin(), v.end());
+  for (const auto& a : g.albedo) albedo.insert(albedo.end(), a.begin(), a.end());
+  std::vector<double> lights;
+  for (size_t l = 0; l < g.light_size.size(); ++l) {
+    const glm::dvec3 p = g.light_position[l], c = g.light_color[l];
+    lights.insert(lights.end(), {p.x, p.y, p.z, c.x, c.y, c.z, g.light_size[l]});
+  }
+  nb::dict d;
+  const size_t nv = vertices.size(), na = albedo.size(), nl = g.light_size.size();
+  d["vertices"] = adopt<double>(std::move(vertices), {nv, 3});
+  d["albedo"] = adopt<double>(std::move(albedo), {na, 3});
+  d["lights"] = adopt<double>(std::move(lights), {nl, 7});
+  d["ambient"] = adopt<double>(std::vector<double>{g.ambient.x, g.ambient.y, g.ambient.z}, {3});
+  return d;
+}
+
+}  // namespace penumbra::python

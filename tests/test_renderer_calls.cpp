@@ -1,0 +1,128 @@
+// The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, an
+// abandoned call leaves it usable, gradients must be finite, a collapsed face renders as if it
+// were absent, and a given frustum that leaves out casters warns once.
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "penumbra/error.hpp"
+#include "penumbra/renderer.hpp"
+#include "penumbra/scene.hpp"
+#include "scenes.hpp"
+
+using namespace penumbra;
+using namespace penumbra_tests;
+
+namespace {
+
+// A sphere over the ground, one point light, hard shadows (the accurate model).
+Scene sphere_over_ground(double x = 0.0) {
+  Scene s;
+  s.meshes = {icosphere({x, 0.8, 0}, 0.5), ground(2.0, 4)};
+  s.cameras = {front_camera(false)};
+  s.lights = {point_light({0.5, 4, 0.5}, {1, 1, 1})};
+  shadow_params(s, Shadows::Hard, Sampling::Truncated, ShadowModel::Accurate);
+  return s;
+}
+
+}  // namespace
+
+TEST(RendererCalls, ThreadsSharingARendererTakeTurns) {
+  REQUIRE_CONTEXT(ctx);
+  const std::vector<Scene> scenes{sphere_over_ground(-0.3), sphere_over_ground(0.4)};
+  std::vector<Image> expected;
+  for (const Scene& s : scenes) expected.push_back(Renderer(*ctx).render(s)[0].color);
+  Renderer shared(*ctx);
+  std::vector<int> mismatches(scenes.size(), 0);
+  std::vector<std::thread> threads;
+  for (size_t k = 0; k < scenes.size(); ++k)
+    threads.emplace_back([&, k] {
+      for (int i = 0; i < 5; ++i)
+        mismatches[k] += shared.render(scenes[k])[0].color.data != expected[k].data;
+    });
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(mismatches, std::vector<int>(scenes.size(), 0));
+}
+
+TEST(RendererCalls, AnAbandonedCallLeavesTheRendererUsable) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = sphere_over_ground();
+  Renderer renderer(*ctx);
+  int stages = 0;
+  renderer.set_interrupt_check([&] {
+    if (++stages == 3) throw std::runtime_error("stop");
+  });
+  EXPECT_THROW(renderer.render(scene), std::runtime_error);
+  renderer.set_interrupt_check(nullptr);
+  std::vector<OutputGrads> none(1);
+  try {
+    renderer.backward(scene, none);
+    ADD_FAILURE() << "backward after an abandoned render did not throw";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("call render() first"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(renderer.render(scene)[0].color.data, Renderer(*ctx).render(scene)[0].color.data);
+}
+
+TEST(RendererCalls, NonFiniteGradientsAreRefused) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = sphere_over_ground();
+  Renderer renderer(*ctx);
+  const std::vector<RenderOutput> views = renderer.render(scene);
+  std::vector<OutputGrads> dL(1);
+  dL[0].depth = Image(views[0].depth.width, views[0].depth.height, 1, 0.0);
+  dL[0].depth.at(5, 2) = std::numeric_limits<double>::infinity();
+  try {
+    renderer.backward(scene, dL);
+    ADD_FAILURE() << "an infinite gradient was taken";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(),
+                 "gradient of depth for camera 0 is infinite at pixel (5, 2); gradients must be "
+                 "finite");
+  }
+}
+
+TEST(RendererCalls, ACollapsedFaceRendersAsIfAbsent) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = sphere_over_ground();
+  Scene collapsed = scene;
+  Mesh& sphere = collapsed.meshes[0];
+  const int n = int(sphere.vertices.size());
+  // Inside the sphere, so that the scene's bounds (and the light's frustum) stay as they were.
+  for (glm::dvec3 p : {glm::dvec3(0.1, 0.9, 0.1), glm::dvec3(0.1, 0.9, 0.1), glm::dvec3(0.2, 1.0, 0.15)})
+    sphere.vertices.push_back(p), sphere.albedo.push_back({0.5, 0.5, 0.5});
+  sphere.faces.push_back({n, n + 1, n + 2});  // two corners at one point: zero area
+  EXPECT_THROW(validate(collapsed), Error);   // a file's mesh is refused
+  Renderer renderer(*ctx, Precision::Double);
+  const RenderOutput with = renderer.render(collapsed)[0];
+  std::vector<OutputGrads> dL(1);
+  dL[0].color = Image(with.color.width, with.color.height, 3, 1.0);
+  const SceneGrads g = renderer.backward(collapsed, dL);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(g.vertices[0][size_t(n + k)], glm::dvec3(0.0)) << k;
+  const RenderOutput without = Renderer(*ctx, Precision::Double).render(scene)[0];
+  std::string where;
+  EXPECT_EQ(max_error(with.color, without.color, false, &where), 0.0) << where;
+  EXPECT_EQ(with.depth.data, without.depth.data);
+}
+
+TEST(RendererCalls, AGivenFrustumThatLeavesOutCastersWarnsOnce) {
+  REQUIRE_CONTEXT(ctx);
+  Scene fitted = sphere_over_ground();
+  fit_light_frusta(fitted);
+  EXPECT_TRUE(frustum_holds_casters(fitted, fitted.lights[0]));
+  Scene moved = sphere_over_ground(1.2);
+  moved.lights = fitted.lights;  // the frustum fitted to the sphere where it was
+  EXPECT_FALSE(frustum_holds_casters(moved, moved.lights[0]));
+  Renderer renderer(*ctx);
+  testing::internal::CaptureStderr();
+  renderer.render(moved);
+  renderer.render(moved);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err.find("penumbra: warning: the shadow-map frustum given for light 0 leaves out"), 0u)
+      << err;
+  EXPECT_EQ(err.find("penumbra: warning:", 1), std::string::npos) << err;
+}
