@@ -67,14 +67,17 @@ int shell(const std::string& command) {
   return status;
 }
 
-// The tool started in the background, stdout to /dev/null and stderr to a file; `exec`, so that
-// a signal sent to the child reaches the tool itself.
+// The tool started in the background, stdout to /dev/null and stderr to a file (an earlier run's
+// removed first: the test watches it); `exec`, so that a signal sent to the child reaches the
+// tool itself.
 class Background {
  public:
   Background(const std::string& args, const std::string& err, const std::string& test_signal = "")
-      : pid_(start_shell("exec " + quote(PENUMBRA_CLI) + " " + args + " >/dev/null 2>" + quote(err),
-                         test_signal)),
-        err_(err) {}
+      : err_(err) {
+    fs::remove(err);
+    pid_ = start_shell("exec " + quote(PENUMBRA_CLI) + " " + args + " >/dev/null 2>" + quote(err),
+                       test_signal);
+  }
   Background(const Background&) = delete;
   Background& operator=(const Background&) = delete;
   ~Background() {
@@ -258,7 +261,7 @@ TEST(Interrupt, TuneLeavesNoDatabaseHalfWritten) {
   const std::string dir = fresh_dir("tune");
   const std::string tune = "tune --quick --runs 1 -o " + quote(dir + "/db.json");
   {
-    Background run(tune, dir + ".stderr");
+    Background run(tune, dir + "_tuning.stderr");
     ASSERT_TRUE(run.wait_until([&] { return run.err().find("tuning on ") != std::string::npos; }))
         << run.err();
     EXPECT_EQ(temporaries(dir), std::vector<std::string>{});  // none held while tuning

@@ -7,10 +7,10 @@
 // acts marks the process as dying first, and a Change begun after that waits for the end. So the
 // registry is read only while nobody changes it, and the handler does nothing but read memory,
 // unlink, write, sigaction, sigprocmask and raise (all async-signal-safe).
-#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
