@@ -32,10 +32,7 @@ int flushed(int code) {
                           (error ? std::string(": ") + std::strerror(error) : std::string()));
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace penumbra::cli;
+void handle_signals() {
   // A write past a file-size limit (RLIMIT_FSIZE) or into a pipe nobody reads would kill the
   // process with SIGXFSZ or SIGPIPE; ignored, the write fails with EFBIG or EPIPE instead and
   // the file writer reports it as an error.
@@ -44,6 +41,13 @@ int main(int argc, char** argv) {
   // SIGINT, SIGTERM, SIGHUP: the temporary files removed, the finished files kept, one line,
   // and the process ended by the signal (penumbra/interrupt.hpp).
   penumbra::install_interrupt_handlers("penumbra");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace penumbra::cli;
+  handle_signals();
   CLI::App app{
       "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
       "gradient checks, turnaround animations, fitting shapes to silhouettes and shadows)",

@@ -32,7 +32,7 @@ namespace {
 const std::string kSmall = " --width 16 --height 16 --map-size 16 --shadows hard";
 
 std::string fresh_dir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "penumbra_interrupt_" + name;
+  std::string dir = ::testing::TempDir() + "penumbra_interrupt_" + name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -119,7 +119,7 @@ std::string expect_ended_by(Background& run, int sig, const std::string& command
       << "status " << status << ", stderr:\n"
       << err;
   const std::vector<std::string> all = lines(err);
-  const std::string last = all.empty() ? "" : all.back();
+  std::string last = all.empty() ? "" : all.back();
   const std::string start =
       std::string("penumbra: interrupted by ") + name_of(sig) + " during " + command + "; ";
   EXPECT_EQ(last.rfind(start, 0), 0u) << err;
