@@ -10,6 +10,7 @@
 #include "common.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/image_io.hpp"
+#include "penumbra/interrupt.hpp"
 #include "penumbra/io.hpp"
 
 namespace fs = std::filesystem;
@@ -63,6 +64,9 @@ FitCheckpointFile::FitCheckpointFile(const CheckpointOptions& options, const std
   hooks_.save = [this](const optim::FitState& state) {
     write_file(path_, optim::checkpoint_text(state, run_), "checkpoint");
   };
+  // An interruption's line says so once there is a checkpoint to go on from.
+  if (options.every > 0)
+    set_interrupted_note("--resume goes on from " + path_, options.resume ? "" : path_);
   if (!options.resume) return;
   std::ifstream in(path_, std::ios::binary);
   if (!in)

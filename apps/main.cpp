@@ -11,6 +11,7 @@
 
 #include "common.hpp"
 #include "penumbra/error.hpp"
+#include "penumbra/interrupt.hpp"
 
 namespace {
 
@@ -31,15 +32,22 @@ int flushed(int code) {
                           (error ? std::string(": ") + std::strerror(error) : std::string()));
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace penumbra::cli;
+void handle_signals() {
   // A write past a file-size limit (RLIMIT_FSIZE) or into a pipe nobody reads would kill the
   // process with SIGXFSZ or SIGPIPE; ignored, the write fails with EFBIG or EPIPE instead and
   // the file writer reports it as an error.
   std::signal(SIGXFSZ, SIG_IGN);
   std::signal(SIGPIPE, SIG_IGN);
+  // SIGINT, SIGTERM, SIGHUP: the temporary files removed, the finished files kept, one line,
+  // and the process ended by the signal (penumbra/interrupt.hpp).
+  penumbra::install_interrupt_handlers("penumbra");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace penumbra::cli;
+  handle_signals();
   CLI::App app{
       "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
       "gradient checks, turnaround animations, fitting shapes to silhouettes and shadows)",
@@ -90,7 +98,9 @@ int main(int argc, char** argv) {
 
   try {
     for (const Command& command : commands) {
-      if (command.app->parsed()) return flushed(command.run());
+      if (!command.app->parsed()) continue;
+      penumbra::set_interrupted_activity(command.app->get_name());
+      return flushed(command.run());
     }
     return fail("no subcommand given", 2);
   } catch (const penumbra::Error& e) {

@@ -43,11 +43,12 @@ int run_tune(const TuneArgs& a) {
   Context context(a.device);
   const std::string path = a.output.empty() ? TuningDatabase::user_path() : a.output;
   const std::string key = TuningDatabase::device_key(context.info());
-  // Before the minutes of tuning: the database must be one, and its folder writable.
+  // Before the minutes of tuning: the database must be one, and its folder writable. Its
+  // temporary file is created only once the tune is done, so that none is held meanwhile.
   const std::string existing = read_database(path);
   TuningDatabase::updated_text(existing, path, key, Tuning());
   make_parent_dirs(path);
-  OutputFile file(path, "tuning database");
+  check_writable(path, "tuning database");
 
   TuneOptions options;
   options.quick = a.quick;
@@ -60,8 +61,7 @@ int run_tune(const TuneArgs& a) {
     std::printf("%-9s %-28s %9.2f ms %s%s\n", c.stage.c_str(), c.name.c_str(), c.median_ms,
                 c.accepted ? "" : "REJECTED: ", c.note.c_str());
   const std::string text = TuningDatabase::updated_text(existing, path, key, report.best);
-  file.write(text);
-  file.commit();
+  write_file(path, text, "tuning database");
   const size_t entries = nlohmann::json::parse(text).at("entries").size();
   std::printf("tune: device=%s entries=%zu path=%s\n", context.info().name.c_str(), entries,
               path.c_str());

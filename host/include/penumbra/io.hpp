@@ -19,10 +19,14 @@ namespace penumbra {
 // "cannot write <what> '<path>': <reason>" (the reason from strerror). A destination that
 // exists and is not a regular file (/dev/null, /dev/full, a named pipe) is written directly,
 // with the same checks. A symbolic link to a file keeps pointing at the new file.
+// A file the call produces, or a cache entry (not counted among the outputs an interruption
+// keeps, penumbra/interrupt.hpp).
+enum class FileKind { output, cache };
+
 class OutputFile {
  public:
   // `what` names the kind of file in messages: "PNG", "NumPy file", ...
-  OutputFile(const std::string& path, const std::string& what);
+  OutputFile(const std::string& path, const std::string& what, FileKind kind = FileKind::output);
   ~OutputFile();
   OutputFile(const OutputFile&) = delete;
   OutputFile& operator=(const OutputFile&) = delete;
@@ -36,12 +40,17 @@ class OutputFile {
   void discard() noexcept;
   [[noreturn]] void fail(const std::string& reason);
   std::string path_, what_, target_, temporary_;
+  FileKind kind_;
   int fd_ = -1;
   bool committed_ = false;
 };
 
 // One whole file through OutputFile.
-void write_file(const std::string& path, const std::string& bytes, const std::string& what);
+void write_file(const std::string& path, const std::string& bytes, const std::string& what,
+                FileKind kind = FileKind::output);
+// Throws what OutputFile would for `path` (a folder that takes no new file, ...), leaving
+// nothing: for a check before long work whose result is written at its end.
+void check_writable(const std::string& path, const std::string& what);
 // Several files, all or none: every file is written and closed to its temporary first, and
 // only when all of them succeeded are they renamed into place.
 struct FileContent {

@@ -141,7 +141,8 @@ void store_program_binary(const std::string& dir, const std::string& key,
       warn_once("cannot create the kernel cache folder '" + dir + "': " + ec.message());
       return;
     }
-    write_file(entry_path(dir, key), encode_program_entry(key, binary), "kernel cache entry");
+    write_file(entry_path(dir, key), encode_program_entry(key, binary), "kernel cache entry",
+               FileKind::cache);
   } catch (const std::exception& e) {
     warn_once(e.what());
   }

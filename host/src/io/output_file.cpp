@@ -6,6 +6,9 @@
 // either the old file or the whole new one. Any failure removes the temporary file and throws
 // one line naming the destination and the reason (strerror). A destination that exists and is
 // not a regular file (/dev/null, /dev/full, a named pipe) is written directly, still checked.
+// The temporary files are listed in the registry an interruption empties (interrupt.cpp); each
+// is created, renamed or removed under a Change, so that a signal cannot fall between the file
+// system and the list.
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -18,6 +21,7 @@
 
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
+#include "temporary_files.hpp"
 
 namespace penumbra {
 namespace {
@@ -44,8 +48,8 @@ std::string temporary_name(const std::string& target) {
 
 }  // namespace
 
-OutputFile::OutputFile(const std::string& path, const std::string& what)
-    : path_(path), what_(what) {
+OutputFile::OutputFile(const std::string& path, const std::string& what, FileKind kind)
+    : path_(path), what_(what), kind_(kind) {
   if (path.empty()) fail("the path is empty");
   struct stat st;
   const bool exists = ::stat(path.c_str(), &st) == 0;
@@ -56,6 +60,7 @@ OutputFile::OutputFile(const std::string& path, const std::string& what)
   }
   target_ = rename_target(path);
   const mode_t mode = exists ? (st.st_mode & 07777) : 0666;  // 0666 less the umask when new
+  temporary_files::Change change;
   for (int attempt = 0; fd_ < 0; ++attempt) {
     temporary_ = temporary_name(target_);
     fd_ = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
@@ -65,6 +70,7 @@ OutputFile::OutputFile(const std::string& path, const std::string& what)
       fail(std::strerror(error));
     }
   }
+  temporary_files::add(temporary_, path_);
   if (exists && ::fchmod(fd_, mode) != 0) fail(std::strerror(errno));
 }
 
@@ -89,13 +95,19 @@ void OutputFile::close() {
   const int fd = fd_;
   fd_ = -1;
   if (::close(fd) != 0) fail(std::strerror(errno));
+  if (!temporary_.empty()) temporary_files::test_signal("written", path_);
 }
 
 void OutputFile::commit() {
   if (committed_) return;
   close();
-  if (!temporary_.empty() && ::rename(temporary_.c_str(), target_.c_str()) != 0)
-    fail(std::strerror(errno));
+  temporary_files::Change change;
+  if (!temporary_.empty()) {
+    temporary_files::test_signal("renaming", path_);
+    if (::rename(temporary_.c_str(), target_.c_str()) != 0) fail(std::strerror(errno));
+    temporary_files::remove(temporary_);
+    if (kind_ == FileKind::output) temporary_files::kept(path_);
+  }
   temporary_.clear();
   committed_ = true;
 }
@@ -103,7 +115,10 @@ void OutputFile::commit() {
 void OutputFile::discard() noexcept {
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
-  if (!temporary_.empty()) ::unlink(temporary_.c_str());
+  if (temporary_.empty()) return;
+  temporary_files::Change change;
+  ::unlink(temporary_.c_str());
+  temporary_files::remove(temporary_);
   temporary_.clear();
 }
 
@@ -112,8 +127,9 @@ void OutputFile::fail(const std::string& reason) {
   throw Error("cannot write " + what_ + " '" + path_ + "': " + reason);
 }
 
-void write_file(const std::string& path, const std::string& bytes, const std::string& what) {
-  OutputFile file(path, what);
+void write_file(const std::string& path, const std::string& bytes, const std::string& what,
+                FileKind kind) {
+  OutputFile file(path, what, kind);
   file.write(bytes);
   file.commit();
 }
@@ -125,7 +141,12 @@ void write_files(const std::vector<FileContent>& files) {
     staged.back()->write(f.bytes);
     staged.back()->close();
   }
+  temporary_files::Change change;  // all renamed, even when a signal comes meanwhile
   for (auto& file : staged) file->commit();
+}
+
+void check_writable(const std::string& path, const std::string& what) {
+  OutputFile probe(path, what);  // creates the temporary file a write would, then removes it
 }
 
 }  // namespace penumbra
