@@ -52,7 +52,8 @@ FRAME_TARGETS = [
 PAPER = {"none": (1.0, 1.0), "hard": (33.0, 33.0), "soft": (104.0, 104.0)}
 
 # Why a target is missed, by the start of its label (or one of several): what the time is spent
-# on (the profile table below has the figures), written for the kernels as they are.
+# on (the profile table below has the figures), written for the kernels as they are; the
+# measurements behind them are in docs/benchmarks-log.md.
 # Why the exact backward costs more than its forward (two of the reasons below).
 EXACT_BACKWARD = ("the exact backward computes three matrix products (Gy·S and Gyd·S, summed "
                   "against Gx and Gxd, and (a⊙Gy)ᵀ·Gx for dL/dS) where the forward computes one "
@@ -61,28 +62,15 @@ EXACT_BACKWARD = ("the exact backward computes three matrix products (Gy·S and 
 MISS_REASONS = [
     ("no shadows", "the three raster passes are most of the frame. For every pixel and every "
      "face whose cut-off box reaches it, `raster_count` computes the barycentrics, the distance "
-     "to the three edges and a softplus (on vectors of the tuning's pixels per work-item: 8 on "
-     "this Xeon, blocks of 4×2 pixels), and "
-     "`raster_fragments` computes them again for the faces `raster_count` marked (a bit per "
-     "block and list entry) to write the kept fragments, because which fragments are kept "
-     "depends on the largest weight, which is known only after all faces. The kept fragments' "
-     "records (their shading terms computed for a face's lanes at once, then each weight's "
-     "exp and three stores per kept fragment: face, weight and depth, shading; a view without "
-     "shadows writes no light-map records) were about 40 % of `raster_fragments` on the AMD "
-     "EPYC of this page's earlier runs (with only the "
-     "face index of each record written it took 1.01-1.29 ms per launch against 1.84-2.03 ms; "
-     "kernels modified for the measurement only, alternated three times with the unmodified "
-     "ones: `PENUMBRA_KERNEL_DIR=DIR PENUMBRA_PROFILE=1 penumbra_bench "
-     "--benchmark_filter='^fwd/none/truncated/img:256/map:256/faces:1312/sigma_s:2/lights:1/' "
-     "--benchmark_min_time=2`, 2026-11-26)."),
+     "to the three edges and a softplus (on vectors of the tuning's pixels per work-item), and "
+     "`raster_fragments` computes them again for the faces `raster_count` marked, to write the "
+     "kept fragments, because which fragments are kept depends on the largest weight, known "
+     "only after all faces. The kept fragments' records (shading terms, weight, depth) are a "
+     "large part of `raster_fragments`."),
     ("hard shadows, truncated", "the light's own raster pass (a 256² soft depth map, the same "
      "three passes) comes on top of the camera pass, then one Gaussian window of about 11×11 "
-     "texels per fragment. The forward's kernels are the same as in the run of 2026-11-27 "
-     "10:19 UTC that met the limit (9.48 ms, FMA ceiling 471 GFLOP/s median): alternating "
-     "that run's build and this one three times at 12:40 UTC gave 10.4-11.6 ms and "
-     "10.7-11.2 ms (`penumbra_bench --benchmark_filter=^fwd/hard/truncated/img:256/map:256/"
-     "faces:1312/sigma_s:2/lights:1/manual --benchmark_min_time=1`): the machine, not the "
-     "code, was slower."),
+     "texels per fragment. The same kernels have met the limit in other runs: the target lies "
+     "within the run-to-run spread of this shared machine."),
     ("hard shadows, exact", "every fragment's Gaussian weights span the map: `exact_weights` "
      "writes N·(W_s + H_s) of them, and `matmul_nn_rowdot` forms Gy·S, each row summed against "
      "Gx as it is formed, over the weights that are not exactly 0 (within about 18.7 texels of "
@@ -90,114 +78,37 @@ MISS_REASONS = [
      "raster passes come on top. CLBlast (sampling `gemm`) multiplies every weight and stores "
      "the product."),
     ("backward ≤ 3× forward (hard, exact", EXACT_BACKWARD + " The largest part is `matmul_tn` "
-     "(dL/dS): 1.1-1.2 ms for each of the backward's ten batches of 8192 fragments since float "
-     "kernels flush subnormal numbers, 3.8-4.1 ms before, when the products of two small "
-     "weights were subnormal and each was a microcode assist (`PENUMBRA_PROFILE=1 "
-     "penumbra_bench --benchmark_filter=^bwd/hard/exact/img:256/map:256/faces:1312/sigma_s:2/`, "
-     "2026-11-27)."),
+     "(dL/dS), kept fast by float kernels flushing subnormal numbers (math.md §11.2)."),
     ("backward ≤ 3× forward (hard, gemm", EXACT_BACKWARD + " CLBlast (`gemm`) multiplies "
      "every weight, in the forward's one product and the backward's three alike. dL/dS has a "
-     "small output (the map) and a long inner dimension (a batch's fragments): in one GEMM of "
-     "k = 8192 on a 256² map CLBlast took 41 ms, in the chunks of 1024 that penumbra now asks "
-     "for 16-17 ms (2026-11-27, this Xeon)."),
+     "small output (the map) and a long inner dimension (a batch's fragments), which CLBlast "
+     "runs slowly in one GEMM; penumbra asks for it in chunks of 1024 fragments."),
     ("backward ≤ 3× forward (hard, truncated", "the texel gathers (each shadow-map texel sums the "
      "fragments whose window holds it, found through texel buckets) and the per-face raster "
      "backward, which walks each face's pixel box (its cut-off test on 16 pixels at a time, the "
      "rest per pixel), are loops per work-item that PoCL runs one work-item at a time."),
     ("backward ≤ 3× forward (soft", "the compare's two sigmoids and their derivatives are "
      "evaluated again for every fragment at every texel of its window twice: per texel in the "
-     "gather (`soft_gather`, on blocks of 8×8 texels: 17-19 ms a backward, 29 ms on the 16×4 "
-     "blocks before) and per fragment (`soft_sample_bwd`, 18 ms), against one lookup "
-     "(`soft_sample`, 8 ms) in the forward; the per-face raster backward of both views takes "
-     "8 ms (`PENUMBRA_PROFILE=1 penumbra_bench --benchmark_filter=^step/soft/truncated/img:256/"
-     "map:256/faces:1312/ --benchmark_min_time=3`, 2026-11-27, this Xeon). Each sigmoid's "
-     "divisions and exponential are most of both kernels; rewriting them (a reciprocal of γ_s, "
-     "e/(e + c) for 1/(1 + c/e)) would change the gradients' last bits, and would not lower "
-     "the quotient: with multiplications by the reciprocals of γ_s and σ_s in place of their "
-     "divisions (kernels modified for the measurement only, two alternated runs, 2026-11-29) "
-     "`soft_sample_bwd` took 15.2-16.8 ms a step against 17.6-20.4 and `soft_gather` "
-     "25.0-26.3 against 26.9-27.4, but the forward's `soft_sample` gained as much (10.8-12.5 "
-     "against 12.3-13.1), and the quotient moved only from 2.92-2.93 to 2.87-2.91."),
-    ("512²", "with the 8×8 tiles of this Xeon's tuned entry (the heuristic picks the same for a "
-     "100k-face sphere at 512²), a tile's "
-     "list holds about 77 faces; `raster_count` tests each against the box of each of the "
-     "tile's 4×2-pixel blocks (8 pixels per work-item), 32 "
-     "reach it and 24 cover one of its pixels: the coverage, depth and softplus of 8 pixels "
-     "each, 54 % of those lanes within the face's cut-off, some 790 000 such evaluations per "
-     "frame. `raster_fragments` evaluates again the 13 per block that may keep a fragment (9 "
-     "keep one: 4.6 fragments per pixel, 1.21 million) and writes their records. Per launch "
-     "`raster_count` took 23-24 ms and `raster_fragments` 26-28 ms (`PENUMBRA_PROFILE=1 "
-     "penumbra_bench --benchmark_filter=fwd/none/truncated/img:512/map:256/faces:100852 "
-     "--benchmark_min_time=1`, three runs, 2026-11-28 00:25 UTC, since their face loops hold "
-     "no private array that PoCL would keep in memory; 25-29 and 35-39 ms before, alternated "
-     "with them; 32-36 and 37-40 ms before float kernels flushed subnormal numbers). Before that flush, with the "
-     "evaluations removed `raster_count` took 6 ms (the walk of the lists and the box tests), and the evaluations "
-     "were bound by the number of vector instructions, not by their chains of "
-     "latency: an independent second softplus per evaluation took `raster_count` from 34-35 "
-     "to 46-47 ms, and evaluating two faces at a time, so that their chains could overlap, to "
-     "74-76 ms (kernels modified for the measurements only). `raster_fragments` takes the "
-     "weights e^{lw} of all of a face's lanes as unrolled scalar `exp` calls, which the "
-     "compiler runs as one vector with the same bits per lane (`penumbra render --raw` and "
-     "`penumbra backward` over 9 shadow configurations in float and double, and a 256² render "
-     "of the bundled icosphere: 186 arrays, byte-identical); it had taken them one kept lane at "
-     "a time, a serial chain of scalar operations that perf put at about a fifth of its "
-     "samples. On a 2-core VM of this Xeon model, slower that day (`raster_count` 57-73 ms a "
-     "launch), `raster_fragments` per launch went from 1.14 to 0.975 times `raster_count`'s "
-     "(medians over five alternated runs each, `PENUMBRA_KERNEL_DIR` choosing the kernels, "
-     "2026-11-29 00:40 UTC; 1.08 to 1.01 over seven earlier), 71.4 to 60.2 ms. It writes a "
-     "face's records at its kept lanes alone, found from the bits of their mask (`mask_bits`, "
-     "`lowest_bit`), where it had tested each lane in turn: with 16 pixels per work-item, per "
-     "launch from 1.28 to 1.19 times `raster_count`'s, 69.1 to 62.0 ms, the frame 143-155 ms "
-     "against 123-144 (medians 150 and 135 over six alternated runs each, 2026-11-29 04:20 "
-     "UTC; the same 186 arrays byte-identical). This Xeon's "
-     "entry now takes tile 8 with 4×4 blocks (16 pixels per work-item, docs/tuning.md): on "
-     "that slow VM day `raster_count` took 47-55 ms a launch against 66-72 with 4×2 blocks, "
-     "the frame 126-148 ms against 137-172 (medians 145 and 160 over nine runs each). Tiles "
-     "of 16 with 16 pixels per "
-     "work-item took 71.3-71.7 ms a frame against the entry's 75.2-79.8 ms, and the 100k-face "
-     "step 172.7-173.3 ms against 155.2-162.7 ms (two alternated runs, `PENUMBRA_TUNING`): the "
-     "raster passes alone take more than twice the target on this machine at either. How far "
-     "the evaluations are from the target, on a slower day (the unmodified frame 71.6-77.1 ms; "
-     "kernels modified for the measurement only, three alternated runs each, "
-     "`PENUMBRA_KERNEL_DIR`, 2026-11-29 11:30 UTC): with the softplus removed from both "
-     "passes the frame took 55.5-60.7 ms (`raster_count` 19.2-21.4 ms a launch against "
-     "27.6-28.4), and with every evaluation removed (the lists walked and the boxes "
-     "tested, nothing kept) 17.0-20.8 ms. The evaluations and the kept fragments' "
-     "records are about three quarters of the frame and the softplus about a fifth: with a "
-     "coverage function that cost nothing the frame would still take about 45 ms at this "
-     "page's speed, and to take 30 ms the evaluations would have to run about 2.8 times "
-     "faster. A "
-     "renderer rasters into its last render's fragment buffers where they "
-     "fit, so that PoCL's host memory does not fault their pages in anew every frame. The "
-     "calling thread's own work takes about 8 ms of each frame, while the device waits: the "
-     "scene's checks, copy and workload statistics with the vertices' packing 3.8-4.1 ms, "
-     "their upload 0.5 ms, the outputs' conversion into the returned images 3.2-3.5 ms (the "
-     "stages `render: prepare`, `upload` and `outputs` of `PENUMBRA_PROFILE=1 penumbra_bench "
-     "--benchmark_filter=fwd/none/truncated/img:512/map:256/faces:100852 "
-     "--benchmark_min_time=1`, three runs of 34-35 frames, 2026-11-28 08:06 UTC); a render whose meshes "
-     "differ from the last one's only "
-     "in their vertices packs and uploads only those (about 10 ms in all before). Where the "
-     "device has a tuned entry, which alone decides the launch parameters, a render computes no "
-     "workload statistics (only the heuristic reads them): with this Xeon's entry under the "
-     "device name of a 2-core `Intel(R) Xeon(R) Processor @ 2.50GHz` VM, `render: prepare` "
-     "took 5.1-6.5 ms a call against 6.8-8.2 ms before at 512² and 100 852 faces, and 67-68 "
-     "against 82-88 ms at 1 003 552 faces (two alternated runs each, `PENUMBRA_TUNING`, "
-     "2026-11-28 13:30 UTC)."),
+     "gather (`soft_gather`, on blocks of 8×8 texels) and per fragment (`soft_sample_bwd`), "
+     "against one lookup (`soft_sample`) in the forward. Each sigmoid's divisions and "
+     "exponential are most of both kernels; replacing the divisions by reciprocals would "
+     "change the gradients' last bits and speeds the forward as much as the backward, so the "
+     "quotient barely moves."),
+    ("512²", "the raster passes alone take more than the target on this machine. A tile's list "
+     "holds about 77 faces (8×8 tiles, this Xeon's tuned entry); `raster_count` evaluates the "
+     "coverage, depth and softplus of every face that reaches a block of 16 pixels, and "
+     "`raster_fragments` evaluates again those that may keep a fragment (4.6 kept per pixel) "
+     "and writes their records. The evaluations and the records are about three quarters of "
+     "the frame and the softplus about a fifth: with a coverage function that cost nothing "
+     "the frame would still take about 45 ms, and to take 30 ms the evaluations would have to "
+     "run about 2.8 times faster. The calling thread's own work (checks and packing of the "
+     "scene, upload, conversion of the outputs) adds about 8 ms a frame."),
     ("256², 100 852 faces", "the same raster passes in the camera's and the light's view, "
-     "forward and (per face, over its pixel box) backward, plus the lookups and gathers: per "
-     "step `raster_bwd` 45 ms, `raster_count` 43 ms, `raster_fragments` 27 ms, `shadow_gather` "
-     "19 ms, `shadow_sample` 15 ms, `shadow_sample_bwd` 12 ms, the rest 25 ms of device time, "
+     "forward and (per face, over its pixel box) backward, plus the lookups and gathers; "
+     "`raster_bwd`, `raster_count` and `raster_fragments` are the largest kernels of a step, "
      "and the calling thread's own work (packing the scene, summing the per-face light "
-     "gradients, new buffers' first pages) about 23 ms of CPU time (`PENUMBRA_PROFILE=1 "
-     "penumbra_bench --benchmark_filter=^step/hard/truncated/img:256/map:256/faces:100852 "
-     "--benchmark_min_time=3`, 2026-11-27 17:14 UTC, step median 206 ms). For the dense sphere "
-     "`raster_count` reserves 443 000 fragments in the camera's 65 536 pixels, 6.8 a pixel "
-     "(neighbouring faces of the surface lie within ε_w of the heaviest), and the camera's `raster_bwd` spent, per "
-     "launch of the camera's backward alone (`bwd/none`, 36.9 ms before a pixel with no kept "
-     "fragment under the silhouette was skipped, 33.1 ms after): 4.6 ms on each face's own "
-     "setup, 4.7 ms on the cut-off tests of its rows, 9 ms on the sigmoid and edge backward of "
-     "the pixels in reach, 5 ms finding the pixel's fragment of the face and 12.5 ms on the "
-     "kept fragments' shading and depth backward (kernels modified for the measurements only)."),
+     "gradients) adds about 23 ms. The dense sphere keeps 6.8 fragments a pixel in the "
+     "camera's view: neighbouring faces of the surface lie within ε_w of the heaviest."),
 ]
 
 
@@ -729,10 +640,10 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     w("shared: a 1-minute load average above 2 means other processes competed for them, and")
     w("times measured then are longer than the renderer alone would take; *best ms* (the")
     w("fastest iteration) shows how far. Even at a low load average and the same measured FMA")
-    w("ceiling, whole runs of the suite on this project's 2-core virtual machine have differed by")
-    w("up to about 60 % in the same case (the no-shadow forward: 4.35 ms at 07:19 UTC and 6.93 ms")
-    w("at 08:13 UTC on 2026-11-26, with the same forward kernels), so a target within that margin")
-    w("of its limit can come out either way from run to run.")
+    w("ceiling, whole runs of the suite on this 2-core virtual machine have differed by up to")
+    w("about 60 % in the same case, so a target within that margin of its limit can come out")
+    w("either way from run to run. The measurements behind the explanations below are dated in")
+    w("[benchmarks-log.md](benchmarks-log.md).")
     w("The Debian `libbenchmark` package prints *Library was built as DEBUG*; that concerns the")
     w("harness, not the measured code (penumbra is built Release).")
     w("")
