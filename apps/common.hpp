@@ -1,6 +1,6 @@
 #pragma once
 // Shared pieces of the `penumbra` command-line tool: the scene argument, the render-parameter
-// and shadow options of SPEC §7 (each defined once, here), device and precision options, file
+// and shadow options of math.md §10 (each defined once, here), device and precision options, file
 // helpers.
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -48,7 +48,7 @@ struct SceneSource {
 };
 void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh = true);
 
-// SPEC §7 parameters, shadow options, image size and device. Only options given on the command
+// math.md §10 parameters, shadow options, image size and device. Only options given on the command
 // line override the scene's values.
 struct RenderOptions {
   double sigma = 0, gamma = 0, eps = 0, dist_eps = 0, sigma_s = 0, lambda_eps = 0, gamma_s = 0,

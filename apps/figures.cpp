@@ -1,6 +1,6 @@
 // `penumbra figures [SCENE.json] [-o docs/images]`: the pictures of the documentation,
 // reproducing the paper's figures on the bundled scene:
-//   fig1_a.png … fig1_d.png  hard-shadow parameter sweep (paper Figure 1, SPEC §7 units)
+//   fig1_a.png … fig1_d.png  hard-shadow parameter sweep (paper Figure 1, math.md §10 units)
 //   fig2_depth_map.png       the shadow map S of the Figure 1 (a) settings (paper Figure 2)
 //   fig4_soft_*.png          soft-shadow turnaround frames (paper Figure 4)
 //   fig5_penumbra_map.png    a penumbra map P (paper Figure 5)

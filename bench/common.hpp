@@ -160,8 +160,8 @@ InTurn timed_in_turn(benchmark::State& state, F&& first, G&& second) {
 //   samples_per_s           shadow-map texels weighed per second: N·lights·(2R)² truncated
 //                           (R = sqrt(2σ_s ln(1/ε_λ))), N·lights·W_s·H_s exact and gemm
 //   gflops                  exact and gemm hard shadows: products·2·N·W_s·H_s / s, with one
-//                           product per light forward and three backward (SPEC §4): the dense
-//                           products' flops, which CLBlast executes; penumbra's kernels skip
+//                           product per light forward and three backward (math.md §6.2, §8.3): the
+//                           dense products' flops, which CLBlast executes; penumbra's kernels skip
 //                           the weights that are exactly 0, so for them a dense-equivalent rate
 //                           (flops executed only where no weight is 0: bench/report.py)
 // plus the case's parameters (image, map, faces, sigma_s, lights, fragments).

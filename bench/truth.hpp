@@ -2,8 +2,8 @@
 // The ray-traced ground truth of the accuracy benchmarks and their test, on the CPU with
 // Embree 3 (Debian: libembree-dev; compiled only where CMake finds it, PENUMBRA_HAVE_EMBREE).
 //
-// It renders camera 0 of a scene with one primary ray through every pixel centre (SPEC §0
-// screen units), the same shading as penumbra (SPEC §2: flat face normal turned to the camera,
+// It renders camera 0 of a scene with one primary ray through every pixel centre (math.md §1
+// screen units), the same shading as penumbra (math.md §3: flat face normal turned to the camera,
 // albedo interpolated with the hit's barycentrics, C = a ⊙ I_a + Σ_L v_L · a ⊙ I_L ·
 // max(0, n·l), l towards the light's centre, the ambient term unshadowed) and visibility v_L
 // from shadow rays:

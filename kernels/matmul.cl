@@ -1,4 +1,4 @@
-// Dense matrix products for the exact-sum shadow sampling (SPEC §4), the direct-kernel
+// Dense matrix products for the exact-sum shadow sampling (math.md §6.2, §8.3), the direct-kernel
 // alternative to CLBlast's GEMM. Row-major matrices with leading dimensions:
 //   matmul_tn  C (M × N) = Aᵀ (A is K × M) · B (K × N)  + beta·C   (dL/dS = Gyᵀ·Gx)
 //   matmul_nn_rowdots out_r = (Σ_c (A·B)_rc·D_rc, Σ_c (A·B)_rc·Dd_rc, Σ_c (Ad·B)_rc·D_rc, 0)

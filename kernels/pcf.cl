@@ -1,6 +1,6 @@
 // Stage 4 (accurate model) — pcf: the shadow term s of every kept fragment for one light by
 // percentage-closer filtering (compare, then filter) of the light's shadow map S, forward and
-// backward (docs/shadows.md, "The accurate model"):
+// backward (math.md §7, §8.4; docs/shadows.md, "The accurate model"):
 //   d_ij = d + ∇_μ d·((i, j) − μ)            receiver-plane depth at texel (i, j) (slope
 //                                            limited for faces nearly edge-on: slope_limit)
 //   c_ij = 1 − A_ij·smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij)   1 lit … 0 behind an occluder

@@ -1,4 +1,4 @@
-// Stage 5 — penumbra map P of one light (SPEC §3, paper eqs. 9–10, outer penumbra only),
+// Stage 5 — penumbra map P of one light (math.md §4.3, §8.5; paper eqs. 9–10, outer penumbra only),
 // rendered in the light's own view after its shadow map S; forward and backward.
 // For texel q with receiver depth S_q and each face t in front of it (z_t < S_q):
 //   d_t distance from q to t (screen units, 0 inside), z_t its depth at q,

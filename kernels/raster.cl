@@ -1,6 +1,6 @@
 // Stage 3 — raster: soft coverage, perspective-correct depth, shading and softmax aggregation
-// (SPEC §1–§2) for a camera or, with no lights, for a light's depth map; backward: the exact
-// derivative of all of it (SPEC §5).
+// (math.md §2–§3) for a camera or, with no lights, for a light's depth map; backward: the exact
+// derivative of all of it (math.md §8).
 //
 // Three passes, so that shadow terms can be sampled between the second and the third:
 //   raster_count      per pixel: softmax maxima, Σ log(1 − D), and a bound on the number of

@@ -1,4 +1,4 @@
-// Stage 4 — shadow: the shadow term s of every kept fragment for one light (SPEC §4, hard
+// Stage 4 — shadow: the shadow term s of every kept fragment for one light (math.md §6, §8.3; hard
 // shadows, eq. 7: filter then compare), forward and backward, with Gaussian-weighted sampling
 // of the light's shadow map S:
 //   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ)),
@@ -161,7 +161,7 @@ GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, in
 }
 #endif
 
-// ---- exact sum as matrix products (SPEC §4): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
+// ---- exact sum as matrix products (math.md §6.2): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
 // U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------
 // Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
 // norm n × real4 (Σgx, Σgy, looked up?, 0): 0 outside the map and facing away from the light;
@@ -298,7 +298,7 @@ BACKWARD_KERNEL void exact_finish_bwd(__global const real* P, int r0, int n, int
   *g = (real4)(gv / nrm, gv * dvx, gv * dvy, -gv);
 }
 
-// ---- soft shadows (SPEC §4, eq. 11 with a receiver-plane depth bias; compare then filter) ---
+// ---- soft shadows (math.md §6.3, eq. 11 with a receiver-plane depth bias; compare then filter) --
 //   d_ij = d + ∇_μ d·((i, j) − μ),  front_ij = sigmoid((S_ij − d_ij + β)/γ_s),
 //   at_ij = sigmoid((d_ij − S_ij + β)/γ_s),  s = Σ λ_ij·front_ij·(1 − at_ij·(1 − P_ij)).
 // rec_light2 K·nl × real4 holds ∇_μ d (.xy); rec_lgrad2 receives dL/d∇_μ d (.xy).

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Lint of penumbra's C++ (README, "Code style and lint"): three checks, all of them by default.
+# Lint of penumbra's C++ and docs (README, "Code style and lint"): four checks, all of them by
+# default.
 #   format  clang-format --dry-run -Werror with .clang-format over the C++ sources of host/,
 #           apps/, tests/, bench/, python/ and examples/ (the kernels, kernels/, are left out);
 #   tidy    clang-tidy with .clang-tidy and -warnings-as-errors='*' over every source of the
@@ -7,12 +8,14 @@
 #           tests and the benchmarks), headers of the source tree included. It configures the
 #           default preset first when that database is missing (configure only, no build).
 #           readability-function-size is the function-length rule: 60 lines at most;
-#   size    no source file over 500 lines.
+#   size    no source file over 500 lines;
+#   refs    every "math.md §N" in the tree names a section of docs/math.md, and nothing cites a
+#           document outside the tree (scripts/doc_refs.py; ctest runs it too, as doc_refs).
 # A function or a file may be longer only when .lint-allow lists it, with a reason:
 #   function <path> <name>   # <reason>     (a GoogleTest test: <name> is Suite.Test)
 #   file <path>              # <reason>
 # An entry that no longer matches anything fails the check too, so that the list shrinks.
-# Usage: scripts/lint.sh [format|tidy|size|all]
+# Usage: scripts/lint.sh [format|tidy|size|refs|all]
 # Environment: PENUMBRA_LINT_BUILD_DIR (default build), PENUMBRA_LINT_JOBS (default nproc),
 #              CLANG_FORMAT (default clang-format-14), CLANG_TIDY (default clang-tidy-14).
 set -euo pipefail
@@ -83,6 +86,10 @@ size() {
     size "$max_file_lines"
 }
 
+refs() {
+  python3 scripts/doc_refs.py
+}
+
 step() {
   local start=$SECONDS
   if "$1"; then
@@ -95,8 +102,8 @@ step() {
 
 status=0
 case "${1:-all}" in
-  format | tidy | size) step "$1" ;;
-  all) step format; step size; step tidy ;;
-  *) echo "usage: scripts/lint.sh [format|tidy|size|all]" >&2; exit 2 ;;
+  format | tidy | size | refs) step "$1" ;;
+  all) step format; step size; step refs; step tidy ;;
+  *) echo "usage: scripts/lint.sh [format|tidy|size|refs|all]" >&2; exit 2 ;;
 esac
 exit $status

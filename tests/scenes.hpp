@@ -75,7 +75,7 @@ void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, penumbra::Samp
 void shadow_params(penumbra::Scene& s, penumbra::Shadows shadows, Method method,
                    penumbra::ShadowModel model = penumbra::ShadowModel::Paper);
 
-// The pixel a world point projects to in camera `cam` (SPEC §0), rounded to the nearest centre.
+// The pixel a world point projects to in camera `cam` (math.md §1), rounded to the nearest centre.
 std::pair<int, int> pixel_of(const penumbra::Camera& cam, glm::dvec3 X);
 
 struct NamedScene {

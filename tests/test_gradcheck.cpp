@@ -1,4 +1,4 @@
-// Gradients (SPEC §5): Renderer::backward against central finite differences of
+// Gradients (math.md §8): Renderer::backward against central finite differences of
 // Renderer::render, in double precision (penumbra/gradcheck.hpp).
 //
 //   GradCheckCompare.*   the comparison itself flags a 10% error, honours the absolute floor

@@ -393,7 +393,7 @@ TEST(NumericsReference, ExtremesMatchTheReference) {
 }
 
 // With ε_D > 0.5 the cut-off d² ≥ σ·ln(1/ε_D − 1) has a negative right-hand side, so every
-// outside face is skipped (SPEC §1) but inside faces still cover their pixels. (The screen
+// outside face is skipped (math.md §2.1) but inside faces still cover their pixels. (The screen
 // boxes once took the square root of that negative number: NaN, every box empty, nothing drawn.)
 TEST(NumericsReference, CoverageCutoffAboveOneHalfMatchesTheReference) {
   for (double dist_eps : {0.6, 0.9}) {

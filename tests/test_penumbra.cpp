@@ -1,4 +1,4 @@
-// Soft shadows (SPEC §3 penumbra map, §4 eq. 11): the penumbra map P of each light, the
+// Soft shadows (math.md §4.3 penumbra map, §6.3 eq. 11): the penumbra map P of each light, the
 // compare-then-filter lookup with the receiver-plane bias, and their gradients, on small scenes
 // built here — occluders (an icosphere, two small icospheres at different heights, a flat
 // square) above a ground grid, lit by point and directional lights of nonzero size D_L.

@@ -1,4 +1,4 @@
-// Raster stage (SPEC §1–§2 without shadows): the OpenCL renderer against the plain C++
+// Raster stage (math.md §2–§3 without shadows): the OpenCL renderer against the plain C++
 // double-precision reference (host/reference/reference.cpp), on small scenes built here.
 //
 //   RasterReference.*  the reference itself against closed-form values (no device needed)
@@ -90,7 +90,7 @@ Camera orthographic_camera(dvec3 eye, dvec3 target, int w, int h, double half_he
   return c;
 }
 
-// View depth of a world point for a camera (SPEC §0), used to check that the scenes below
+// View depth of a world point for a camera (math.md §1), used to check that the scenes below
 // really contain the cases they are meant to exercise.
 double view_depth(const Camera& cam, dvec3 p) {
   return glm::dot(p - cam.eye, glm::normalize(cam.target - cam.eye));

@@ -1,4 +1,4 @@
-// Shadow stage (SPEC §3–§4, hard shadows): the light pass, the shadow-map lookup and their
+// Shadow stage (math.md §4–§6, hard shadows): the light pass, the shadow-map lookup and their
 // gradients, on small scenes built here — an icosphere occluder above a ground grid, lit by one
 // point light, one directional light, or both.
 //

@@ -1,5 +1,5 @@
 // The soft rasterizer of the CPU reference (raster.hpp): face set-up and the soft rasterization
-// of one view, every pixel against every face (SPEC §1–§2).
+// of one view, every pixel against every face (math.md §2–§3).
 #include "reference/raster.hpp"
 
 #include <algorithm>
@@ -45,7 +45,7 @@ std::vector<Face> setup_faces(const Scene& scene, const View& view) {
   }
   return faces;
 }
-// Soft rasterization of one view (SPEC §1) with coverage sharpness σ and aggregation
+// Soft rasterization of one view (math.md §2) with coverage sharpness σ and aggregation
 // sharpness γ; the background has colour `background` and depth view.far.
 RenderOutput raster(const Scene& scene, const View& view, double sigma, double gamma,
                     const dvec3& background, const Shader& shader) {
@@ -109,7 +109,7 @@ RenderOutput raster(const Scene& scene, const View& view, double sigma, double g
         fragments.push_back({D, ztilde, z, shader(face, b)});
       }
 
-      // Soft aggregation (SPEC §1, SoftRas's stable form).
+      // Soft aggregation (math.md §2.3, SoftRas's stable form).
       double m = params.eps;
       for (const Fragment& fr : fragments) m = std::max(m, fr.ztilde);
       const double e_bg = std::exp((params.eps - m) / gamma);

@@ -1,4 +1,4 @@
-// The soft rasterizer of the CPU reference (reference.cpp; SPEC §1–§2): the view transform of a
+// The soft rasterizer of the CPU reference (reference.cpp; math.md §2–§3): the view transform of a
 // camera or a light, the faces set up for a view and the soft rasterization of one view, which
 // both the camera pass and the light pass (the shadow map S) run. Private to host/reference/;
 // the conventions are those at the top of reference.cpp.
@@ -77,7 +77,7 @@ struct View {
                 cam.height);
   }
 
-  // The frame a light renders its shadow map with (SPEC §3), map_size² texels.
+  // The frame a light renders its shadow map with (math.md §4.1), map_size² texels.
   static View of_light(const Light& light, int map_size) {
     const LightFrustum& fr = light.frustum;
     if (light.type == LightType::Point)
@@ -116,7 +116,7 @@ std::vector<Face> setup_faces(const Scene& scene, const View& view);
 
 // Colour of a fragment of `face` at perspective-correct barycentrics b.
 using Shader = std::function<dvec3(const Face& face, const dvec3& b)>;
-// Soft rasterization of one view (SPEC §1) with coverage sharpness σ and aggregation
+// Soft rasterization of one view (math.md §2) with coverage sharpness σ and aggregation
 // sharpness γ; the background has colour `background` and depth view.far.
 RenderOutput raster(const Scene& scene, const View& view, double sigma, double gamma,
                     const dvec3& background, const Shader& shader);

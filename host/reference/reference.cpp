@@ -1,10 +1,10 @@
-// Plain double-precision reference of the forward pass (SPEC §0–§2) with hard shadows (SPEC §3–§4,
-// eq. 7: filter then compare) and soft shadows (SPEC §3 penumbra map, §4 eq. 11: compare then
-// filter, with the receiver-plane depth bias and the front-most test), with truncated or exact
-// Gaussian sampling of the maps.
+// Plain double-precision reference of the forward pass (math.md §1–§3) with hard shadows (math.md
+// §4.2, §6.1, eq. 7: filter then compare) and soft shadows (math.md §4.3 penumbra map, §6.3 eq. 11:
+// compare then filter, with the receiver-plane depth bias and the front-most test), with truncated
+// or exact Gaussian sampling of the maps.
 //
 // Written for clarity, not speed: every pixel of the view visits every face of every mesh, with
-// no tiling, no cut-off shortcuts beyond the SoftRas cut-off the SPEC defines, and no shared
+// no tiling, no cut-off shortcuts beyond the coverage cut-off of math.md §2.1, and no shared
 // code with the OpenCL kernels. Tests compare the kernels against this file. The light pass
 // (shadow map S) is the same raster as the camera's, run from the light's frame.
 //
@@ -21,7 +21,7 @@
 //   shadow map     μx = (x·H_s + W_s − 1)/2, μy = (H_s − 1 − y·H_s)/2 (texel centres at
 //                  integers, row 0 at the top), d = the light-view depth z.
 //   penumbra map   per texel of the light's view, over every face valid in that view, with the
-//                  membership offset of docs/math.md (m = max(0, σ(x) − σ₀)/(1 − σ₀)).
+//                  membership offset of math.md §4.3 (m = max(0, σ(x) − σ₀)/(1 − σ₀)).
 //
 // The kernels also leave out of colour and depth a fragment whose aggregation weight is below
 // weight_eps times the pixel's largest; the reference keeps every fragment (the difference is
@@ -46,14 +46,14 @@ using namespace detail;  // the rasterizer (raster.hpp)
 
 namespace {
 
-// The scene as the renderer sees it: light frusta not given are fitted (SPEC §3).
+// The scene as the renderer sees it: light frusta not given are fitted (math.md §4.1).
 Scene fitted(const Scene& scene) {
   Scene s = scene;
   if (!s.lights.empty()) fit_light_frusta(s);
   return s;
 }
 
-// The light pass of light `index` of a scene whose frusta are fitted (SPEC §3): the soft depth
+// The light pass of light `index` of a scene whose frusta are fitted (math.md §4.2): the soft depth
 // I_z from the light's frame with σ_L, γ_L (light_sigma, light_gamma when set, else the
 // documented defaults of light_pass_sigma, light_pass_gamma); the background lies at the
 // frustum's far plane.
@@ -107,13 +107,13 @@ ShadowMap light_pass(const Scene& scene, size_t index) {
   return {view, std::move(out.depth), Image(), std::move(out.silhouette)};
 }
 
-// The penumbra map P of light `index` (SPEC §3, paper eqs. 9–10, outer penumbra only) from its
+// The penumbra map P of light `index` (math.md §4.3, paper eqs. 9–10, outer penumbra only) from its
 // shadow map S: for texel centre q with receiver depth S_q and every face t valid in the light's
 // view, d_t = distance from q to t (screen units, 0 strictly inside), z_t = depth of t at q
 // (clamped barycentrics, perspective-correct unless orthographic); t counts if z_t < S_q, D_L > 0
 // and τ_t = r_t/b_t < 1 with b_t = D_L·(S_q − z_t)/S_q, r_t = d_t·z_t·tan(θ_L/2) (or d_t·h_L).
 // Membership m_t = max(0, σ(x) − σ₀)/(1 − σ₀), x = (S_q − β − z_t)/γ_s, σ₀ = σ(−β/γ_s)
-// (docs/math.md); v_t = 1 − m_t·(1 − τ_t), a_t = (1 − v_t)·e^{−γ_P v_t};
+// (math.md §4.3); v_t = 1 − m_t·(1 − τ_t), a_t = (1 − v_t)·e^{−γ_P v_t};
 // P_q = (e^{−γ_P} + Σ a_t v_t)/(e^{−γ_P} + Σ a_t). Every texel visits every face (no culling).
 Image penumbra(const Scene& scene, const ShadowMap& map, double light_size) {
   const RenderParams& p = scene.params;
@@ -202,7 +202,7 @@ void for_each_weight(const ShadowMap& map, const RenderParams& p, dvec2 mu, doub
     }
 }
 
-// Shadow term s of world point X for one light (SPEC §4, hard shadows, eq. 7): Gaussian-
+// Shadow term s of world point X for one light (math.md §6.1, hard shadows, eq. 7): Gaussian-
 // filtered map depth around X's texel position, compared with X's light depth.
 double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) {
   const dvec2 mu = map_texel(map, map.view.screen(X));
@@ -218,7 +218,7 @@ double shadow_term(const ShadowMap& map, const RenderParams& p, const dvec3& X) 
   return sigmoid((acc / sum - d + shadow_beta(p)) / shadow_gamma_s(p));
 }
 
-// Receiver-plane depth gradient ∇_μ d (SPEC §4) of `face` at a point of light depth d: the
+// Receiver-plane depth gradient ∇_μ d (math.md §5.3) of `face` at a point of light depth d: the
 // gradient of light-view depth over the face's plane with respect to texel coordinates. With the
 // corners projected to (μ_k, z_k), A = cross2(μ1 − μ0, μ2 − μ0) and n_k = ∇_μ(A·w_k), perspective
 // 1/d is affine in μ: ∇d = −d²·Σ_k n_k/(A·z_k); orthographic ∇d = Σ_k n_k·z_k/A. Zero for a face
@@ -243,10 +243,10 @@ dvec2 receiver_gradient(const ShadowMap& map, const Face& face, double d) {
   return map.view.perspective ? -d * d * G : G;
 }
 
-// Shadow term s of world point X on `face` for one light (SPEC §4, soft shadows, eq. 11: compare
-// then filter): every texel of the window compares its S with the receiver's depth extrapolated
-// along the face's plane, d_ij = d + ∇_μ d·((i, j) − μ); front = σ((S − d_ij + β)/γ_s),
-// at = σ((d_ij − S + β)/γ_s), term = front·(1 − at·(1 − P)); s = Σ g'·term / Σ g'.
+// Shadow term s of world point X on `face` for one light (math.md §6.3, soft shadows, eq. 11:
+// compare then filter): every texel of the window compares its S with the receiver's depth
+// extrapolated along the face's plane, d_ij = d + ∇_μ d·((i, j) − μ); front = σ((S − d_ij +
+// β)/γ_s), at = σ((d_ij − S + β)/γ_s), term = front·(1 − at·(1 − P)); s = Σ g'·term / Σ g'.
 double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face& face,
                         const dvec3& X) {
   const dvec2 mu = map_texel(map, map.view.screen(X));
@@ -317,7 +317,7 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   return f[0] > 0.0 ? f[1] / f[0] : 1.0;
 }
 
-// Colour of face `face` at perspective-correct barycentrics b (SPEC §2), with shadow terms
+// Colour of face `face` at perspective-correct barycentrics b (math.md §3), with shadow terms
 // from `maps` (one per light; empty when shadows are off, s = 1).
 dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& maps,
             const Face& face, const dvec3& b) {

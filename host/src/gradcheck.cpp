@@ -103,7 +103,7 @@ double gradient(const SceneGrads& g, const Param& p) {
 }
 
 // Whether a face may show in a view: every vertex in front of the near plane, some vertex
-// before the far plane, and its projected bounding box overlapping the image (SPEC §0 units).
+// before the far plane, and its projected bounding box overlapping the image (math.md §1 units).
 // `facing` tells whether its counter-clockwise side faces the camera (for a closed mesh the
 // other faces are hidden behind it).
 bool face_in_view(const Camera& cam, const glm::dvec3 (&p)[3], bool* facing) {
@@ -409,7 +409,7 @@ GradCheckResult compare_with_finite_differences(Renderer& renderer, const Scene&
                                                 const GradCheckOptions& options) {
   if (options.samples < 0) throw Error("gradcheck: samples must be non-negative");
   // The light frusta are fitted once, to the unperturbed scene, and shared by every perturbed
-  // copy (SPEC §3): refitting them to each copy would difference another function.
+  // copy (math.md §4.1): refitting them to each copy would difference another function.
   Scene work = scene;
   fit_light_frusta(work);
   validate(work);

@@ -1,6 +1,6 @@
 // Shadow-map frusta fitted to a scene (scene.hpp: fit_light_frusta, refit_light_frusta,
 // blocker_search_sigma): to every vertex for the paper's shadow model, tightly to the faces that
-// can cast a shadow for the accurate one (docs/math.md).
+// can cast a shadow for the accurate one (math.md §4.1, §7.4).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -110,7 +110,7 @@ double search_sigma_from(const RenderParams& p, const Light& light, double zmin)
 void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ);
 
 // The accurate model's frustum: tight around what can cast a shadow, widened by the penumbra
-// a light of diameter D_L casts around it and by the filter window (SPEC-level details in
+// a light of diameter D_L casts around it and by the filter window (math.md §4.1, §7.4;
 // docs/shadows.md); every vertex when nothing can cast a shadow.
 void fit_tight_frustum(const Scene& scene, Light& l, const Bounds& b) {
   std::vector<glm::dvec3> occ = occluder_vertices(scene, l, b);

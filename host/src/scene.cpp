@@ -387,7 +387,7 @@ Scene framed_scene(Mesh mesh, int width, int height) {
 
   scene.ambient = {0.2, 0.2, 0.2};
   scene.background = {1, 1, 1};
-  // The depth-unit defaults (SPEC §7) are for a unit sphere: scale them with the mesh.
+  // The depth-unit defaults (math.md §10) are for a unit sphere: scale them with the mesh.
   scene.params.depth_unit = r;
   fit_light_frusta(scene);
   validate(scene);

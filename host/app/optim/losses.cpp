@@ -1,4 +1,4 @@
-// Image losses of the applications (SPEC §6): soft IoU and mean squared error with their
+// Image losses of the applications (math.md §9): soft IoU and mean squared error with their
 // gradients with respect to the rendered image, and the binary IoU that reports results.
 #include <string>
 

@@ -76,7 +76,7 @@ std::vector<unsigned char> visual_hull(const std::vector<Image>& targets,
           unsigned char& o = occ[(size_t(z) * n + y) * n + x];
           if (!o) continue;
           const glm::dvec3 X(-half + (x + 0.5) * h, -half + (y + 0.5) * h, -half + (z + 0.5) * h);
-          // Screen units (SPEC §0): image height spans 2; pixel centres at (2p + 1 − W)/H.
+          // Screen units (math.md §1): image height spans 2; pixel centres at (2p + 1 − W)/H.
           const double sx = glm::dot(X, right) / half_height, sy = glm::dot(X, up) / half_height;
           const double px = std::floor((sx * H + W) / 2), py = std::floor((H - sy * H) / 2);
           if (px < 0 || py < 0 || px >= W || py >= H || !(t.at(int(px), int(py)) > 0.5)) o = 0;

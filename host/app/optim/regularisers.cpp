@@ -1,4 +1,4 @@
-// Mesh regularisers (SPEC §6) with analytic gradients with respect to the vertices: uniform
+// Mesh regularisers (math.md §9) with analytic gradients with respect to the vertices: uniform
 // Laplacian, edge length and normal consistency; and the connectivity they need.
 #include <algorithm>
 #include <cmath>

@@ -10,7 +10,7 @@
 //
 // The check works on a copy of the scene whose light frusta are fitted first
 // (fit_light_frusta), so that every perturbed copy renders its shadow maps through the same
-// fixed frusta (SPEC §3). With shadows on, the sampled entries always include one vertex of
+// fixed frusta (math.md §4.1). With shadows on, the sampled entries always include one vertex of
 // every mesh and the position (point light) or direction (directional light) of every light
 // (as many of these as `samples` allows).
 #include <cstdint>
@@ -50,7 +50,7 @@ struct GradCheckOptions {
   double atol_fraction = 1e-4;
   RasterTuning tuning;
   // Fraction of entries allowed to disagree. The rendered function has kinks of measure zero:
-  // the coverage cut-off of SPEC §1 (an outside face whose d² reaches σ·ln(1/ε_D − 1) drops
+  // the coverage cut-off of math.md §2.1 (an outside face whose d² reaches σ·ln(1/ε_D − 1) drops
   // from D = ε_D to 0), faces leaving the [near, far] depth range or crossing the near plane,
   // the min over edges and the clamps of the barycentrics. A finite difference that straddles
   // one sees a jump or a corner the derivative does not, so a small fraction of entries may

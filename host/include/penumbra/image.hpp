@@ -17,7 +17,7 @@ struct Image {
   size_t size() const { return data.size(); }
 };
 
-// The differentiable outputs of one view (SPEC §1).
+// The differentiable outputs of one view (math.md §2.3).
 struct RenderOutput {
   Image color;       // 3 channels, I
   Image silhouette;  // 1 channel, A

@@ -1,5 +1,5 @@
 #pragma once
-// Shape optimisation (SPEC §6): image losses with their gradients with respect to the rendered
+// Shape optimisation (math.md §9): image losses with their gradients with respect to the rendered
 // images, mesh regularisers with their gradients with respect to the vertices, Adam, mesh
 // refinement, and the target images, views and visual hull of the applications
 // (`penumbra fit-silhouette`, `fit-shadows`, `shadow-art`; docs/applications.md).

@@ -108,11 +108,11 @@ class Renderer {
   // Every gradient value must be finite.
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
 
-  // The shadow map S of every light (SPEC §3) from the most recent render() with shadows on
+  // The shadow map S of every light (math.md §4.2) from the most recent render() with shadows on
   // (empty otherwise), W_s × H_s, light-view depth.
   std::vector<Image> shadow_maps() const;
-  // The penumbra map P of every light (SPEC §3) from the most recent render() with soft shadows
-  // (empty otherwise).
+  // The penumbra map P of every light (math.md §4.3) from the most recent render() with soft
+  // shadows (empty otherwise).
   std::vector<Image> penumbra_maps() const;
 
   // How many fragments each camera's view kept in the most recent render() (empty before one):

@@ -1,5 +1,5 @@
 #pragma once
-// Scene model: meshes, cameras, lights and render parameters (SPEC §0, §2, §7).
+// Scene model: meshes, cameras, lights and render parameters (math.md §1, §3, §10).
 // Host-side values are double so that gradient checks can run entirely in double precision.
 #include <glm/glm.hpp>
 #include <optional>
@@ -32,7 +32,7 @@ struct Camera {
 
 enum class LightType { Point, Directional };
 
-// The camera a light renders its shadow map with (SPEC §3). It is fitted once — to the scene's
+// The camera a light renders its shadow map with (math.md §4.1). It is fitted once — to the scene's
 // bounds, by fit_light_frusta — and then held fixed: a constant of the render, not a function
 // of the vertices, so that gradients and finite differences see the same function.
 // Point light: eye at the light's position, looking at `target`, perspective with `fov_deg`.
@@ -126,7 +126,7 @@ bool sampling_from_word(const std::string& w, Sampling* sampling,
 // "truncated, exact or gemm": the words sampling_from_word accepts.
 std::string sampling_word_choices();
 
-// SPEC §7, names as in its table.
+// math.md §10, names as in its table.
 struct RenderParams {
   double sigma = 1e-5;     // coverage sharpness σ (screen units²)
   double gamma = 1e-4;     // aggregation sharpness γ
@@ -157,7 +157,7 @@ struct RenderParams {
 };
 
 // σ_s, γ_s and β in force: the value given, else the shadow model's default — paper: 2 texel²,
-// 0.02, 0.05 (SPEC §7); accurate: 0.35 texel², 0.004, 0.01 (its compare needs no slack for a
+// 0.02, 0.05 (math.md §10); accurate: 0.35 texel², 0.004, 0.01 (its compare needs no slack for a
 // tilted receiver, so a small β keeps contact shadows closed; docs/shadows.md). γ_s and β
 // defaults are multiplied by depth_unit.
 double shadow_sigma_s(const RenderParams& p);
@@ -196,10 +196,10 @@ struct Bounds {
 };
 Bounds bounds(const Scene& scene);
 
-// σ_L and γ_L of the light pass (SPEC §3): light_sigma / light_gamma when set, else σ_L = σ/10
+// σ_L and γ_L of the light pass (math.md §4.2): light_sigma / light_gamma when set, else σ_L = σ/10
 // and γ_L = γ.
 // A face's soft depth just outside its edge is taken at its nearest boundary point (clamped
-// barycentrics, SPEC §1), which biases S near the edges of coplanar neighbours by about
+// barycentrics, math.md §2.2), which biases S near the edges of coplanar neighbours by about
 // (√σ_L in texels) × (depth slope per texel); at σ_L = σ a ground plane seen at a grazing angle
 // showed faint lines along every edge. A tenth of σ keeps the bias well under β. The accurate
 // model weights each compare by the casters' coverage, which keeps its shadow's edge on the
