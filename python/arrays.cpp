@@ -148,7 +148,8 @@ std::vector<glm::ivec3> index_rows(const AnyArray& a, const std::string& name) {
 
 void set_parameters(Scene& scene, nb::handle vertices, nb::handle albedo, nb::handle lights,
                     nb::handle ambient) {
-  const auto v = real_rows(any_array(vertices, "vertices"), "vertices", long(total_rows(scene, false)));
+  const auto v =
+      real_rows(any_array(vertices, "vertices"), "vertices", long(total_rows(scene, false)));
   const auto a = real_rows(any_array(albedo, "albedo"), "albedo", long(total_rows(scene, true)));
   const auto l = reals(any_array(lights, "lights"), "lights", long(scene.lights.size()), 7);
   const auto amb = reals(any_array(ambient, "ambient"), "ambient", 3, 0);
@@ -190,7 +191,8 @@ void write_reals(const OutArray& out, size_t offset, const std::vector<double>& 
     float* p = static_cast<float*>(out.data()) + offset;
     for (size_t i = 0; i < from.size(); ++i) p[i] = float(from[i]);
   } else {
-    std::memcpy(static_cast<double*>(out.data()) + offset, from.data(), from.size() * sizeof(double));
+    std::memcpy(static_cast<double*>(out.data()) + offset, from.data(),
+                from.size() * sizeof(double));
   }
 }
 

@@ -71,4 +71,7 @@ std::vector<OutputGrads> grads_from(nb::handle colour, nb::handle silhouette, nb
 // (L, 7) and ambient (3,).
 nb::dict parameter_grads(SceneGrads&& g);
 
+// The Renderer's bindings (renderer.cpp).
+void bind_renderer(nb::module_& m);
+
 }  // namespace penumbra::python

@@ -109,17 +109,20 @@ Mesh make_mesh(nb::handle vertices, nb::handle faces, nb::handle albedo, AlbedoM
 
 void bind_mesh(nb::module_& m) {
   nb::class_<Mesh>(m, "Mesh")
-      .def("__init__",
-           [](Mesh* self, nb::handle v, nb::handle f, nb::handle a, AlbedoMode mode,
-              const std::string& name) { new (self) Mesh(make_mesh(v, f, a, mode, name)); },
-           nb::kw_only(), "vertices"_a = nb::none(), "faces"_a = nb::none(),
-           "albedo"_a = nb::none(), "albedo_mode"_a = AlbedoMode::PerVertex, "name"_a = "",
-           "A mesh from (V, 3) float vertices, (F, 3) integer faces (counter-clockwise) and "
-           "albedo, one row per vertex or face (default: 0.8 grey).")
+      .def(
+          "__init__",
+          [](Mesh* self, nb::handle v, nb::handle f, nb::handle a, AlbedoMode mode,
+             const std::string& name) { new (self) Mesh(make_mesh(v, f, a, mode, name)); },
+          nb::kw_only(), "vertices"_a = nb::none(), "faces"_a = nb::none(), "albedo"_a = nb::none(),
+          "albedo_mode"_a = AlbedoMode::PerVertex, "name"_a = "",
+          "A mesh from (V, 3) float vertices, (F, 3) integer faces (counter-clockwise) and "
+          "albedo, one row per vertex or face (default: 0.8 grey).")
       .def_rw("name", &Mesh::name)
       .def_prop_rw(
           "vertices", [](const Mesh& mesh) { return rows_out<double>(mesh.vertices); },
-          [](Mesh& mesh, nb::handle a) { mesh.vertices = real_rows(any_array(a, "vertices"), "vertices"); },
+          [](Mesh& mesh, nb::handle a) {
+            mesh.vertices = real_rows(any_array(a, "vertices"), "vertices");
+          },
           nb::for_getter(nb::rv_policy::automatic),
           "(V, 3) float64 vertex positions (a read-only copy; assign to change)")
       .def_prop_rw(
@@ -129,15 +132,17 @@ void bind_mesh(nb::module_& m) {
           "(F, 3) int32 vertex indices, counter-clockwise (a read-only copy; assign to change)")
       .def_prop_rw(
           "albedo", [](const Mesh& mesh) { return rows_out<double>(mesh.albedo); },
-          [](Mesh& mesh, nb::handle a) { mesh.albedo = real_rows(any_array(a, "albedo"), "albedo"); },
+          [](Mesh& mesh, nb::handle a) {
+            mesh.albedo = real_rows(any_array(a, "albedo"), "albedo");
+          },
           nb::for_getter(nb::rv_policy::automatic),
           "(A, 3) float64 albedo, one row per vertex or per face (a read-only copy; assign to "
           "change)")
       .def_rw("albedo_mode", &Mesh::albedo_mode);
 }
 
-Camera look_at(glm::dvec3 eye, glm::dvec3 target, glm::dvec3 up, double fov, int width,
-               int height, double near, double far) {
+Camera look_at(glm::dvec3 eye, glm::dvec3 target, glm::dvec3 up, double fov, int width, int height,
+               double near, double far) {
   Camera c;
   c.eye = eye, c.target = target, c.up = up, c.fov_deg = fov;
   c.width = width, c.height = height, c.near = near, c.far = far;
@@ -147,15 +152,16 @@ Camera look_at(glm::dvec3 eye, glm::dvec3 target, glm::dvec3 up, double fov, int
 void bind_camera(nb::module_& m) {
   const Camera d;
   nb::class_<Camera>(m, "Camera")
-      .def("__init__",
-           [](Camera* self, glm::dvec3 eye, glm::dvec3 target, glm::dvec3 up, Projection projection,
-              double fov_deg, double half_height, double near, double far, int width, int height) {
-             new (self) Camera{eye, target, up, projection, fov_deg, half_height, near, far,
-                               width, height};
-           },
-           nb::kw_only(), "eye"_a = d.eye, "target"_a = d.target, "up"_a = d.up,
-           "projection"_a = d.projection, "fov_deg"_a = d.fov_deg, "half_height"_a = d.half_height,
-           "near"_a = d.near, "far"_a = d.far, "width"_a = d.width, "height"_a = d.height)
+      .def(
+          "__init__",
+          [](Camera* self, glm::dvec3 eye, glm::dvec3 target, glm::dvec3 up, Projection projection,
+             double fov_deg, double half_height, double near, double far, int width, int height) {
+            new (self)
+                Camera{eye, target, up, projection, fov_deg, half_height, near, far, width, height};
+          },
+          nb::kw_only(), "eye"_a = d.eye, "target"_a = d.target, "up"_a = d.up,
+          "projection"_a = d.projection, "fov_deg"_a = d.fov_deg, "half_height"_a = d.half_height,
+          "near"_a = d.near, "far"_a = d.far, "width"_a = d.width, "height"_a = d.height)
       .def_static("look_at", &look_at, "eye"_a, "target"_a, "up"_a = d.up, nb::kw_only(),
                   "fov"_a = d.fov_deg, "width"_a = d.width, "height"_a = d.height,
                   "near"_a = d.near, "far"_a = d.far,
@@ -202,11 +208,14 @@ void bind_light(nb::module_& m) {
   const Light d;
   nb::class_<Light>(m, "Light")
       .def(nb::init<>())
-      .def("__init__",
-           [](Light* self, LightType t, glm::dvec3 p, glm::dvec3 dir, glm::dvec3 c, double size,
-              const std::optional<LightFrustum>& f) { new (self) Light(make_light(t, p, dir, c, size, f)); },
-           nb::kw_only(), "type"_a = d.type, "position"_a = d.position, "direction"_a = d.direction,
-           "color"_a = d.color, "size"_a = d.size, "frustum"_a = nb::none())
+      .def(
+          "__init__",
+          [](Light* self, LightType t, glm::dvec3 p, glm::dvec3 dir, glm::dvec3 c, double size,
+             const std::optional<LightFrustum>& f) {
+            new (self) Light(make_light(t, p, dir, c, size, f));
+          },
+          nb::kw_only(), "type"_a = d.type, "position"_a = d.position, "direction"_a = d.direction,
+          "color"_a = d.color, "size"_a = d.size, "frustum"_a = nb::none())
       .def_static(
           "point",
           [](glm::dvec3 p, glm::dvec3 c, double size, const std::optional<LightFrustum>& f) {
@@ -274,7 +283,8 @@ nb::dict get_parameters(const Scene& scene) {
   d["vertices"] = adopt<double>(std::move(vertices), {nv, 3});
   d["albedo"] = adopt<double>(std::move(albedo), {na, 3});
   d["lights"] = adopt<double>(std::move(lights), {nl, 7});
-  d["ambient"] = adopt<double>(std::vector<double>{scene.ambient.x, scene.ambient.y, scene.ambient.z}, {3});
+  d["ambient"] =
+      adopt<double>(std::vector<double>{scene.ambient.x, scene.ambient.y, scene.ambient.z}, {3});
   return d;
 }
 
@@ -286,10 +296,14 @@ void bind_scene(nb::module_& m) {
       .def(nb::init<>())
       .def(nb::init<const Scene&>(), "other"_a, "A copy of another scene.")
       .def("__copy__", [](const Scene& s) { return Scene(s); })
-      .def("__deepcopy__", [](const Scene& s, nb::handle) { return Scene(s); }, "memo"_a)
-      .def_prop_rw("meshes", meshes_get, meshes_set, "The meshes (a list of copies; assign to change).")
-      .def_prop_rw("cameras", cameras_get, cameras_set, "The cameras (a list of copies; assign to change).")
-      .def_prop_rw("lights", lights_get, lights_set, "The lights (a list of copies; assign to change).")
+      .def(
+          "__deepcopy__", [](const Scene& s, nb::handle) { return Scene(s); }, "memo"_a)
+      .def_prop_rw("meshes", meshes_get, meshes_set,
+                   "The meshes (a list of copies; assign to change).")
+      .def_prop_rw("cameras", cameras_get, cameras_set,
+                   "The cameras (a list of copies; assign to change).")
+      .def_prop_rw("lights", lights_get, lights_set,
+                   "The lights (a list of copies; assign to change).")
       .def_rw("ambient", &Scene::ambient)
       .def_rw("background", &Scene::background)
       .def_rw("params", &Scene::params)
@@ -308,8 +322,9 @@ void bind_io(nb::module_& m) {
         "A scene from JSON text; relative mesh paths are read from `base_dir`.");
   m.def("load_obj", &load_obj, "path"_a, "default_albedo"_a = glm::dvec3(0.8, 0.8, 0.8),
         "A mesh from an OBJ file, validated; albedo from its vertex colours, else the default.");
-  m.def("validate", [](const Scene& s) { validate(s); }, "scene"_a,
-        "Raises penumbra.Error naming the first problem of the scene.");
+  m.def(
+      "validate", [](const Scene& s) { validate(s); }, "scene"_a,
+      "Raises penumbra.Error naming the first problem of the scene.");
   m.def("fit_light_frusta", &fit_light_frusta, "scene"_a,
         "Fits the shadow-map frustum of every light not fitted yet, in place.");
   m.def("refit_light_frusta", &refit_light_frusta, "scene"_a,
@@ -348,127 +363,6 @@ void bind_devices(nb::module_& m) {
       .def_prop_ro("copy_transfers", &Context::copy_transfers,
                    "Whether results and inputs move through copies rather than mapped buffers: "
                    "$PENUMBRA_TRANSFERS, else copies where the device's memory is not the host's.");
-}
-
-// Ctrl-C during a render: the renderer checks at every stage, and a pending KeyboardInterrupt
-// abandons the call (Renderer::set_interrupt_check).
-void check_signals() {
-  nb::gil_scoped_acquire gil;
-  if (PyErr_CheckSignals() != 0) throw nb::python_error();
-}
-
-// Runs a renderer call with the GIL released (other threads run meanwhile).
-template <class Call>
-auto released(Call&& call) {
-  nb::gil_scoped_release unlocked;
-  return call();
-}
-
-nb::list views_out(std::vector<RenderOutput>&& views) {
-  nb::list out;
-  for (RenderOutput& v : views) {
-    nb::dict d;
-    d["color"] = image_out(std::move(v.color));
-    d["silhouette"] = image_out(std::move(v.silhouette));
-    d["depth"] = image_out(std::move(v.depth));
-    out.append(d);
-  }
-  return out;
-}
-
-std::vector<OutputGrads> grads_from_dicts(const nb::list& grads) {
-  std::vector<OutputGrads> dL(nb::len(grads));
-  for (size_t i = 0; i < dL.size(); ++i) {
-    nb::handle g = grads[i];
-    if (g.is_none()) continue;
-    const std::string camera = "camera " + std::to_string(i);
-    if (!nb::isinstance<nb::dict>(g)) throw Error("the gradients of " + camera + " must be a dict or None");
-    for (auto [key, value] : nb::borrow<nb::dict>(g)) {
-      const std::string name = nb::cast<std::string>(nb::str(key));
-      Image* image = name == "color"        ? &dL[i].color
-                     : name == "silhouette" ? &dL[i].silhouette
-                     : name == "depth"      ? &dL[i].depth
-                                            : nullptr;
-      if (image == nullptr)
-        throw Error("unknown output '" + name + "' in the gradients (color, silhouette, depth)");
-      if (!value.is_none()) *image = image_in(value, name + " of " + camera);
-    }
-  }
-  return dL;
-}
-
-nb::dict scene_grads_out(SceneGrads&& g) {
-  nb::dict out;
-  nb::list vertices, albedo;
-  for (auto& v : g.vertices) vertices.append(rows_out<double>(std::move(v)));
-  for (auto& a : g.albedo) albedo.append(rows_out<double>(std::move(a)));
-  out["vertices"] = vertices;
-  out["albedo"] = albedo;
-  out["light_position"] = rows_out<double>(std::move(g.light_position));
-  out["light_color"] = rows_out<double>(std::move(g.light_color));
-  const size_t lights = g.light_size.size();
-  out["light_size"] = adopt<const double>(std::move(g.light_size), {lights});
-  out["ambient"] = adopt<const double>(std::vector<double>{g.ambient.x, g.ambient.y, g.ambient.z}, {3});
-  return out;
-}
-
-void bind_maps(nb::class_<Renderer>& r) {
-  const auto maps = [](std::vector<Image>&& images) {
-    nb::list out;
-    for (Image& s : images) out.append(image_out(std::move(s)));
-    return out;
-  };
-  r.def("shadow_maps", [maps](const Renderer& self) { return maps(released([&] { return self.shadow_maps(); })); },
-        "The shadow map of every light from the most recent render with shadows on.")
-      .def("penumbra_maps", [maps](const Renderer& self) { return maps(released([&] { return self.penumbra_maps(); })); },
-           "The penumbra map of every light from the most recent render with soft shadows.")
-      .def("fragment_counts", [](const Renderer& self) { return released([&] { return self.fragment_counts(); }); },
-           "How many fragments each camera's view kept in the most recent render (empty before "
-           "one): the (pixel, face) pairs whose aggregation weight is at least weight_eps times "
-           "the pixel's largest.");
-}
-
-void bind_renderer(nb::module_& m) {
-  nb::class_<Renderer> r(m, "Renderer");
-  r.def("__init__",
-        [](Renderer* self, Context& context, Precision precision) {
-          new (self) Renderer(context, precision);
-          self->set_interrupt_check(check_signals);
-        },
-        "context"_a, "precision"_a = Precision::Float, nb::keep_alive<1, 2>(),
-        "A renderer on the context's device. Threads may share it: its calls run one at a time.")
-      .def_prop_ro("precision", &Renderer::precision)
-      .def("render", [](Renderer& self, const Scene& s) { return views_out(released([&] { return self.render(s); })); },
-           "scene"_a,
-           "Renders every camera: a list of dicts with color (H, W, 3), silhouette (H, W) and "
-           "depth (H, W), float64 arrays.")
-      .def("render_into",
-           [](Renderer& self, const Scene& s, const OutArray& colour, const OutArray& silhouette,
-              const OutArray& depth) {
-             outputs_into(released([&] { return self.render(s); }), colour, silhouette, depth);
-           },
-           "scene"_a, "colour"_a, "silhouette"_a, "depth"_a,
-           "Renders every camera into (C, H, W, 3) and (C, H, W) float32 or float64 arrays.")
-      .def("backward",
-           [](Renderer& self, const Scene& s, const nb::list& grads) {
-             std::vector<OutputGrads> dL = grads_from_dicts(grads);
-             return scene_grads_out(released([&] { return self.backward(s, dL); }));
-           },
-           "scene"_a, "grads"_a,
-           "Gradients of a loss given dL/d(outputs) per camera (dicts like render's; a missing "
-           "key or None is zero), by the derivative of the most recent render of this scene: a "
-           "dict of vertices and albedo (lists of (N, 3) per mesh), light_position, light_color "
-           "(L, 3), light_size (L,) and ambient (3,).")
-      .def("backward_parameters",
-           [](Renderer& self, const Scene& s, nb::handle colour, nb::handle silhouette, nb::handle depth) {
-             std::vector<OutputGrads> dL = grads_from(colour, silhouette, depth);
-             if (dL.empty()) dL.resize(s.cameras.size());  // no gradient at all: zero
-             return parameter_grads(released([&] { return self.backward(s, dL); }));
-           },
-           "scene"_a, "colour"_a.none(), "silhouette"_a.none(), "depth"_a.none(),
-           "backward() given (C, H, W, 3) and (C, H, W) gradient arrays (None: zero), its "
-           "gradients laid out as Scene.parameters().");
-  bind_maps(r);
 }
 
 }  // namespace

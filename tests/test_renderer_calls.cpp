@@ -93,7 +93,8 @@ TEST(RendererCalls, ACollapsedFaceRendersAsIfAbsent) {
   Mesh& sphere = collapsed.meshes[0];
   const int n = int(sphere.vertices.size());
   // Inside the sphere, so that the scene's bounds (and the light's frustum) stay as they were.
-  for (glm::dvec3 p : {glm::dvec3(0.1, 0.9, 0.1), glm::dvec3(0.1, 0.9, 0.1), glm::dvec3(0.2, 1.0, 0.15)})
+  for (glm::dvec3 p :
+       {glm::dvec3(0.1, 0.9, 0.1), glm::dvec3(0.1, 0.9, 0.1), glm::dvec3(0.2, 1.0, 0.15)})
     sphere.vertices.push_back(p), sphere.albedo.push_back({0.5, 0.5, 0.5});
   sphere.faces.push_back({n, n + 1, n + 2});  // two corners at one point: zero area
   EXPECT_THROW(validate(collapsed), Error);   // a file's mesh is refused

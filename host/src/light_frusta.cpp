@@ -186,14 +186,15 @@ int blocker_search_stride(double sigma_b) {
 bool frustum_holds_casters(const Scene& scene, const Light& light) {
   const LightFrustum& f = light.frustum;
   const bool point = light.type == LightType::Point;
-  const glm::dvec3 eye = point ? light.position : f.target - f.distance * glm::normalize(light.direction);
+  const glm::dvec3 eye =
+      point ? light.position : f.target - f.distance * glm::normalize(light.direction);
   const glm::dvec3 fwd = glm::normalize(f.target - eye);
   const glm::dvec3 right = glm::normalize(glm::cross(fwd, f.up)), up = glm::cross(right, fwd);
   const double slack = 1 + 1e-6, tan_half = std::tan(f.fov_deg * 3.14159265358979323846 / 360);
   for (const glm::dvec3& v : occluder_vertices(scene, light, bounds(scene))) {
     const glm::dvec3 d = v - eye;
-    const double z = glm::dot(d, fwd), side = std::max(std::abs(glm::dot(d, right)),
-                                                       std::abs(glm::dot(d, up)));
+    const double z = glm::dot(d, fwd),
+                 side = std::max(std::abs(glm::dot(d, right)), std::abs(glm::dot(d, up)));
     const double half_width = point ? z * tan_half : f.half_size;
     if (!(z * slack >= f.near && z <= f.far * slack && side <= half_width * slack)) return false;
   }
