@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 
 namespace {
@@ -40,6 +41,10 @@ int main(int argc, char** argv) {
   // the file writer reports it as an error.
   std::signal(SIGXFSZ, SIG_IGN);
   std::signal(SIGPIPE, SIG_IGN);
+  // CLBlast's programs released when main returns, before the static destructors run.
+  struct ReleaseGemmPrograms {
+    ~ReleaseGemmPrograms() { penumbra::release_gemm_programs(); }
+  } release_gemm_programs;
   CLI::App app{
       "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
       "gradient checks, turnaround animations, fitting shapes to silhouettes and shadows)",
