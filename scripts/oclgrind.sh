@@ -6,7 +6,8 @@
 # gemm), each as a `penumbra gradcheck` of a random scene at tiny sizes (a render, its
 # backward, and the renders of the finite differences). The double-precision cases must also
 # pass the gradient check itself: the gradients proven on a second implementation. Float
-# cases check the kernels only (--rtol 1: float differences are not what they test).
+# cases check the kernels only (--rtol 1: float differences are not what they test). The cpu-*
+# cases run with a CPU's launch parameters instead of a GPU's.
 #
 # Usage: scripts/oclgrind.sh [PENUMBRA]      (default: build/penumbra)
 # Environment:
@@ -47,18 +48,31 @@ cases() {
       done
     done
     echo "$p-paper-hard-gemm $size $check --shadow-model paper --shadows hard --sampling gemm"
+    # The launch parameters of a CPU (cpu_tuning below), in the shadow stages that use them.
+    for m in accurate paper; do
+      echo "cpu-$p-$m-soft-truncated $size $check --shadow-model $m --shadows soft"
+      echo "cpu-$p-$m-hard-exact $size $check --shadow-model $m --shadows hard --sampling exact"
+    done
   done
 }
 
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
+# Oclgrind calls itself a GPU and gets a GPU's launch parameters; the cpu-* cases run with those
+# of a CPU (PoCL's: host/src/cl/device.hpp), given as a tuning database entry for Oclgrind.
+cat >"$dir/cpu_tuning.json" <<'JSON'
+{"version": 1, "entries": {"Oclgrind Simulator": {
+  "raster": {"pixels_per_item": 8, "face_lanes": 1},
+  "gather": {"group": 1, "width": 16, "height": 8}, "exact": {"clblast": false}}}}
+JSON
 
 # One case: Oclgrind's log and the tool's stderr must stay empty, the exit status 0.
 run_case() {
   local dir=$1 penumbra=$2 name=$3
   shift 3
-  local rc=0
-  PENUMBRA_CACHE_DIR=off PENUMBRA_PROGRESS_AFTER=1e9 \
+  local rc=0 tuning=
+  [[ $name == cpu-* ]] && tuning=$dir/cpu_tuning.json
+  PENUMBRA_TUNING=$tuning PENUMBRA_CACHE_DIR=off PENUMBRA_PROGRESS_AFTER=1e9 \
     oclgrind --data-races --check-api --num-threads 1 --log "$dir/$name.log" \
     "$penumbra" gradcheck "$@" >"$dir/$name.out" 2>"$dir/$name.err" || rc=$?
   if [[ $rc -ne 0 || -s "$dir/$name.log" || -s "$dir/$name.err" ]]; then
