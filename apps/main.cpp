@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common.hpp"
+#include "penumbra/context.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/interrupt.hpp"
 
@@ -48,6 +49,10 @@ void handle_signals() {
 int main(int argc, char** argv) {
   using namespace penumbra::cli;
   handle_signals();
+  // CLBlast's programs released when main returns, before the static destructors run.
+  struct ReleaseGemmPrograms {
+    ~ReleaseGemmPrograms() { penumbra::release_gemm_programs(); }
+  } release_gemm_programs;
   CLI::App app{
       "penumbra: differentiable soft rasterization with shadows on OpenCL (render, gradients, "
       "gradient checks, turnaround animations, fitting shapes to silhouettes and shadows)",

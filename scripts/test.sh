@@ -7,9 +7,12 @@
 #   asan  the library, the tool and the whole test suite built with ASan+UBSan (preset `asan`,
 #         build-asan/), every test run under the sanitizers;
 #   fuzz  the libFuzzer targets of the file loaders, 25 s each (scripts/fuzz.sh, build-fuzz/);
+#   oclgrind  every kernel on Oclgrind, a second OpenCL implementation, with its memory, race
+#         and API checks, and double-precision gradient checks there (scripts/oclgrind.sh,
+#         build/'s tool; 28 cases of a 12² random scene);
 #   lint  clang-format's check, clang-tidy and the size rules over the C++ (scripts/lint.sh,
 #         README, "Code style and lint"), with build/'s compilation database.
-# Usage: scripts/test.sh [suite|asan|fuzz|lint|all]   (no argument: the suite, plus the rest in CI)
+# Usage: scripts/test.sh [suite|asan|fuzz|oclgrind|lint|all]   (no argument: the suite, plus the rest in CI)
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -55,6 +58,12 @@ fuzz() {
   bash scripts/fuzz.sh
 }
 
+oclgrind() {
+  ./scripts/setup.sh
+  [[ -x build/penumbra ]] || ./scripts/build.sh
+  ./scripts/oclgrind.sh build/penumbra
+}
+
 lint() {
   ./scripts/setup.sh
   ./scripts/lint.sh
@@ -72,16 +81,18 @@ case "${1:-}" in
   suite) step suite ;;
   asan) step asan ;;
   fuzz) step fuzz ;;
+  oclgrind) step oclgrind ;;
   lint) step lint ;;
-  all) step suite; step asan; step fuzz; step lint ;;
+  all) step suite; step asan; step fuzz; step oclgrind; step lint ;;
   "")
     step suite
     if [[ "${CI:-}" == "true" || "${PENUMBRA_HARDENING:-}" == "1" ]]; then
       step asan
       step fuzz
+      step oclgrind
       step lint
     fi
     ;;
-  *) echo "usage: scripts/test.sh [suite|asan|fuzz|lint|all]" >&2; exit 2 ;;
+  *) echo "usage: scripts/test.sh [suite|asan|fuzz|oclgrind|lint|all]" >&2; exit 2 ;;
 esac
 echo "test.sh: all passed in ${SECONDS} s"

@@ -104,6 +104,28 @@ TEST(Tuning, KernelVariantsListEveryProgramTheRendererBuilds) {
         << program.first << " built with '" << program.second << "' is not in kernel_variants";
 }
 
+// Oclgrind alone builds every program with -DPENUMBRA_OCLGRIND (kernels/common/real.clh: no
+// forced inlining there); any other device gets the options it had without it.
+TEST(Tuning, OnlyOclgrindBuildsWithoutForcedInlining) {
+  DeviceInfo oclgrind;
+  oclgrind.platform = "Oclgrind", oclgrind.name = "Oclgrind Simulator";
+  oclgrind.is_gpu = oclgrind.fp64 = true, oclgrind.max_work_group = 1024;
+  DeviceInfo other = oclgrind;
+  other.platform = "Portable Computing Language";
+  const auto with = kernel_variants(oclgrind), without = kernel_variants(other);
+  ASSERT_EQ(with.size(), without.size());
+  for (size_t i = 0; i < with.size(); ++i) {
+    EXPECT_EQ(with[i].file, without[i].file);
+    EXPECT_EQ(without[i].options.find("PENUMBRA_OCLGRIND"), std::string::npos);
+    std::string options = with[i].options;
+    const size_t at = options.find(" -DPENUMBRA_OCLGRIND");
+    ASSERT_NE(at, std::string::npos) << with[i].file << " " << options;
+    EXPECT_EQ(options.erase(at, 20), without[i].options);
+  }
+  const std::string real = Context::kernel_source("raster.cl");
+  EXPECT_NE(real.find("#ifdef PENUMBRA_OCLGRIND\n#define INLINE inline\n#else"), std::string::npos);
+}
+
 // A render builds only the forward part of each stage's file; the backward kernels are
 // programs of their own, built by the first backward (KernelPart, ops.hpp).
 TEST(Tuning, RenderBuildsNoBackwardKernel) {

@@ -21,6 +21,12 @@ struct DeviceInfo {
 // Every OpenCL device of every platform; throws penumbra::Error if there is none.
 std::vector<DeviceInfo> list_devices();
 
+// Releases the compiled programs CLBlast (the exact sampling's GEMM) keeps for every context.
+// A program about to exit calls it: left to CLBlast's static destructor, they are released
+// after the OpenCL implementation may have torn itself down (Oclgrind: a heap corruption at
+// exit, docs/faults.md). Calls into CLBlast made afterwards compile its programs again.
+void release_gemm_programs();
+
 class Context {
  public:
   // `device`: empty → $PENUMBRA_DEVICE → the first GPU, else the first device. Otherwise an

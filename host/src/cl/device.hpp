@@ -36,6 +36,10 @@ inline DeviceDefaults device_defaults(const DeviceInfo& d) {
   return {8, 16, 8, false, 1, 1, 1, 8};
 }
 
+// Oclgrind (a simulator that checks every access: scripts/oclgrind.sh) builds its kernels with
+// -DPENUMBRA_OCLGRIND (kernels/common/real.clh says why); no other device gets the option.
+inline bool is_oclgrind(const DeviceInfo& d) { return d.platform == "Oclgrind"; }
+
 inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }
 // Float kernels flush subnormal numbers to zero: the Gaussian weights' products reach them
 // (1e-20·1e-20), and on CPUs each subnormal operation is a microcode assist that cost the exact

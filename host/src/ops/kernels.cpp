@@ -53,6 +53,7 @@ std::string program_options(const std::string& file, Precision precision, const 
   if (file == "matmul.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
+  if (is_oclgrind(device)) o += " -DPENUMBRA_OCLGRIND";
   o += " " + variant;
   if (part == KernelPart::Gather) return o + " -DGATHER_KERNELS";
   return part == KernelPart::Backward ? o + " -DBACKWARD_KERNELS" : o;

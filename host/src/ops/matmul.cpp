@@ -302,3 +302,9 @@ std::optional<XgemmParameters> clblast_tuned_xgemm(Context& ctx, size_t m, size_
 }
 
 }  // namespace penumbra::detail
+
+namespace penumbra {
+
+void release_gemm_programs() { clblast::ClearCache(); }
+
+}  // namespace penumbra
