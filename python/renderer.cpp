@@ -57,14 +57,14 @@ std::vector<OutputGrads> grads_from_dicts(const nb::list& grads) {
     if (!nb::isinstance<nb::dict>(g))
       throw Error("the gradients of " + camera + " must be a dict or None");
     for (auto [key, value] : nb::borrow<nb::dict>(g)) {
-      const std::string name = nb::cast<std::string>(nb::str(key));
+      std::string name = nb::cast<std::string>(nb::str(key));
       Image* image = name == "color"        ? &dL[i].color
                      : name == "silhouette" ? &dL[i].silhouette
                      : name == "depth"      ? &dL[i].depth
                                             : nullptr;
       if (image == nullptr)
         throw Error("unknown output '" + name + "' in the gradients (color, silhouette, depth)");
-      if (!value.is_none()) *image = image_in(value, name + " of " + camera);
+      if (!value.is_none()) *image = image_in(value, name.append(" of ").append(camera));
     }
   }
   return dL;

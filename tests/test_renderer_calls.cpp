@@ -34,8 +34,9 @@ Scene sphere_over_ground(double x = 0.0) {
 TEST(RendererCalls, ThreadsSharingARendererTakeTurns) {
   REQUIRE_CONTEXT(ctx);
   const std::vector<Scene> scenes{sphere_over_ground(-0.3), sphere_over_ground(0.4)};
-  std::vector<Image> expected;
-  for (const Scene& s : scenes) expected.push_back(Renderer(*ctx).render(s)[0].color);
+  std::vector<Image> expected(scenes.size());
+  for (size_t k = 0; k < scenes.size(); ++k)
+    expected[k] = Renderer(*ctx).render(scenes[k])[0].color;
   Renderer shared(*ctx);
   std::vector<int> mismatches(scenes.size(), 0);
   std::vector<std::thread> threads;
