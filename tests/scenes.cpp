@@ -305,6 +305,14 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
       << what << " light sizes";
 }
 
+std::string fresh_temp_dir(const std::string& name) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / ("penumbra_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
 std::string patched_kernels(const std::string& name, const std::string& file,
                             const std::string& from, const std::string& to) {
   return patched_kernels(name, {{file, from, to}});

@@ -121,6 +121,12 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
                       const std::string& what, bool with_light_size = false);
 
 // ---------------------------------------------------------------------------------------------
+// Files.
+
+// An empty folder TempDir()/penumbra_<name> for one test (emptied if it exists).
+std::string fresh_temp_dir(const std::string& name);
+
+// ---------------------------------------------------------------------------------------------
 // Kernel variants: the project's kernels with one passage changed, to show that a shortcut
 // changes no bit (against kernels without it) and that it is taken (kernels that poison it).
 

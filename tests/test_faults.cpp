@@ -36,19 +36,14 @@
 #include "penumbra/renderer.hpp"
 #include "penumbra/scene.hpp"
 #include "penumbra/tuning.hpp"
+#include "scenes.hpp"
 
 namespace fs = std::filesystem;
 using namespace penumbra_tests;
 
 namespace {
 
-// A fresh, empty folder for one test.
-std::string fresh_dir(const std::string& name) {
-  std::string dir = ::testing::TempDir() + "penumbra_faults_" + name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+std::string fresh_dir(const std::string& name) { return fresh_temp_dir("faults_" + name); }
 
 std::vector<std::string> names_in(const std::string& dir) {
   std::vector<std::string> names;

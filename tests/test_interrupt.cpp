@@ -23,6 +23,7 @@
 #include "penumbra/image.hpp"
 #include "penumbra/image_io.hpp"
 #include "penumbra/io.hpp"
+#include "scenes.hpp"
 
 namespace fs = std::filesystem;
 using namespace penumbra_tests;
@@ -31,12 +32,7 @@ namespace {
 
 const std::string kSmall = " --width 16 --height 16 --map-size 16 --shadows hard";
 
-std::string fresh_dir(const std::string& name) {
-  std::string dir = ::testing::TempDir() + "penumbra_interrupt_" + name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+std::string fresh_dir(const std::string& name) { return fresh_temp_dir("interrupt_" + name); }
 
 // Every temporary file (.NAME.PID.N.tmp) under `dir`.
 std::vector<std::string> temporaries(const std::string& dir) {
