@@ -373,7 +373,8 @@ NB_MODULE(_penumbra, m) {
   // torch keeps autograd graphs (and the renderers their nodes hold) alive until after this
   // module is torn down at interpreter exit; nanobind would report them as leaks.
   nb::set_leak_warnings(false);
-  nb::exception<Error>(m, "Error", PyExc_RuntimeError);
+  // Registers penumbra.Error and the translation of every C++ Error into it.
+  [[maybe_unused]] const nb::exception<Error> error_type(m, "Error", PyExc_RuntimeError);
   bind_enums(m);
   bind_mesh(m);
   bind_camera(m);
