@@ -27,9 +27,15 @@ void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh) {
                      "scene file (JSON, see docs/scene-format.md); default: the bundled "
                      "data/scenes/turnaround.json");
   if (with_mesh) {
-    cmd.add_option("--mesh", source.mesh_path,
-                   "render one OBJ mesh in a framed scene instead of a scene file")
-        ->excludes(scene);
+    CLI::Option* mesh =
+        cmd.add_option("--mesh", source.mesh_path,
+                       "render one mesh file (.obj, .ply, .stl, .gltf, .glb, .off) in a framed "
+                       "scene instead of a scene file")
+            ->excludes(scene);
+    cmd.add_flag("--refuse-degenerate", source.refuse_degenerate,
+                 "refuse a --mesh file holding zero-area faces (default: drop them, with a "
+                 "warning)")
+        ->needs(mesh);
   }
 }
 
@@ -289,7 +295,10 @@ std::string data_dir() {
 std::string default_scene_path() { return data_dir() + "/scenes/turnaround.json"; }
 
 Scene load_scene_source(const SceneSource& source) {
-  if (!source.mesh_path.empty()) return framed_scene(load_obj(source.mesh_path));
+  if (!source.mesh_path.empty())
+    return framed_scene(load_mesh(
+        source.mesh_path, glm::dvec3(0.8),
+        source.refuse_degenerate ? DegenerateFacePolicy::Refuse : DegenerateFacePolicy::Drop));
   std::string path = source.scene_path;
   if (path.empty()) {
     path = default_scene_path();

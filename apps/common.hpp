@@ -40,11 +40,12 @@ Command add_kernels_command(CLI::App& root);
 // The camera turned by `angle` radians about the vertical (+y) axis through its target.
 Camera orbit(const Camera& camera, double angle);
 
-// Where the scene comes from: a positional SCENE.json, or --mesh FILE.obj; neither means the
-// bundled data/scenes/turnaround.json.
+// Where the scene comes from: a positional SCENE.json, or --mesh FILE (a mesh file, load_mesh);
+// neither means the bundled data/scenes/turnaround.json.
 struct SceneSource {
   std::string scene_path;
   std::string mesh_path;
+  bool refuse_degenerate = false;  // --refuse-degenerate: a zero-area face fails the mesh
 };
 void add_scene_options(CLI::App& cmd, SceneSource& source, bool with_mesh = true);
 

@@ -22,6 +22,8 @@ find_package(nlohmann_json QUIET)
 penumbra_require(nlohmann_json_FOUND "nlohmann-json3-dev")
 find_package(tinyobjloader QUIET)
 penumbra_require(tinyobjloader_FOUND "libtinyobjloader-dev")
+find_package(assimp QUIET)  # the mesh formats other than OBJ
+penumbra_require(assimp_FOUND "libassimp-dev")
 if(PENUMBRA_BUILD_CLI)
   find_package(CLI11 QUIET)
   penumbra_require(CLI11_FOUND "libcli11-dev")

@@ -33,7 +33,7 @@ set(PENUMBRA_PC_REQUIRES_PRIVATE "")
 set(PENUMBRA_APP_PC_REQUIRES_PRIVATE "")
 set(PENUMBRA_APP_PC_LIBS_PRIVATE "")
 if(NOT BUILD_SHARED_LIBS)
-  set(PENUMBRA_PC_REQUIRES_PRIVATE "clblast tinyobjloader_double")
+  set(PENUMBRA_PC_REQUIRES_PRIVATE "clblast tinyobjloader_double assimp")
   set(PENUMBRA_APP_PC_REQUIRES_PRIVATE "stb")
   set(PENUMBRA_APP_PC_LIBS_PRIVATE "-lgif")  # giflib has no .pc file
 endif()

@@ -320,8 +320,25 @@ void bind_io(nb::module_& m) {
   m.def("load_scene", &load_scene, "path"_a, "A scene file (docs/scene-format.md), validated.");
   m.def("parse_scene", &parse_scene, "json_text"_a, "base_dir"_a,
         "A scene from JSON text; relative mesh paths are read from `base_dir`.");
-  m.def("load_obj", &load_obj, "path"_a, "default_albedo"_a = glm::dvec3(0.8, 0.8, 0.8),
-        "A mesh from an OBJ file, validated; albedo from its vertex colours, else the default.");
+  const auto policy = [](bool refuse) {
+    return refuse ? DegenerateFacePolicy::Refuse : DegenerateFacePolicy::Drop;
+  };
+  m.def(
+      "load_mesh",
+      [policy](const std::string& path, glm::dvec3 albedo, bool refuse_degenerate) {
+        return load_mesh(path, albedo, policy(refuse_degenerate));
+      },
+      "path"_a, "default_albedo"_a = glm::dvec3(0.8, 0.8, 0.8), "refuse_degenerate"_a = false,
+      "A mesh file (.obj, .ply, .stl, .gltf, .glb, .off; docs/scene-format.md), validated; "
+      "albedo from its vertex colours, else the default. Zero-area faces are dropped with a "
+      "warning, or refused.");
+  m.def(
+      "load_obj",
+      [policy](const std::string& path, glm::dvec3 albedo, bool refuse_degenerate) {
+        return load_obj(path, albedo, policy(refuse_degenerate));
+      },
+      "path"_a, "default_albedo"_a = glm::dvec3(0.8, 0.8, 0.8), "refuse_degenerate"_a = false,
+      "A mesh from an OBJ file, vertices in the file's order, as load_mesh reads it.");
   m.def(
       "validate", [](const Scene& s) { validate(s); }, "scene"_a,
       "Raises penumbra.Error naming the first problem of the scene.");

@@ -14,12 +14,15 @@ set -euo pipefail
 # that sees Debian's python3-numpy, python3-torch and python3-pytest. clang-format-14 and
 # clang-tidy-14 (Debian 12's default versions) check the style and lint the C++
 # (scripts/lint.sh); the output of clang-format depends on its version, so it is pinned.
+# Assimp (libassimp-dev) reads the mesh formats other than OBJ; its own test models
+# (assimp-testmodels) are the mesh readers' test fixtures.
 # oclgrind (21.10), a second OpenCL implementation that interprets every work-item, checks the
 # kernels for out-of-bounds accesses, data races and API misuse (scripts/oclgrind.sh).
 PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers
   libclblast-dev libglm-dev libbenchmark-dev libgtest-dev libtinyobjloader-dev libstb-dev libgif-dev
-  libcli11-dev nlohmann-json3-dev libembree-dev cmake ninja-build g++ pkg-config clinfo clang-15
+  libcli11-dev nlohmann-json3-dev libassimp-dev assimp-testmodels libembree-dev cmake ninja-build
+  g++ pkg-config clinfo clang-15
   clang-format-14 clang-tidy-14 oclgrind
   python3 python3-dev python3-venv python3-numpy python3-torch python3-pytest
 )

@@ -27,6 +27,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cl/device.hpp"
 #include "cli_run.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/gradcheck.hpp"
@@ -419,7 +420,7 @@ TEST(FaultsInput, MissingKeyNamesTheFileTheKeyAndWhatItHolds) {
   EXPECT_EQ(error_of([&] { penumbra::load_scene(dir + "/scene.json"); }),
             "'" + dir +
                 "/scene.json': the required key 'meshes[0].file' is missing (expected "
-                "the path of an OBJ file)");
+                "the path of a mesh file)");
 }
 
 TEST(FaultsInput, FaceCornerWithoutItsTextureIndexIsNamed) {
@@ -457,7 +458,7 @@ TEST(FaultsInput, SmallTriangleBesideAFarVertexIsValid) {
 }
 
 TEST(FaultsInput, DegenerateFacesAreFoundAtEveryScale) {
-  for (const double scale : {1e-300, 1e-20, 1.0, 1e20, 1e300}) {
+  for (const double scale : {1e-300, 1e-20, 1.0, 1e20, 1e99}) {  // positions up to ±1e100
     const penumbra::Mesh good = triangle_mesh({{0, 0, 0}, {scale, 0, 0}, {0, scale, 0}});
     EXPECT_EQ(error_of([&] { penumbra::validate(good); }), "") << scale;
     const penumbra::Mesh sliver = triangle_mesh({{0, 0, 0}, {scale, 0, 0}, {0, 1e-6 * scale, 0}});
@@ -786,6 +787,15 @@ TEST(FaultsCli, MemoryLimitRefusesTooLargeARenderAtOnce) {
             std::string::npos)
       << show(r);
   EXPECT_TRUE(names_in(::testing::TempDir() + "penumbra_faults_memory").empty());
+}
+
+// Amounts in the unit that shows them: a limit of a kilobyte is not "0.00 GiB".
+TEST(FaultsCli, MemoryLimitMessageShowsSmallAmounts) {
+  const RunResult r = run_cli("render -o /dev/null --max-memory 1KiB" + kSmall, "memory_small");
+  expect_clean_error(r, " KiB of device memory, more than the 1.00 KiB allowed by --max-memory");
+  EXPECT_EQ(penumbra::detail::memory_size(512), "512 bytes");
+  EXPECT_EQ(penumbra::detail::memory_size(1536), "1.50 KiB");
+  EXPECT_EQ(penumbra::detail::memory_size(size_t(5) << 30), "5.00 GiB");
 }
 
 TEST(FaultsCli, MaxMemoryMustBeASize) {

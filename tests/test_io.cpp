@@ -129,7 +129,7 @@ TEST(IoObj, Errors) {
   expect_error([] { obj_mesh("degenerate", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"); },
                "degenerate");
   expect_error([] { obj_mesh("repeat", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n"); },
-               "repeats a vertex index");
+               "repeat a vertex");
   expect_error([] { obj_mesh("zeroindex", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n"); },
                "vertex index 0");
 }
@@ -403,6 +403,38 @@ TEST(IoScene, SamplingAndExactBackend) {
   expect_error(parse(R"({"sampling": "gemm", "shadows": "hard"})"), "accurate shadow model");
   EXPECT_NO_THROW(
       params(R"({"sampling": "exact", "exact_backend": "kernels", "shadows": "soft"})"));
+}
+
+// Values whose squares overflow are named as too large, not by what their overflow breaks
+// later (a view direction of zero, a frustum of NaNs, every face degenerate).
+TEST(IoScene, ValuesTooLargeToStayFiniteAreNamed) {
+  auto parse = [](const std::string& mesh, const std::string& camera, const std::string& light) {
+    return [=] {
+      parse_scene(R"({"meshes": [{"file": "icosphere.obj")" + mesh + R"(}], "cameras": [{)" +
+                      camera + R"(}], "lights": [{)" + light + "}]}",
+                  kMeshes);
+    };
+  };
+  const std::string too_large = "has a coordinate beyond ±1e+100, too large for its squared";
+  expect_error(parse("", R"("eye": [1e308, 0, 0])", ""),
+               "camera 0: eye (1e+308, 0, 0) " + too_large);
+  expect_error(parse("", "", R"("position": [0, 1e200, 0])"), "light 0: position (0, 1e+200, 0)");
+  expect_error(parse(R"(, "scale": 1e200)", "", ""), "vertex 0 (");
+  expect_error(parse(R"(, "translate": [1e308, 0, 0])", "", ""), too_large);
+  EXPECT_NO_THROW(parse(R"(, "scale": 1e90)", R"("eye": [0, 0, 1e95])", "")());
+}
+
+// Refused where the nesting passes 64 levels: at once, however deep the document goes.
+TEST(IoScene, DeepNestingIsRefusedAtOnce) {
+  const std::string deep = std::string(200000, '[') + std::string(200000, ']');
+  expect_error([&] { parse_scene(deep, kMeshes); },
+               "'[0][0][0][0][0][0][0][0][0][0][0][0][0][...' is nested deeper than 64 levels");
+  const std::string cameras = R"({"cameras": )" + std::string(64, '[') + std::string(64, ']') + "}";
+  expect_error([&] { parse_scene(cameras, kMeshes); },
+               "'cameras[0][0][0][0][0][0][0][0][0][0][0]...' is nested");
+  // 64 levels are read (and refused for what they hold).
+  const std::string ok = R"({"cameras": )" + std::string(63, '[') + std::string(63, ']') + "}";
+  expect_error([&] { parse_scene(ok, kMeshes); }, "the required key 'meshes' is missing");
 }
 
 TEST(IoScene, Errors) {

@@ -38,6 +38,19 @@ bool any_negative(const glm::dvec3& v) { return v.x < 0 || v.y < 0 || v.z < 0; }
 
 [[noreturn]] void fail(const std::string& message) { throw Error(message); }
 
+// The largest coordinate a position may have: the fits and the normalisation square distances
+// in double precision, which stay finite below 1e150.
+constexpr double kMaxCoordinate = 1e100;
+
+// Fails unless the position `v` is finite and within ±kMaxCoordinate.
+void check_position(const glm::dvec3& v, const std::string& what) {
+  if (!finite(v)) fail(what + " " + vec(v) + " is not finite");
+  const glm::dvec3 a = glm::abs(v);
+  if (std::max({a.x, a.y, a.z}) > kMaxCoordinate)
+    fail(what + " " + vec(v) + " has a coordinate beyond ±" + num(kMaxCoordinate) +
+         ", too large for its squared distances to stay finite");
+}
+
 // Twice the area of the triangle (a, b, c) over its longest edge squared: 0 for corners on one
 // line, at most √3/2, the same at any scale and whatever else the mesh holds. The edges are
 // first divided by their largest coordinate, so that no square overflows or underflows.
@@ -71,6 +84,7 @@ void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces d
     const glm::dvec3& v = mesh.vertices[i];
     if (!finite(v))
       fail(label + ": vertex " + std::to_string(i) + " has a non-finite coordinate " + vec(v));
+    check_position(v, label + ": vertex " + std::to_string(i));
   }
 
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
@@ -83,12 +97,10 @@ void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces d
     if (t.x == t.y || t.y == t.z || t.z == t.x)
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) + " repeats a vertex index");
     const glm::dvec3 &a = mesh.vertices[t.x], &b = mesh.vertices[t.y], &c = mesh.vertices[t.z];
-    if (degenerate == DegenerateFaces::Allow || clearly_not_degenerate(a, b, c)) continue;
-    const double area = relative_area(a, b, c);
-    if (!(area > 1e-12))
+    if (degenerate == DegenerateFaces::Refuse && degenerate_triangle(a, b, c))
       fail(label + ": face " + std::to_string(f) + " " + ivec(t) +
-           " is degenerate (its corners are on one line: twice its area is " + num(area) +
-           " times its longest edge squared)");
+           " is degenerate (its corners are on one line: twice its area is " +
+           num(relative_area(a, b, c)) + " times its longest edge squared)");
   }
 
   const bool per_vertex = mesh.albedo_mode == AlbedoMode::PerVertex;
@@ -104,6 +116,14 @@ void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces d
   }
 }
 
+}  // namespace
+
+bool degenerate_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  return !clearly_not_degenerate(a, b, c) && !(relative_area(a, b, c) > 1e-12);
+}
+
+namespace {
+
 std::string mesh_label(const Mesh& mesh) {
   return mesh.name.empty() ? std::string("mesh (unnamed)") : "mesh '" + mesh.name + "'";
 }
@@ -112,8 +132,8 @@ void validate_camera(const Camera& c, const std::string& label) {
   if (c.width < 1 || c.width > kMaxImageSize || c.height < 1 || c.height > kMaxImageSize)
     fail(label + ": image size " + std::to_string(c.width) + "x" + std::to_string(c.height) +
          " must be between 1 and " + std::to_string(kMaxImageSize) + " on each side");
-  if (!finite(c.eye)) fail(label + ": eye " + vec(c.eye) + " is not finite");
-  if (!finite(c.target)) fail(label + ": target " + vec(c.target) + " is not finite");
+  check_position(c.eye, label + ": eye");
+  check_position(c.target, label + ": target");
   if (!finite(c.up)) fail(label + ": up " + vec(c.up) + " is not finite");
   if (c.projection == Projection::Perspective) {
     if (!(c.fov_deg > 0 && c.fov_deg < 180))
@@ -138,7 +158,7 @@ void validate_camera(const Camera& c, const std::string& label) {
 
 void validate_light(const Light& l, const std::string& label) {
   if (l.type == LightType::Point) {
-    if (!finite(l.position)) fail(label + ": position " + vec(l.position) + " is not finite");
+    check_position(l.position, label + ": position");
   } else {
     if (!finite(l.direction)) fail(label + ": direction " + vec(l.direction) + " is not finite");
     if (!(glm::length(l.direction) > 0)) fail(label + ": directional light has zero direction");

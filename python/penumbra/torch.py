@@ -66,9 +66,10 @@ class Light:
         return light
 
 
-def load_mesh(path, dtype=torch.float32):
-    """An OBJ file's mesh as tensors: vertices (V, 3) of `dtype`, faces (F, 3) int64."""
-    mesh = penumbra.load_obj(str(path))
+def load_mesh(path, dtype=torch.float32, refuse_degenerate=False):
+    """A mesh file (.obj, .ply, .stl, .gltf, .glb, .off) as tensors: vertices (V, 3) of `dtype`,
+    faces (F, 3) int64. Zero-area faces are dropped with a warning, or refused."""
+    mesh = penumbra.load_mesh(str(path), refuse_degenerate=refuse_degenerate)
     return (torch.from_numpy(np.array(mesh.vertices)).to(dtype),
             torch.from_numpy(np.array(mesh.faces)).long())
 

@@ -163,3 +163,15 @@ def test_load_mesh(tmp_path):
     vertices, faces = pt.load_mesh(penumbra.data_dir() / "meshes" / "icosphere.obj")
     assert vertices.dtype == torch.float32 and vertices.shape[1] == 3
     assert faces.dtype == torch.int64 and faces.shape == (1280, 3) and faces.max() < len(vertices)
+
+
+def test_load_mesh_reads_other_formats_and_drops_degenerate_faces(tmp_path, capfd):
+    (tmp_path / "square.off").write_text("OFF\n5 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n"
+                                         "4 0 1 2 3\n3 0 1 4\n")
+    vertices, faces = pt.load_mesh(tmp_path / "square.off")
+    assert faces.shape == (2, 3)  # the square's two triangles; the flat one dropped
+    assert "dropped 1 of 3 faces" in capfd.readouterr().err
+    with pytest.raises(penumbra.Error, match="the face at triangle 3 is degenerate"):
+        pt.load_mesh(tmp_path / "square.off", refuse_degenerate=True)
+    with pytest.raises(penumbra.Error, match=r"is not of a known format \('.dae'\)"):
+        pt.load_mesh(tmp_path / "scene.dae")

@@ -54,7 +54,7 @@ class Context {
 
   // The device memory a call may use: `bytes`, named `by` in messages ("--max-memory"), or
   // (0, the default) all the device reports. A render or backward that needs more, estimated
-  // before anything is allocated, throws penumbra::Error with both amounts in GiB.
+  // before anything is allocated, throws penumbra::Error with both amounts (KiB, MiB, GiB).
   void set_memory_limit(size_t bytes, const std::string& by);
   size_t memory_limit() const { return memory_limit_ ? memory_limit_ : info_.global_mem; }
   const std::string& memory_limit_by() const { return memory_limit_by_; }

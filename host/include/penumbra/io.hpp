@@ -1,9 +1,9 @@
 #pragma once
-// Files in and out: OBJ meshes, JSON scenes, NumPy .npy arrays (PNG images and GIF
-// animations: image_io.hpp, in the application library).
-// Every loader throws penumbra::Error with a one-line message naming the file and the problem.
-// Every writer goes through OutputFile: a failed write leaves nothing at the destination and
-// an earlier file there untouched.
+// Files in and out: meshes (OBJ, PLY, STL, glTF, OFF), JSON scenes, NumPy .npy arrays (PNG images
+// and GIF animations: image_io.hpp, in the application library). Every loader throws
+// penumbra::Error with a one-line message naming the file and the problem. Every writer goes
+// through OutputFile: a failed write leaves nothing at the destination and an earlier file there
+// untouched.
 #include <memory>
 #include <string>
 #include <vector>
@@ -58,9 +58,25 @@ struct FileContent {
 };
 void write_files(const std::vector<FileContent>& files);
 
-// OBJ via tinyobjloader; polygons are triangulated; the mesh is validated (penumbra::validate).
-// Albedo: per-vertex colours if the OBJ has them, else `default_albedo` per vertex.
-Mesh load_obj(const std::string& path, glm::dvec3 default_albedo = {0.8, 0.8, 0.8});
+// What a mesh reader does with a face of zero area (corners on one line, or a corner repeated),
+// which scans and exports often hold: `Drop` it, with one warning line on stderr (how many,
+// and the first by its place in the file), or `Refuse` the file, naming that face.
+enum class DegenerateFacePolicy { Drop, Refuse };
+
+// A mesh file, by its extension (any case): .obj through load_obj; .ply, .stl, .gltf, .glb and
+// .off through Assimp, polygons triangulated, the scene's meshes put together in world space,
+// corners at one position with one colour joined into one vertex. Albedo: per-vertex colours
+// where every vertex has one, else `default_albedo`. Throws penumbra::Error naming the file
+// and the problem: an unknown extension, a format error (Assimp's message), no faces.
+Mesh load_mesh(const std::string& path, glm::dvec3 default_albedo = {0.8, 0.8, 0.8},
+               DegenerateFacePolicy degenerate = DegenerateFacePolicy::Drop);
+
+// OBJ via tinyobjloader, vertices in the file's order; polygons are triangulated by ear
+// clipping (a concave one keeps its shape); UTF-8 or (ASCII) UTF-16 text; the mesh is
+// validated (penumbra::validate). Albedo: per-vertex colours if the OBJ has them, else
+// `default_albedo` per vertex. Dropped faces are named by their line.
+Mesh load_obj(const std::string& path, glm::dvec3 default_albedo = {0.8, 0.8, 0.8},
+              DegenerateFacePolicy degenerate = DegenerateFacePolicy::Drop);
 void save_obj(const Mesh& mesh, const std::string& path);
 std::string obj_text(const Mesh& mesh);  // what save_obj writes
 

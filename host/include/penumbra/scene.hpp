@@ -187,6 +187,9 @@ enum class DegenerateFaces { Refuse, Allow };
 // near ≥ far, ...
 void validate(const Scene& scene, DegenerateFaces degenerate = DegenerateFaces::Refuse);
 void validate(const Mesh& mesh, DegenerateFaces degenerate = DegenerateFaces::Refuse);
+// Whether validate() calls the triangle (a, b, c) degenerate: its corners on one line, twice
+// its area at most 1e-12 times its longest edge squared (at any scale).
+bool degenerate_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
 
 // Axis-aligned bounds and bounding sphere of all meshes.
 struct Bounds {

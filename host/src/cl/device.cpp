@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <string>
@@ -144,9 +145,14 @@ cl::Buffer reuse_or_alloc(Context& ctx, cl::Buffer&& spare, size_t count, size_t
   return make_buffer(ctx, bytes, nullptr);
 }
 
-std::string gib(size_t bytes) {
+std::string memory_size(size_t bytes) {
+  const char* units[] = {"KiB", "MiB", "GiB", "TiB"};
+  if (bytes < 1024) return std::to_string(bytes) + " bytes";
+  double value = double(bytes) / 1024;
+  size_t unit = 0;
+  for (; value >= 1024 && unit + 1 < std::size(units); ++unit) value /= 1024;
   char text[32];
-  std::snprintf(text, sizeof text, "%.2f GiB", double(bytes) / double(size_t(1) << 30));
+  std::snprintf(text, sizeof text, "%.2f %s", value, units[unit]);
   return text;
 }
 
@@ -154,11 +160,12 @@ void check_memory(Context& ctx, size_t bytes, const std::string& what) {
   const DeviceInfo& d = ctx.info();
   if (bytes <= ctx.memory_limit()) return;
   const std::string device = "device '" + d.name + "' has";
-  throw Error(what + " needs " + gib(bytes) + " of device memory, more than " +
+  throw Error(what + " needs " + memory_size(bytes) + " of device memory, more than " +
               (ctx.memory_limit_by().empty()
-                   ? "the " + gib(d.global_mem) + " that " + device
-                   : "the " + gib(ctx.memory_limit()) + " allowed by " + ctx.memory_limit_by() +
-                         " (" + device + " " + gib(d.global_mem) + ")"));
+                   ? "the " + memory_size(d.global_mem) + " that " + device
+                   : "the " + memory_size(ctx.memory_limit()) + " allowed by " +
+                         ctx.memory_limit_by() + " (" + device + " " + memory_size(d.global_mem) +
+                         ")"));
 }
 
 cl::Buffer zero_reals(Context& ctx, Precision p, size_t count) {

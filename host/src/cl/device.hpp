@@ -99,12 +99,12 @@ cl::Buffer reuse_or_alloc(Context& ctx, cl::Buffer&& spare, size_t count, size_t
 // Whether a spare of `held` units serves a need of `need`: at least that, at most twice as
 // much (reuse_or_alloc's rule).
 inline bool spare_fits(size_t held, size_t need) { return held >= need && held / 2 <= need; }
-// Throws penumbra::Error "<what> needs N GiB of device memory, more than ..." when `bytes`
+// Throws penumbra::Error "<what> needs 1.25 GiB of device memory, more than ..." when `bytes`
 // exceeds the context's memory limit (Context::memory_limit: the device's memory unless set);
 // checked before allocating.
 void check_memory(Context& ctx, size_t bytes, const std::string& what);
-// "1.25 GiB".
-std::string gib(size_t bytes);
+// "512 bytes", "12.50 MiB", "1.25 GiB": in the largest binary unit that keeps a number >= 1.
+std::string memory_size(size_t bytes);
 
 // Zero-filled buffer of `count` reals (for accumulators, and for products that must never read
 // NaN from old memory).

@@ -1,8 +1,8 @@
 // OBJ meshes: load_obj / save_obj (io.hpp).
 //
-// Parsing is tinyobjloader's (polygons triangulated as fans). tinyobjloader reads a malformed
-// number as 0 without complaint, so the `v` and `f` lines are checked first by a small scan
-// that rejects anything that is not a finite number or an integer index, with its line number.
+// Parsing is tinyobjloader's; polygons are ear-clipped here (polygon.hpp). tinyobjloader reads a
+// malformed number as 0 without complaint, so the `v` and `f` lines are checked first by a small
+// scan that rejects anything that is not a finite number or an integer index, with its line number.
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -17,28 +17,14 @@
 
 #include <tiny_obj_loader.h>
 
+#include "mesh_files.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
+#include "polygon.hpp"
 #include "text.hpp"
 
 namespace penumbra {
 namespace {
-
-// Joins tinyobjloader's multi-line messages into one line.
-std::string one_line(const std::string& text) {
-  std::string out;
-  bool space = false;
-  for (char c : text) {
-    if (c == '\n' || c == '\r' || c == '\t' || c == ' ') {
-      space = !out.empty();
-      continue;
-    }
-    if (space) out += ' ';
-    space = false;
-    out += c;
-  }
-  return out;
-}
 
 std::vector<std::string> split_ws(const std::string& line) {
   std::vector<std::string> out;
@@ -94,12 +80,13 @@ size_t count_vertices(const std::string& text) {
 }
 
 // Checks the `v` and `f` lines that tinyobjloader would otherwise accept silently (malformed
-// numbers read as 0, out-of-range indices skipped or kept). Returns the number of `f` lines.
-size_t prescan(const std::string& text, const std::string& path) {
+// numbers read as 0, out-of-range indices skipped or kept). Returns the `f` lines' numbers.
+std::vector<size_t> prescan(const std::string& text, const std::string& path) {
   const long long total = static_cast<long long>(count_vertices(text));
   std::istringstream in(text);
   std::string line;
-  size_t line_no = 0, faces = 0;
+  size_t line_no = 0;
+  std::vector<size_t> faces;
   long long seen = 0;  // vertices before the current line (for relative, negative indices)
   while (std::getline(in, line)) {
     ++line_no;
@@ -124,6 +111,9 @@ size_t prescan(const std::string& text, const std::string& path) {
       if (tok.size() < 4)
         throw Error("OBJ " + where + "face has " + std::to_string(tok.size() - 1) +
                     " corners (at least 3 needed)");
+      if (tok.size() > 256)  // tinyobjloader counts a polygon's corners in a byte
+        throw Error("OBJ " + where + "face has " + std::to_string(tok.size() - 1) +
+                    " corners (at most 255)");
       for (size_t i = 1; i < tok.size(); ++i) {
         if (!is_face_corner(tok[i]))
           throw Error("OBJ " + where + "face corner '" + tok[i] +
@@ -139,77 +129,98 @@ size_t prescan(const std::string& text, const std::string& path) {
           throw Error("OBJ " + where + "relative face vertex index " + std::to_string(idx) +
                       " out of range (only " + std::to_string(seen) + " vertices before it)");
       }
-      ++faces;
+      faces.push_back(line_no);
     }
   }
   return faces;
 }
 
-std::string read_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw Error("cannot read OBJ file " + quoted_path(path) + ": it is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open OBJ file " + quoted_path(path) + ": " + std::strerror(errno));
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw Error("cannot read OBJ file " + quoted_path(path));
-  return s.str();
+// The text of an OBJ file as UTF-8: a UTF-8 byte-order mark dropped; UTF-16 (with its mark)
+// converted where it holds ASCII alone, as OBJ files do outside comments and names.
+std::string utf8_text(const std::string& bytes, const std::string& path) {
+  if (bytes.rfind("\xEF\xBB\xBF", 0) == 0) return bytes.substr(3);
+  const bool le = bytes.rfind("\xFF\xFE", 0) == 0, be = bytes.rfind("\xFE\xFF", 0) == 0;
+  if (!le && !be) return bytes;
+  std::string text;
+  for (size_t i = 2; i + 1 < bytes.size(); i += 2) {
+    const unsigned lo = static_cast<unsigned char>(bytes[le ? i : i + 1]);
+    const unsigned hi = static_cast<unsigned char>(bytes[le ? i + 1 : i]);
+    if (hi != 0 || lo >= 0x80)
+      throw Error("OBJ file " + quoted_path(path) +
+                  " is UTF-16 text with characters beyond ASCII: save it as UTF-8");
+    text += static_cast<char>(lo);
+  }
+  return text;
+}
+
+// The faces of every shape, each polygon by ear clipping; `lines[f]` is the line of the
+// polygon that triangle f comes from.
+void add_faces(const tinyobj::ObjReader& reader, const std::vector<size_t>& polygon_lines,
+               Mesh& mesh, std::vector<size_t>& lines) {
+  size_t polygon = 0;
+  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
+    const tinyobj::mesh_t& m = shape.mesh;
+    size_t offset = 0;
+    for (const unsigned char n : m.num_face_vertices) {
+      std::vector<int> index;
+      std::vector<glm::dvec3> corners;
+      for (size_t k = 0; k < n; ++k) {
+        index.push_back(m.indices[offset + k].vertex_index);
+        corners.push_back(mesh.vertices[static_cast<size_t>(index.back())]);
+      }
+      for (const glm::ivec3& t : triangulate_polygon(corners)) {
+        mesh.faces.emplace_back(index[t.x], index[t.y], index[t.z]);
+        lines.push_back(polygon < polygon_lines.size() ? polygon_lines[polygon] : 0);
+      }
+      offset += n;
+      ++polygon;
+    }
+  }
+}
+
+void set_albedo(const tinyobj::attrib_t& attrib, glm::dvec3 default_albedo, Mesh& mesh) {
+  const size_t nv = mesh.vertices.size();
+  mesh.albedo_mode = AlbedoMode::PerVertex;
+  mesh.albedo.assign(nv, default_albedo);
+  if (attrib.colors.empty() || attrib.colors.size() != attrib.vertices.size()) return;
+  for (size_t i = 0; i < nv; ++i)
+    mesh.albedo[i] =
+        glm::dvec3(attrib.colors[3 * i], attrib.colors[3 * i + 1], attrib.colors[3 * i + 2]);
 }
 
 }  // namespace
 
-Mesh load_obj(const std::string& path, glm::dvec3 default_albedo) {
-  const std::string text = read_file(path);
-  if (prescan(text, path) == 0) throw Error("OBJ file " + quoted_path(path) + " contains no faces");
+Mesh load_obj(const std::string& path, glm::dvec3 default_albedo, DegenerateFacePolicy policy) {
+  const std::string file = "OBJ file " + quoted_path(path);
+  const std::string text = utf8_text(read_whole_file(path, "OBJ file"), path);
+  const std::vector<size_t> polygon_lines = prescan(text, path);
+  if (polygon_lines.empty()) throw Error(file + " contains no faces");
 
   tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
+  config.triangulate = false;   // its fans cover more than a concave polygon: add_faces clips
   config.vertex_color = false;  // keep colours only when every vertex has them
   tinyobj::ObjReader reader;
   // From a string: material libraries are not needed (albedo comes from vertex colours).
   if (!reader.ParseFromString(text, "", config)) {
     const std::string msg = one_line(reader.Error());
-    throw Error("cannot parse OBJ file " + quoted_path(path) + ": " +
-                (msg.empty() ? std::string("unknown error") : msg));
+    throw Error("cannot parse " + file + ": " + (msg.empty() ? std::string("unknown error") : msg));
   }
 
   const tinyobj::attrib_t& attrib = reader.GetAttrib();
   Mesh mesh;
   mesh.name = std::filesystem::path(path).stem().string();
-  const size_t nv = attrib.vertices.size() / 3;
-  mesh.vertices.resize(nv);
-  for (size_t i = 0; i < nv; ++i)
-    mesh.vertices[i] =
-        glm::dvec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]);
-
-  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
-    const tinyobj::mesh_t& m = shape.mesh;
-    size_t offset = 0;
-    for (size_t f = 0; f < m.num_face_vertices.size(); ++f) {
-      const size_t n = m.num_face_vertices[f];
-      if (n == 3)
-        mesh.faces.emplace_back(m.indices[offset].vertex_index, m.indices[offset + 1].vertex_index,
-                                m.indices[offset + 2].vertex_index);
-      offset += n;
-    }
-  }
-  if (mesh.faces.empty()) throw Error("OBJ file " + quoted_path(path) + " contains no faces");
-
-  mesh.albedo_mode = AlbedoMode::PerVertex;
-  if (!attrib.colors.empty() && attrib.colors.size() == attrib.vertices.size()) {
-    mesh.albedo.resize(nv);
-    for (size_t i = 0; i < nv; ++i)
-      mesh.albedo[i] =
-          glm::dvec3(attrib.colors[3 * i], attrib.colors[3 * i + 1], attrib.colors[3 * i + 2]);
-  } else {
-    mesh.albedo.assign(nv, default_albedo);
-  }
-
+  for (size_t i = 0; i + 2 < attrib.vertices.size(); i += 3)
+    mesh.vertices.emplace_back(attrib.vertices[i], attrib.vertices[i + 1], attrib.vertices[i + 2]);
+  std::vector<size_t> lines;
+  add_faces(reader, polygon_lines, mesh, lines);
+  if (mesh.faces.empty()) throw Error(file + " contains no faces");
+  set_albedo(attrib, default_albedo, mesh);
+  drop_degenerate_faces(mesh, policy, file,
+                        [&](size_t f) { return "line " + std::to_string(lines[f]); });
   try {
     validate(mesh);
   } catch (const Error& e) {
-    throw Error("OBJ file " + quoted_path(path) + ": " + e.what());
+    throw Error(file + ": " + e.what());
   }
   return mesh;
 }

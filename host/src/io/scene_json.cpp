@@ -148,9 +148,9 @@ std::string item(const char* key, size_t i) {
 }
 
 Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::path& base) {
-  check_object(j, where, {"file", "name", "translate", "scale", "albedo"});
+  check_object(j, where, {"file", "name", "translate", "scale", "albedo", "refuse_degenerate"});
   const std::string file =
-      get_string(require(j, where, "file", "the path of an OBJ file"), child(where, "file"));
+      get_string(require(j, where, "file", "the path of a mesh file"), child(where, "file"));
   if (file.empty()) fail("'" + child(where, "file") + "' is empty");
   std::filesystem::path path(file);
   if (path.is_relative()) path = base / path;
@@ -165,9 +165,12 @@ Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::
     has_albedo = true;
   }
 
+  bool refuse_degenerate = false;
+  opt(j, where, "refuse_degenerate", refuse_degenerate, get_bool);
   Mesh mesh;
   try {
-    mesh = load_obj(path.string());
+    mesh = load_mesh(path.string(), glm::dvec3(0.8),
+                     refuse_degenerate ? DegenerateFacePolicy::Refuse : DegenerateFacePolicy::Drop);
   } catch (const Error& e) {
     fail(where + ": " + e.what());
   }
@@ -306,6 +309,7 @@ Scene parse_document(const json& doc, const std::filesystem::path& base) {
   opt(doc, "", "ambient", scene.ambient, get_scalar_or_vec3);
   opt(doc, "", "background", scene.background, get_scalar_or_vec3);
   if (doc.contains("render")) scene.params = parse_render(doc["render"], "render");
+  validate(scene);  // before the fit, which needs sound values to name its own problems
   fit_light_frusta(scene);
   return scene;
 }
@@ -385,17 +389,10 @@ Scene parse_scene(const std::string& json_text, const std::string& base_dir) {
 }
 
 Scene load_scene(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw Error("cannot read scene file '" + path + "': it is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open scene file '" + path + "': " + std::strerror(errno));
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw Error("cannot read scene file '" + path + "'");
+  const std::string text = read_whole_file(path, "scene file");
   std::filesystem::path base = std::filesystem::path(path).parent_path();
   if (base.empty()) base = ".";
-  return parse(s.str(), base, "'" + path + "'");
+  return parse(text, base, "'" + path + "'");
 }
 
 }  // namespace penumbra

@@ -1,7 +1,12 @@
 // Text helpers of the file readers (text.hpp).
 #include "text.hpp"
 
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <set>
+#include <sstream>
 #include <vector>
 
 #include "penumbra/error.hpp"
@@ -28,10 +33,14 @@ std::string printable(const std::string& text, size_t max) {
 namespace {
 
 // Follows the parser through the document (nlohmann's parser callback) and throws on the
-// second occurrence of a key in one object. Each open object or array is a frame: the keys
-// seen so far, or the index of the next element.
+// second occurrence of a key in one object, or on nesting beyond kMaxDepth. Each open object or
+// array is a frame: the keys seen so far, or the index of the next element.
 class DuplicateKeyCheck {
  public:
+  // Far beyond any scene, and refused at once: each level's path is kept, so a document nested
+  // a hundred thousand levels deep would take time and memory quadratic in its depth.
+  static constexpr size_t kMaxDepth = 64;
+
   bool operator()(int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
     using Event = nlohmann::json::parse_event_t;
     switch (event) {
@@ -43,6 +52,9 @@ class DuplicateKeyCheck {
         break;
       case Event::object_start:
       case Event::array_start:
+        if (frames_.size() == kMaxDepth)
+          throw Error("'" + printable(name_of_next(), 40) + "' is nested deeper than " +
+                      std::to_string(kMaxDepth) + " levels of objects and arrays");
         frames_.push_back({event == Event::object_start, name_of_next(), {}, "", 0});
         break;
       case Event::object_end:
@@ -88,6 +100,34 @@ nlohmann::json parse_json(const std::string& text) {
 }
 
 std::string quoted_path(const std::string& path) { return "'" + path + "'"; }
+
+std::string one_line(const std::string& text) {
+  std::string out;
+  bool space = false;
+  for (char c : text) {
+    if (c == '\n' || c == '\r' || c == '\t' || c == ' ') {
+      space = !out.empty();
+      continue;
+    }
+    if (space) out += ' ';
+    space = false;
+    out += c;
+  }
+  return out;
+}
+
+std::string read_whole_file(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw Error("cannot read " + what + " " + quoted_path(path) + ": it is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw Error("cannot open " + what + " " + quoted_path(path) + ": " + std::strerror(errno));
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw Error("cannot read " + what + " " + quoted_path(path));
+  return s.str();
+}
 
 void check_image(const Image& image, const std::string& what, const std::string& path) {
   if (image.width <= 0 || image.height <= 0 || image.channels <= 0)
