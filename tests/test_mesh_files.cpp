@@ -202,6 +202,12 @@ TEST(MeshFiles, MessagesNameTheFormatProblem) {
               load_mesh(written(dir, "c.obj", std::string("\xFF\xFE\xE9\x00", 4)));
             }).find("UTF-16 text with characters beyond ASCII"),
             std::string::npos);
+  // "v" then a vertical tab: a vertex to the scan, none to tinyobjloader (found by fuzz_obj).
+  EXPECT_NE(
+      error_of([&] {
+        load_mesh(written(dir, "tab.obj", "v 0 0 0\nv 1 0 0\nv\v1 0 0\nv 0 1 0\nf -3 -2 -4\n"));
+      }).find("line 5: face vertex index out of range (tinyobjloader read 3 vertices)"),
+      std::string::npos);
   std::string polygon = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf";
   for (int i = 0; i < 300; ++i) polygon += " " + std::to_string(i % 3 + 1);
   EXPECT_NE(error_of([&] {

@@ -156,21 +156,29 @@ std::string utf8_text(const std::string& bytes, const std::string& path) {
 // The faces of every shape, each polygon by ear clipping; `lines[f]` is the line of the
 // polygon that triangle f comes from.
 void add_faces(const tinyobj::ObjReader& reader, const std::vector<size_t>& polygon_lines,
-               Mesh& mesh, std::vector<size_t>& lines) {
+               const std::string& file, Mesh& mesh, std::vector<size_t>& lines) {
   size_t polygon = 0;
+  const auto nv = static_cast<int>(mesh.vertices.size());
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const tinyobj::mesh_t& m = shape.mesh;
     size_t offset = 0;
     for (const unsigned char n : m.num_face_vertices) {
+      const size_t line = polygon < polygon_lines.size() ? polygon_lines[polygon] : 0;
       std::vector<int> index;
       std::vector<glm::dvec3> corners;
       for (size_t k = 0; k < n; ++k) {
         index.push_back(m.indices[offset + k].vertex_index);
+        // The scan checked the indices; tinyobjloader may still count vertices otherwise (a
+        // `v` followed by a vertical tab is one for the scan alone).
+        if (index.back() < 0 || index.back() >= nv)
+          throw Error(file + " line " + std::to_string(line) +
+                      ": face vertex index out of range (tinyobjloader read " + std::to_string(nv) +
+                      " vertices)");
         corners.push_back(mesh.vertices[static_cast<size_t>(index.back())]);
       }
       for (const glm::ivec3& t : triangulate_polygon(corners)) {
         mesh.faces.emplace_back(index[t.x], index[t.y], index[t.z]);
-        lines.push_back(polygon < polygon_lines.size() ? polygon_lines[polygon] : 0);
+        lines.push_back(line);
       }
       offset += n;
       ++polygon;
@@ -212,7 +220,7 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo, DegenerateFace
   for (size_t i = 0; i + 2 < attrib.vertices.size(); i += 3)
     mesh.vertices.emplace_back(attrib.vertices[i], attrib.vertices[i + 1], attrib.vertices[i + 2]);
   std::vector<size_t> lines;
-  add_faces(reader, polygon_lines, mesh, lines);
+  add_faces(reader, polygon_lines, file, mesh, lines);
   if (mesh.faces.empty()) throw Error(file + " contains no faces");
   set_albedo(attrib, default_albedo, mesh);
   drop_degenerate_faces(mesh, policy, file,
