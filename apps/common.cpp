@@ -438,15 +438,4 @@ std::string one_line(const std::string& text) {
   return out;
 }
 
-Camera orbit(const Camera& camera, double angle) {
-  const double c = std::cos(angle), s = std::sin(angle);
-  auto turn = [&](const glm::dvec3& v) {
-    return glm::dvec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
-  };
-  Camera out = camera;
-  out.eye = camera.target + turn(camera.eye - camera.target);
-  out.up = turn(camera.up);
-  return out;
-}
-
 }  // namespace penumbra::cli

@@ -37,8 +37,6 @@ Command add_shadow_art_command(CLI::App& root);
 Command add_tune_command(CLI::App& root);
 Command add_kernels_command(CLI::App& root);
 
-// The camera turned by `angle` radians about the vertical (+y) axis through its target.
-Camera orbit(const Camera& camera, double angle);
 
 // Where the scene comes from: a positional SCENE.json, or --mesh FILE (a mesh file, load_mesh);
 // neither means the bundled data/scenes/turnaround.json.

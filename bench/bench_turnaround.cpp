@@ -49,7 +49,7 @@ void run_turnaround(benchmark::State& state, Shadows shadows) {
     double counting = 0;  // reading the fragment counts back, left out of the time
     const auto t0 = Clock::now();
     for (int k = 0; k < kFrames; ++k) {
-      orbit_camera(s, base, 2.0 * std::acos(-1.0) * k / kFrames);
+      s.cameras.front() = orbit(base, 2.0 * std::acos(-1.0) * k / kFrames);
       const auto f0 = Clock::now();
       benchmark::DoNotOptimize(r.render(s));
       frame_s.push_back(seconds_since(f0));

@@ -105,12 +105,6 @@ glm::dvec3 rotate_y(const glm::dvec3& v, double angle) {
   return {c * v.x + s * v.z, v.y, -s * v.x + c * v.z};
 }
 
-void orbit_camera(Scene& s, const Camera& base, double angle) {
-  Camera& cam = s.cameras.front();
-  cam.eye = base.target + rotate_y(base.eye - base.target, angle);
-  cam.up = rotate_y(base.up, angle);
-}
-
 int total_faces(const Scene& s) {
   int n = 0;
   for (const Mesh& m : s.meshes) n += int(m.faces.size());

@@ -52,8 +52,6 @@ int total_faces(const Scene& s);
 
 // v rotated by `angle` radians about +y.
 glm::dvec3 rotate_y(const glm::dvec3& v, double angle);
-// Camera 0 moved `angle` radians around the +y axis through its target.
-void orbit_camera(Scene& s, const Camera& base, double angle);
 
 const char* word(Shadows s);
 // The sampling of a case name: truncated, exact (penumbra's kernels) or gemm (exact on CLBlast).

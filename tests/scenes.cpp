@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "cli_run.hpp"
+#include "penumbra/error.hpp"
 #include "penumbra/reference.hpp"
 
 namespace penumbra_tests {
@@ -311,6 +312,23 @@ std::string fresh_temp_dir(const std::string& name) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir.string();
+}
+
+std::vector<std::string> names_in(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    names.push_back(entry.path().filename());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::string error_of(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const penumbra::Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 std::string patched_kernels(const std::string& name, const std::string& file,

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -125,6 +126,11 @@ void expect_identical(const penumbra::SceneGrads& a, const penumbra::SceneGrads&
 
 // An empty folder TempDir()/penumbra_<name> for one test (emptied if it exists).
 std::string fresh_temp_dir(const std::string& name);
+// The names of the entries of folder `dir`, sorted.
+std::vector<std::string> names_in(const std::string& dir);
+
+// The message of the penumbra::Error that `fn` throws ("" when it throws none).
+std::string error_of(const std::function<void()>& fn);
 
 // ---------------------------------------------------------------------------------------------
 // Kernel variants: the project's kernels with one passage changed, to show that a shortcut

@@ -18,6 +18,7 @@
 #include "scenes.hpp"
 
 using namespace penumbra;
+using penumbra_tests::error_of;
 using penumbra_tests::expect_clean_error;
 using penumbra_tests::fresh_temp_dir;
 using penumbra_tests::lines;
@@ -39,16 +40,6 @@ double area(const Mesh& m) {
     sum += 0.5 * glm::length(glm::cross(m.vertices[f.y] - m.vertices[f.x],
                                         m.vertices[f.z] - m.vertices[f.x]));
   return sum;
-}
-
-// The message of the penumbra::Error `fn` throws ("" when it throws none).
-std::string error_of(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 std::string written(const std::string& dir, const std::string& name, const std::string& text) {

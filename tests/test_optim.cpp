@@ -26,9 +26,11 @@
 #include "penumbra/io.hpp"
 #include "penumbra/optim.hpp"
 #include "penumbra/renderer.hpp"
+#include "scenes.hpp"
 
 using namespace penumbra;
 using namespace penumbra::optim;
+using penumbra_tests::error_of;
 
 namespace {
 
@@ -96,15 +98,6 @@ void check_vertex_gradient(Mesh mesh,
 
 std::string temp(const std::string& name) {
   return ::testing::TempDir() + "penumbra_optim_" + name;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 Context& context() {

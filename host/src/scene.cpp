@@ -365,6 +365,17 @@ int shadow_map_side(const RenderParams& p) {
   return p.shadow_map_size ? *p.shadow_map_size : p.shadow_model == ShadowModel::Paper ? 256 : 384;
 }
 
+Camera orbit(const Camera& camera, double angle) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  auto turn = [&](const glm::dvec3& v) {
+    return glm::dvec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
+  };
+  Camera out = camera;
+  out.eye = camera.target + turn(camera.eye - camera.target);
+  out.up = turn(camera.up);
+  return out;
+}
+
 Scene framed_scene(Mesh mesh, int width, int height) {
   validate(mesh);
   Scene scene;

@@ -239,4 +239,8 @@ std::vector<glm::dvec3> scene_vertices(const Scene& scene);
 // A scene around one mesh, with a camera and a light that frame it (for `render --mesh`).
 Scene framed_scene(Mesh mesh, int width = 256, int height = 256);
 
+// `camera` turned by `angle` radians about the vertical (+y) axis through its target (the
+// turnaround's frames).
+Camera orbit(const Camera& camera, double angle);
+
 }  // namespace penumbra
