@@ -37,7 +37,6 @@ Command add_shadow_art_command(CLI::App& root);
 Command add_tune_command(CLI::App& root);
 Command add_kernels_command(CLI::App& root);
 
-
 // Where the scene comes from: a positional SCENE.json, or --mesh FILE (a mesh file, load_mesh);
 // neither means the bundled data/scenes/turnaround.json.
 struct SceneSource {
@@ -99,6 +98,11 @@ E parse_word(const std::string& option, const std::string& w) {
 
 // The shadow mode of a --shadows word (the words of every enum: penumbra::word, scene.hpp).
 Shadows parse_shadows(const std::string& word);
+// --shadows and --shadow-model, for every command that takes them: checked against the
+// enum's words, or against `words` where a command takes fewer.
+CLI::Option* add_shadows_option(CLI::App& cmd, std::string& value, const std::string& help,
+                                const std::vector<std::string>& words = {});
+CLI::Option* add_shadow_model_option(CLI::App& cmd, std::string& value, const std::string& help);
 
 // --precision float|double.
 void add_precision_option(CLI::App& cmd, std::string& precision, const std::string& default_value);
@@ -119,8 +123,6 @@ std::string view_file(const std::string& dir, const std::string& stem, size_t vi
 void make_dirs(const std::string& dir);
 void make_parent_dirs(const std::string& file);
 
-// Name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(<code>)".
-std::string cl_error_name(int code);
 // "a,b,c".
 std::string joined(const std::vector<std::string>& words);
 // Replaces line breaks so that an error message prints as one line.

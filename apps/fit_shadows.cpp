@@ -128,14 +128,11 @@ Command add_fit_shadows_command(CLI::App& root) {
       "fit-shadows",
       "deform a sphere until the shadows it casts on walls match target images; the cameras "
       "see only the walls (the paper's Figure 7)");
-  c.app->add_option("--shadows", args->shadows, "shadows to optimise: hard or soft")
-      ->check(CLI::IsMember({"hard", "soft"}))
+  add_shadows_option(*c.app, args->shadows, "shadows to optimise: hard or soft", {"hard", "soft"})
       ->capture_default_str();
-  c.app
-      ->add_option("--shadow-model", args->shadow_model,
-                   "shadow model the fit renders through: accurate or paper (the result is "
-                   "judged by the accurate model's hard shadows either way)")
-      ->check(one_of<ShadowModel>())
+  add_shadow_model_option(*c.app, args->shadow_model,
+                          "shadow model the fit renders through: accurate or paper (the result "
+                          "is judged by the accurate model's hard shadows either way)")
       ->capture_default_str();
   c.app->add_option("--target", args->targets,
                     "target shadow image (repeatable, one per light): the shadow dark on a light "

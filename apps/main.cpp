@@ -111,8 +111,8 @@ int main(int argc, char** argv) {
   } catch (const penumbra::Error& e) {
     return fail(e.what());
   } catch (const cl::Error& e) {
-    return fail("OpenCL error " + cl_error_name(e.err()) + " (" + std::to_string(e.err()) +
-                ") in " + e.what());
+    return fail("OpenCL error " + penumbra::opencl_error_name(e.err()) + " (" +
+                std::to_string(e.err()) + ") in " + e.what());
   } catch (const CLI::ParseError& e) {
     return fail(e.what(), 2);
   } catch (const std::exception& e) {

@@ -12,8 +12,6 @@
 namespace penumbra {
 namespace {
 
-constexpr int kMaxImageSize = 16384;
-
 // Values in messages: shortest form that identifies the number (%.9g-like).
 std::string num(double v) {
   std::ostringstream s;
@@ -226,9 +224,9 @@ void validate_params(const RenderParams& p) {
   if (!std::isfinite(shadow_beta(p)))
     fail("render parameter beta = " + num(shadow_beta(p)) + " is not finite");
   check_positive("gamma_p", p.gamma_p);
-  if (!(shadow_map_side(p) >= 1 && shadow_map_side(p) <= 8192))
+  if (!(shadow_map_side(p) >= 1 && shadow_map_side(p) <= kMaxShadowMapSize))
     fail("render parameter shadow_map_size = " + std::to_string(shadow_map_side(p)) +
-         " must be in [1, 8192]");
+         " must be in [1, " + std::to_string(kMaxShadowMapSize) + "]");
   if (p.light_sigma != 0) check_open_unit("light_sigma", p.light_sigma);
   if (p.light_gamma != 0) check_open_unit("light_gamma", p.light_gamma);
   check_open_unit("weight_eps", p.weight_eps);

@@ -77,4 +77,7 @@ class Context {
   std::map<std::string, cl::Program> programs_;
 };
 
+// The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(<code>)".
+std::string opencl_error_name(int code);
+
 }  // namespace penumbra

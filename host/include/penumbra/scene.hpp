@@ -21,6 +21,10 @@ struct Mesh {
 
 enum class Projection { Perspective, Orthographic };
 
+// The largest image side and shadow-map side validate() accepts.
+constexpr int kMaxImageSize = 16384;
+constexpr int kMaxShadowMapSize = 8192;
+
 struct Camera {
   glm::dvec3 eye{0, 0, 5}, target{0, 0, 0}, up{0, 1, 0};
   Projection projection = Projection::Perspective;
