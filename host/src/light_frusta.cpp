@@ -81,7 +81,7 @@ void fit_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& ai
     // A light among the geometry sees part of it behind itself: a wide cone, and receivers
     // outside it are lit.
     const double cone = 2 * std::atan(margin * slope + halo) * 180 / 3.14159265358979323846;
-    f.fov_deg = behind ? 120.0 : std::min(cone, 120.0);
+    f.fov_deg = behind ? kWidestFit : std::min(cone, kWidestFit);
     f.near = std::max(zmin / margin, 1e-3 * r);
     f.far = std::max(zmax * margin, f.near * 2);
   } else {
@@ -141,7 +141,8 @@ void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::d
     const double t = std::tan(l.frustum.fov_deg * 3.14159265358979323846 / 360);
     const double halo = 0.5 * soft / std::max(zocc, 1e-12);
     l.frustum.fitted = false;
-    if (l.frustum.fov_deg < 120.0) return fit_frustum(scene, l, occ, (t + halo) / (1 - texels) - t);
+    if (l.frustum.fov_deg < kWidestFit)
+      return fit_frustum(scene, l, occ, (t + halo) / (1 - texels) - t);
     return fit_frustum(scene, l, scene_vertices(scene), 0.0);
   }
   fit_frustum(scene, l, occ, 0.0);

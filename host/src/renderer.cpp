@@ -124,8 +124,8 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   else
     scene = given;
   meshes_normalised = false;
-  check_given_frusta(given);
   fit_light_frusta(scene);  // frusta not given are fitted to this scene and then fixed
+  check_frusta(given, scene);
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);
   norm = detail::normalisation(scene);
@@ -295,15 +295,26 @@ void Renderer::set_progress(ProgressObserver observer) {
 Precision Renderer::precision() const { return impl_->precision; }
 const Tuning& Renderer::tuning() const { return impl_->kernels.tuning(); }
 
-void Renderer::Impl::check_given_frusta(const Scene& given) {
-  if (warned_frustum || given.params.shadows == Shadows::None) return;
-  for (size_t l = 0; l < given.lights.size(); ++l) {
-    if (!given.lights[l].frustum.fitted || frustum_holds_casters(given, given.lights[l])) continue;
-    std::fprintf(stderr,
-                 "penumbra: warning: the shadow-map frustum given for light %zu leaves out faces "
-                 "that cast its shadows, which are cut off at its edge; leave it unfitted (or "
-                 "refit it) to follow the geometry\n",
-                 l);
+void Renderer::Impl::check_frusta(const Scene& given, const Scene& s) {
+  if (warned_frustum || s.params.shadows == Shadows::None) return;
+  for (size_t l = 0; l < s.lights.size(); ++l) {
+    const LightFrustum& f = s.lights[l].frustum;
+    const bool widest = f.automatic && f.fov_deg >= kWidestFit;
+    // A fit to this scene narrower than its widest holds every caster by construction.
+    if ((!given.lights[l].frustum.fitted && !widest) || frustum_holds_casters(s, s.lights[l]))
+      continue;
+    if (widest)
+      std::fprintf(stderr,
+                   "penumbra: warning: light %zu is among the objects: faces that cast its "
+                   "shadows lie outside its shadow map (one frustum, %g degrees wide), so those "
+                   "shadows are missing\n",
+                   l, kWidestFit);
+    else
+      std::fprintf(stderr,
+                   "penumbra: warning: the shadow-map frustum given for light %zu leaves out "
+                   "faces that cast its shadows, which are cut off at its edge; leave it "
+                   "unfitted (or refit it) to follow the geometry\n",
+                   l);
     warned_frustum = true;
     return;
   }

@@ -81,7 +81,7 @@ struct Renderer::Impl {
   int pass_done = 0, pass_total = 1;
   std::function<void()> interrupt_check;  // set_interrupt_check
   std::mutex busy;                        // held by each public call: one at a time
-  bool warned_frustum = false;            // the given-frustum warning, once per renderer
+  bool warned_frustum = false;            // check_frusta's warning, once per renderer
 
   // Waits for the device and forgets the last render: what a call that threw leaves once it
   // had `started` (past the checks of its input, which leave the last render as it was).
@@ -100,7 +100,9 @@ struct Renderer::Impl {
     }
   }
   // Warns (once) where a light's given frustum leaves out faces that cast its shadows.
-  void check_given_frusta(const Scene& given);
+  // One warning line per renderer where a light's frustum in `s` leaves out faces that cast its
+  // shadows: one `given` fixed, or one fitted at its widest (a light among the objects).
+  void check_frusta(const Scene& given, const Scene& s);
 
   Impl(Context& c, Precision p, bool automatic_, const Tuning& t);
 

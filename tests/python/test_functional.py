@@ -99,6 +99,24 @@ def test_shadows_follow_the_mesh_and_a_fixed_frustum_warns(context, capfd):
     assert err.count("penumbra: warning:") == 1 and "leaves out faces" in err, err
 
 
+def test_a_light_among_the_objects_warns_that_shadows_are_missing(capfd):
+    """Balls on four sides of a point light: one frustum cannot hold them all."""
+    ball, faces = pt.load_mesh(penumbra.data_dir() / "meshes" / "icosphere.obj")
+    balls = [ball * 0.3 + torch.tensor(c) for c in ([1.5, 0, 0], [-1.5, 0, 0], [0, 0, 1.5],
+                                                    [0, 0, -1.5])]
+    camera = penumbra.Camera.look_at((0, 6, 0.01), (0, 0, 0), width=16, height=16)
+    light = pt.Light.point(torch.tensor([0.0, 0.1, 0.0]))
+    own = penumbra.Context()  # renderers that have not warned yet
+    capfd.readouterr()
+    pt.render(balls, [faces] * 4, camera, light, context=own)
+    pt.render(balls, [faces] * 4, camera, light, context=own)
+    err = capfd.readouterr().err
+    assert err.count("penumbra: warning:") == 1 and "light 0 is among the objects" in err, err
+    # One ball beside the light fits in front of it: no warning, from renderers that could.
+    pt.render(balls[:1], [faces], camera, light, context=penumbra.Context())
+    assert "penumbra: warning" not in capfd.readouterr().err
+
+
 def test_a_collapsed_face_contributes_nothing(context):
     vertices, faces, cameras, light, albedo, ambient, params = inputs("soft")
     v = torch.cat(vertices)

@@ -42,6 +42,10 @@ enum class LightType { Point, Directional };
 // Point light: eye at the light's position, looking at `target`, perspective with `fov_deg`.
 // Directional light: orthographic with half-size `half_size`, looking along the light's
 // direction at `target` from `distance` away.
+// The widest frustum fit_light_frusta gives a point light (degrees): one among the objects gets
+// it, and casters beyond it cast no shadow.
+constexpr double kWidestFit = 120.0;
+
 struct LightFrustum {
   bool fitted = false;
   bool automatic = false;  // fitted by fit_light_frusta, not given
