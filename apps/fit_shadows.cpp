@@ -133,8 +133,8 @@ Command add_fit_shadows_command(CLI::App& root) {
       ->capture_default_str();
   c.app
       ->add_option("--shadow-model", args->shadow_model,
-                   "shadow model the fit renders through: accurate or paper (the result is "
-                   "judged by the accurate model's hard shadows either way)")
+                   "shadow model the fit renders through: " + word_choices<ShadowModel>() +
+                       " (the result is judged by the accurate model's hard shadows either way)")
       ->check(one_of<ShadowModel>())
       ->capture_default_str();
   c.app->add_option("--target", args->targets,

@@ -279,10 +279,10 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
 std::optional<XgemmParameters> clblast_tuned_xgemm(Context& ctx, size_t m, size_t n, size_t k,
                                                    double fraction, std::string* why);
 
-// Whether `p` samples shadows by the paper model's exact lookups of hard shadows (exact or gemm
-// sampling), whose weights the fragments keep (ExactWeights).
+// Whether `p` samples shadows by exact lookups of hard shadows that factor into matrix products
+// (the paper model's, exact or gemm sampling), whose weights the fragments keep (ExactWeights).
 inline bool exact_lookups(const RenderParams& p) {
-  return p.shadows == Shadows::Hard && p.shadow_model == ShadowModel::Paper &&
+  return p.shadows == Shadows::Hard && shadow_model_traits(p.shadow_model).exact_products &&
          !sampling_method(p.sampling).windowed;
 }
 
