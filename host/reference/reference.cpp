@@ -267,7 +267,8 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
   return acc / sum;
 }
 
-// The accurate model (kernels/pcf.cl): c = 1 − A·smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
+// The accurate model (kernels/accurate_lookups.cl): c = 1 − A·smoothstep(β − 2γ_s, β + 2γ_s, d_ij −
+// S_ij).
 double lit_step(double delta, double A, const RenderParams& p) {
   const double t = std::clamp(
       (delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);

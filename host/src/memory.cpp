@@ -50,7 +50,7 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
          fragments(pixels, per_pixel) * per_fragment;
 }
 
-// The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
+// The exact lookups of hard shadows with the paper's model (paper_lookups.cpp, exact_forward and
 // exact_backward) of one camera and light: batches of at most ~96 MiB of weights and products,
 // or fewer fragments. `kept`: the weights, Gx, Gy and their supports (int4), the backward's
 // also Gxd, Gyd, which stay with the camera's fragments from call to call (ExactWeights), the

@@ -10,7 +10,7 @@
 namespace penumbra::detail {
 namespace {
 
-// The accurate model (pcf.cpp): its lookups read the light's blocker-search variance.
+// The accurate model (accurate_lookups.cpp): its lookups read the light's blocker-search variance.
 void accurate_lookup(Kernels& k, const RenderParams& p, const Light& L, const View& v, Fragments& f,
                      int light, const LightMaps& m) {
   pcf_forward(k, p, blocker_search_sigma(p, L), v, f, light, m);
@@ -21,7 +21,7 @@ MapGrads accurate_lookup_backward(Kernels& k, const RenderParams& p, const Light
   return pcf_backward(k, p, blocker_search_sigma(p, L), v, f, fgr, light, m, gsize);
 }
 // Soft shadows' search map, S and A at a stride of 2 or more; the backward's bucket radii, and
-// per call its gather entries' copies of the fragments (pcf.cpp).
+// per call its gather entries' copies of the fragments (accurate_lookups.cpp).
 ModelBytes accurate_memory(const ModelMemoryInput& in) {
   ModelBytes b;
   if (in.shadows == Shadows::Soft) b.kept += in.texels / 2 * in.real_bytes;
@@ -31,7 +31,7 @@ ModelBytes accurate_memory(const ModelMemoryInput& in) {
   return b;
 }
 
-// The paper model (shadow.cpp, penumbra.cpp): its lookups need no light but its index.
+// The paper model (paper_lookups.cpp, paper_soft_map.cpp): its lookups need no light but its index.
 void paper_lookup(Kernels& k, const RenderParams& p, const Light& /*L*/, const View& v,
                   Fragments& f, int light, const LightMaps& m) {
   shadow_forward(k, p, v, f, light, m);
@@ -41,7 +41,7 @@ MapGrads paper_lookup_backward(Kernels& k, const RenderParams& p, const Light& /
                                double* /*gsize: through P, not the lookups*/) {
   return shadow_backward(k, p, v, f, fgr, light, m);
 }
-// Soft shadows' penumbra map P, its faces' boxes and its per-texel sums (penumbra.cpp). The
+// Soft shadows' penumbra map P, its faces' boxes and its per-texel sums (paper_soft_map.cpp). The
 // exact hard shadows' weights are counted by memory.cpp (exact_lookups).
 ModelBytes paper_memory(const ModelMemoryInput& in) {
   ModelBytes b;
@@ -51,9 +51,9 @@ ModelBytes paper_memory(const ModelMemoryInput& in) {
 
 // In the enum's order, one row per model: the build stops where a model has none.
 constexpr ShadowModelPasses kRows[] = {
-    {ShadowModel::Accurate, "pcf.cl", false, 1, true, nullptr, nullptr, nullptr, nullptr, nullptr,
-     accurate_lookup, accurate_lookup_backward, accurate_memory},
-    {ShadowModel::Paper, "shadow.cl", true, 0, false,
+    {ShadowModel::Accurate, "accurate_lookups.cl", false, 1, true, nullptr, nullptr, nullptr,
+     nullptr, nullptr, accurate_lookup, accurate_lookup_backward, accurate_memory},
+    {ShadowModel::Paper, "paper_lookups.cl", true, 0, false,
      [](const RenderParams& p) { return p.shadows == Shadows::Soft; }, "penumbra map",
      penumbra_forward, penumbra_backward_texels, penumbra_backward_faces, paper_lookup,
      paper_lookup_backward, paper_memory},

@@ -80,8 +80,8 @@ struct SamplingMethod {
 const std::vector<SamplingMethod>& sampling_methods();
 const SamplingMethod& sampling_method(Sampling s);
 // Who computes the exact sum of the paper model's hard shadows, which factors into two matrix
-// products: `Kernels` (penumbra's kernels/matmul.cl), `CLBlast` (CLBlast's GEMM), or `Auto`
-// (the tuning's choice for the device: ExactSumTuning::clblast, data/tuning/*.json). Every
+// products: `Kernels` (penumbra's kernels/paper_hard_exact.cl), `CLBlast` (CLBlast's GEMM), or
+// `Auto` (the tuning's choice for the device: ExactSumTuning::clblast, data/tuning/*.json). Every
 // other exact sum (soft shadows, the accurate model) runs penumbra's own kernels.
 enum class ExactBackend { Auto, Kernels, CLBlast };
 // How shadows are computed (docs/shadows.md): `Accurate` (percentage-closer filtering of a
@@ -97,7 +97,8 @@ enum class ShadowModel { Accurate, Paper, Count };
 // only the faces that can cast a shadow (`casters_only`: their coverage A is a lookup input and the
 // frustum is fitted tightly to them; otherwise every vertex, so that every receiver lies in the
 // map); and whether the exact sum of its hard shadows factors into two matrix products
-// (`exact_products`: matmul.cl or CLBlast, exact backend `clblast`), with why not where it does not
+// (`exact_products`: paper_hard_exact.cl or CLBlast, exact backend `clblast`), with why not where
+// it does not
 // (`no_products`).
 struct ShadowModelTraits {
   ShadowModel value;

@@ -49,9 +49,9 @@ std::string program_options(const std::string& file, Precision precision, const 
              : " -DROW=" + std::to_string(device_defaults(device).shadow_row);
     o += " -DGATHER_CHUNK=" + std::to_string(kGatherChunk);
   }
-  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
+  if (file == "paper_soft_map.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "bin.cl") o += " -DSORT_GROUP=" + std::to_string(device_defaults(device).sort_group);
-  if (file == "matmul.cl")
+  if (file == "paper_hard_exact.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
   if (is_oclgrind(device)) o += " -DPENUMBRA_OCLGRIND";
@@ -68,7 +68,7 @@ std::vector<std::string> program_variants(const std::string& file, const Tuning&
   }
   if (const ShadowModelPasses* model = lookup_file_model(file)) {
     std::vector<std::string> v;
-    if (model->unsampled_variant) v.push_back("");  // shadow.cl's hard-shadow kernels
+    if (model->unsampled_variant) v.push_back("");  // paper_lookups.cl's hard-shadow kernels
     for (const SamplingMethod& m : sampling_methods()) v.push_back(sampling_define(m.value));
     return v;
   }
