@@ -1,7 +1,6 @@
 // The shadow models' rows on the device (shadow_models.hpp): each points at its stages in ops/.
 #include "shadow_models.hpp"
 
-#include <algorithm>
 #include <iterator>
 #include <string>
 
