@@ -131,8 +131,9 @@ Command add_fit_shadows_command(CLI::App& root) {
   add_shadows_option(*c.app, args->shadows, "shadows to optimise: hard or soft", {"hard", "soft"})
       ->capture_default_str();
   add_shadow_model_option(*c.app, args->shadow_model,
-                          "shadow model the fit renders through: accurate or paper (the result "
-                          "is judged by the accurate model's hard shadows either way)")
+                          "shadow model the fit renders through: " + word_choices<ShadowModel>() +
+                              " (the result is judged by the accurate model's hard shadows "
+                              "either way)")
       ->capture_default_str();
   c.app->add_option("--target", args->targets,
                     "target shadow image (repeatable, one per light): the shadow dark on a light "

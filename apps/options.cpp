@@ -52,6 +52,28 @@ CLI::Validator one_of(const std::vector<std::string>& words) {
       names);
 }
 
+namespace {
+// "shadow model: accurate (what it does) or paper (...)", and the models' map sides, from the
+// table of shadow models.
+std::string shadow_model_help() {
+  std::string help = "shadow model: ";
+  const std::vector<ShadowModelTraits>& models = shadow_models();
+  for (size_t i = 0; i < models.size(); ++i)
+    help += std::string(i == 0                   ? ""
+                        : i + 1 == models.size() ? " or "
+                                                 : ", ") +
+            models[i].word + " (" + models[i].does + ")";
+  return help;
+}
+std::string map_size_help() {
+  std::string help = "shadow-map size W_s = H_s in texels (1 to " +
+                     std::to_string(kMaxShadowMapSize) + "; default: the model's";
+  for (const ShadowModelTraits& m : shadow_models())
+    help += ", " + std::to_string(m.map_side) + " " + m.word;
+  return help + ")";
+}
+}  // namespace
+
 CLI::Option* add_shadows_option(CLI::App& cmd, std::string& value, const std::string& help,
                                 const std::vector<std::string>& words) {
   return cmd.add_option("--shadows", value, help)
@@ -90,16 +112,8 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
           ->check(one_of<ExactBackend>())
           ->group(shadow_group);
   o.o_shadow_model =
-      add_shadow_model_option(cmd, o.shadow_model,
-                              "shadow model: accurate (percentage-closer filtering; soft "
-                              "shadows by a blocker search, PCSS) or paper (filter then "
-                              "compare; the penumbra map)")
-          ->group(shadow_group);
-  o.o_map_size = cmd.add_option("--map-size", o.map_size,
-                                "shadow-map size W_s = H_s in texels (1 to " +
-                                    std::to_string(kMaxShadowMapSize) +
-                                    "; default: the model's, 384 accurate, 256 paper)")
-                     ->group(shadow_group);
+      add_shadow_model_option(cmd, o.shadow_model, shadow_model_help())->group(shadow_group);
+  o.o_map_size = cmd.add_option("--map-size", o.map_size, map_size_help())->group(shadow_group);
   o.o_light_size = cmd.add_option("--light-size", o.light_size,
                                   "diameter D_L of every light (world units, >= 0; soft shadows)")
                        ->group(shadow_group);

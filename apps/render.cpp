@@ -57,7 +57,7 @@ std::vector<FileContent> render_files(const RenderArgs& a, const std::vector<Ren
 std::string sampling_summary(const RenderParams& p, const Renderer& renderer) {
   std::string s = word(p.sampling);
   if (p.sampling != Sampling::Exact || p.shadows != Shadows::Hard ||
-      p.shadow_model != ShadowModel::Paper)
+      !shadow_model_traits(p.shadow_model).exact_products)
     return s;
   const std::string used = word(exact_backend_in_force(p, renderer.tuning()));
   return s + " on " + (p.exact_backend == ExactBackend::Auto ? "auto → " + used : used);

@@ -10,7 +10,7 @@
 //                     included) — with their weight, depth, shading terms and light-map
 //                     coordinates, in face order
 //   raster_resolve    per pixel: colour, silhouette and soft depth from the fragments and the
-//                     shadow terms s (1 unless shadow.cl has sampled them)
+//                     shadow terms s (1 unless paper_lookups.cl has sampled them)
 // Buffers (V vertices, F faces, N = W·H pixels, row 0 at the top, K fragments, nl lights):
 //   vscreen, vworld  V × real4;  faces F × int4;  fbbox, fnormal F × int4/real4 (face_setup)
 //   albedo           3F × real4 albedo per face corner

@@ -48,7 +48,8 @@ RunResult run(const std::string& args, const fs::path& dir, const std::string& t
 }
 
 // A small render with soft shadows, its raw arrays written to `raw`; `model` picks the programs
-// (accurate: pcf.cl; paper with exact sampling: penumbra.cl and shadow.cl).
+// (accurate: accurate_lookups.cl; paper with exact sampling: paper_soft_map.cl and
+// paper_lookups.cl).
 std::string render_args(const fs::path& raw, const std::string& model = "accurate") {
   return "render -o " + quote((raw / "image.png").string()) +
          " --width 48 --height 32 --shadows soft --map-size 32 --shadow-model " + model +

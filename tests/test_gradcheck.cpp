@@ -337,8 +337,8 @@ TEST(GradCheck, HardShadowsBundledScene) {
     }
 }
 
-// The paper model's exact sum on a 40² map: no multiple of matmul.cl's column blocks, so the
-// products' ragged edges (matmul_nn_rowdots, matmul_tn) are in the gradients checked. (Twelve
+// The paper model's exact sum on a 40² map: no multiple of paper_hard_exact.cl's column blocks, so
+// the products' ragged edges (matmul_nn_rowdots, matmul_tn) are in the gradients checked. (Twelve
 // sampled entries need not touch every texel column: ExactEqualsGemmGradients compares all of
 // dL/dS's effect with CLBlast's on the same map.)
 TEST(GradCheck, HardExactShadowsRaggedMap) {

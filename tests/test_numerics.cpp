@@ -61,9 +61,9 @@
 //   vertex_on_eye_plane   the same through the camera, shadows off: ground vertices exactly in
 //                         the camera's eye plane get NaN gradients.
 //   gamma_p_1e3           γ_P = 1e3 (legal: positive): soft-shadow colour, penumbra map and
-//                         every gradient NaN. Cause: penumbra.cl computes P = (e^−γ_P + Σ a·v) /
-//                         (e^−γ_P + Σ a), a = (1 − v)·e^−γ_P·v, unshifted: e^−γ_P underflows to
-//                         0 (float from γ_P ≈ 104, double from γ_P ≈ 746) and a texel with no
+//                         every gradient NaN. Cause: paper_soft_map.cl computes P = (e^−γ_P + Σ
+//                         a·v) / (e^−γ_P + Σ a), a = (1 − v)·e^−γ_P·v, unshifted: e^−γ_P underflows
+//                         to 0 (float from γ_P ≈ 104, double from γ_P ≈ 746) and a texel with no
 //                         occluder gives 0/0. A shifted (log-sum-exp) form avoids it.
 //
 // Images are small so that the whole file runs in a few seconds on PoCL.

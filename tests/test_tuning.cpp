@@ -151,7 +151,7 @@ TEST(Tuning, RenderBuildsNoBackwardKernel) {
   for (size_t c = 0; c < out.size(); ++c)
     g[c].color = Image(out[c].color.width, out[c].color.height, 3, 1.0);
   renderer.backward(s, g);
-  // transform, raster, penumbra, shadow.cl for soft_sample_bwd and for shadow_boxes
+  // transform, raster, penumbra, paper_lookups.cl for soft_sample_bwd and for shadow_boxes
   EXPECT_EQ(backward_programs(), 5);
 }
 

@@ -101,9 +101,9 @@ ShadowMap light_pass(const Scene& scene, size_t index) {
   const double sigma = light_pass_sigma(p);
   const double gamma = light_pass_gamma(p);
   const Shader no_colour = [](const Face&, const dvec3&) { return dvec3(0.0); };
-  const bool accurate = p.shadow_model == ShadowModel::Accurate;
-  RenderOutput out = raster(accurate ? casters_only(scene, scene.lights[index]) : scene, view,
-                            sigma, gamma, dvec3(0.0), no_colour);
+  const bool casters = shadow_model_traits(p.shadow_model).casters_only;
+  RenderOutput out = raster(casters ? casters_only(scene, scene.lights[index]) : scene, view, sigma,
+                            gamma, dvec3(0.0), no_colour);
   return {view, std::move(out.depth), Image(), std::move(out.silhouette)};
 }
 
@@ -267,7 +267,8 @@ double soft_shadow_term(const ShadowMap& map, const RenderParams& p, const Face&
   return acc / sum;
 }
 
-// The accurate model (kernels/pcf.cl): c = 1 − A·smoothstep(β − 2γ_s, β + 2γ_s, d_ij − S_ij).
+// The accurate model (kernels/accurate_lookups.cl): c = 1 − A·smoothstep(β − 2γ_s, β + 2γ_s, d_ij −
+// S_ij).
 double lit_step(double delta, double A, const RenderParams& p) {
   const double t = std::clamp(
       (delta - (shadow_beta(p) - 2 * shadow_gamma_s(p))) / (4 * shadow_gamma_s(p)), 0.0, 1.0);
@@ -317,6 +318,22 @@ double pcf_shadow_term(const ShadowMap& map, const RenderParams& p, const Light&
   return f[0] > 0.0 ? f[1] / f[0] : 1.0;
 }
 
+// The shadow term of `light` at X by the reference of the scene's shadow model (a model added
+// to ShadowModel without a case here stops the build: -Wswitch).
+double shadow_term_of_model(const ShadowMap& map, const RenderParams& p, const Light& light,
+                            const Face& face, const dvec3& X) {
+  switch (p.shadow_model) {
+    case ShadowModel::Accurate:
+      return pcf_shadow_term(map, p, light, face, X);
+    case ShadowModel::Paper:
+      return p.shadows == Shadows::Soft ? soft_shadow_term(map, p, face, X)
+                                        : shadow_term(map, p, X);
+    case ShadowModel::Count:
+      break;
+  }
+  throw Error("reference: no shadow model " + std::to_string(int(p.shadow_model)));
+}
+
 // Colour of face `face` at perspective-correct barycentrics b (math.md §3), with shadow terms
 // from `maps` (one per light; empty when shadows are off, s = 1).
 dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& maps,
@@ -331,13 +348,8 @@ dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& 
     const Light& light = scene.lights[li];
     const dvec3 l = light.type == LightType::Point ? glm::normalize(light.position - X)
                                                    : -glm::normalize(light.direction);
-    double s = 1.0;
-    const RenderParams& p = scene.params;
-    if (!maps.empty() && p.shadow_model == ShadowModel::Accurate)
-      s = pcf_shadow_term(maps[li], p, light, face, X);
-    else if (!maps.empty())
-      s = p.shadows == Shadows::Soft ? soft_shadow_term(maps[li], p, face, X)
-                                     : shadow_term(maps[li], p, X);
+    const double s =
+        maps.empty() ? 1.0 : shadow_term_of_model(maps[li], scene.params, light, face, X);
     color += s * a * light.color * std::max(0.0, glm::dot(n, l));
   }
   return color;

@@ -6,6 +6,7 @@
 
 #include "penumbra/error.hpp"
 #include "renderer_impl.hpp"
+#include "shadow_models.hpp"
 #include "view_params.hpp"
 
 namespace penumbra {
@@ -146,15 +147,11 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
   auto gdepth_buf = detail::upload_reals(ctx, precision, gdepth);
   auto fgr = detail::raster_resolve_backward(kernels, cp.view, cp.fragments, cp.resolved,
                                              gimage_buf, gdepth_buf);
-  const RenderParams& rp = scene.params;
+  const detail::ShadowModelPasses& model = detail::shadow_model_passes(scene.params.shadow_model);
   for (size_t l = 0; l < light_passes.size(); ++l) {
     stage("shadow lookups");
-    const detail::LightMaps maps = light_passes[l].maps();
-    auto gm =
-        rp.shadow_model == ShadowModel::Accurate
-            ? detail::pcf_backward(kernels, rp, blocker_search_sigma(rp, scene.lights[l]), cp.view,
-                                   cp.fragments, fgr, int(l), maps, &sums.light_size[l])
-            : detail::shadow_backward(kernels, rp, cp.view, cp.fragments, fgr, int(l), maps);
+    auto gm = model.lookup_backward(kernels, scene.params, scene.lights[l], cp.view, cp.fragments,
+                                    fgr, int(l), light_passes[l].maps(), &sums.light_size[l]);
     accumulate(ctx, precision, sums.maps[l], gm.S);
     if (gm.P()) accumulate(ctx, precision, sums.penumbra_maps[l], gm.P);
     if (gm.A()) accumulate(ctx, precision, sums.covers[l], gm.A);
@@ -165,22 +162,24 @@ void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardS
   sum_face_grads(cp, fg, sums, &sums.lights, nullptr);
 }
 
-// The penumbra map back to its shadow map, the light's size and the occluders; then the shadow
-// map (and the accurate model's coverage) back through the light's own raster pass.
+// The model's light map (the paper model's penumbra map) back to its shadow map, the light's
+// size and the occluders; then the shadow map (and, where the lookups read it, the coverage)
+// back through the light's own raster pass.
 void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
   const LightPass& lp = light_passes[light];
   const cl::Buffer& S = lp.resolved.depth;
   const size_t ntex = size_t(lp.view.W) * lp.view.H;
+  const detail::ShadowModelPasses& model = detail::shadow_model_passes(scene.params.shadow_model);
   cl::Buffer gpen;
-  if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
-    stage("penumbra map");
+  if (model.builds_light_map(scene.params)) {
+    stage(model.light_map_stage);
     gpen = detail::upload_reals(ctx, precision, sums.penumbra_maps[light]);
     accumulate(ctx, precision, sums.maps[light],
-               detail::penumbra_backward_texels(kernels, geometry, lp.view, lp.screen, S,
-                                                lp.penumbra, gpen, &sums.light_size[light]));
+               model.light_map_backward_texels(kernels, geometry, lp.view, lp.screen, S,
+                                               lp.penumbra, gpen, &sums.light_size[light]));
   }
   stage("shadow map");
-  auto gimage_buf = scene.params.shadow_model == ShadowModel::Accurate
+  auto gimage_buf = shadow_model_traits(scene.params.shadow_model).casters_only
                         ? detail::upload_reals(ctx, precision, silhouette_grads(sums.covers[light]))
                         : detail::zero_reals(ctx, precision, ntex * 4);
   auto gdepth_buf = detail::upload_reals(ctx, precision, sums.maps[light]);
@@ -189,8 +188,7 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
   auto fg = detail::raster_backward(kernels, geometry, lp.view, lp.screen, lp.fragments, fgr,
                                     gimage_buf, gdepth_buf);
   if (gpen())
-    detail::penumbra_backward_faces(kernels, geometry, lp.view, lp.screen, S, lp.penumbra, gpen,
-                                    fg);
+    model.light_map_backward_faces(kernels, geometry, lp.view, lp.screen, S, lp.penumbra, gpen, fg);
   sum_face_grads(lp, fg, sums, nullptr, &sums.frames[light]);
 }
 

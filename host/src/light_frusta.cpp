@@ -167,7 +167,7 @@ void fit_light_frusta(Scene& scene) {
   for (Light& l : scene.lights) {
     if (l.frustum.fitted) continue;
     l.frustum.search_sigma = 0.0;  // set by the accurate model's fit (soft shadows)
-    if (scene.params.shadow_model == ShadowModel::Accurate)
+    if (shadow_model_traits(scene.params.shadow_model).casters_only)
       fit_tight_frustum(scene, l, b);
     else
       fit_frustum(scene, l, scene_vertices(scene), 0.0);

@@ -10,6 +10,7 @@
 
 #include "ops/ops.hpp"
 #include "penumbra/renderer.hpp"
+#include "shadow_models.hpp"
 
 namespace penumbra {
 namespace {
@@ -49,7 +50,7 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
          fragments(pixels, per_pixel) * per_fragment;
 }
 
-// The exact lookups of hard shadows with the paper's model (shadow.cpp, exact_forward and
+// The exact lookups of hard shadows with the paper's model (paper_lookups.cpp, exact_forward and
 // exact_backward) of one camera and light: batches of at most ~96 MiB of weights and products,
 // or fewer fragments. `kept`: the weights, Gx, Gy and their supports (int4), the backward's
 // also Gxd, Gyd, which stay with the camera's fragments from call to call (ExactWeights), the
@@ -95,21 +96,21 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   const size_t texels = size_t(shadow_map_side(p)) * size_t(shadow_map_side(p));
   size_t exact_kept = 0, exact_call = 0;  // exact_lookup_bytes, over the cameras and lights
   size_t call = 0;                        // the largest of one lookup call's own buffers
+  size_t camera_fragments = 0;
+  for (const Camera& c : scene.cameras)
+    camera_fragments = std::max(camera_fragments,
+                                fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel));
+  const auto model_bytes = detail::shadow_model_passes(p.shadow_model).memory;
+  const double per_texel = shadow_model_traits(p.shadow_model).casters_only
+                               ? kCasterFragmentsPerTexel
+                               : kFragmentsPerTexel;
   for (size_t l = 0; l < lights; ++l) {
-    bytes += view_bytes(
-        z, texels, 0, 0, backward,
-        p.shadow_model == ShadowModel::Accurate ? kCasterFragmentsPerTexel : kFragmentsPerTexel);
-    if (p.shadows == Shadows::Soft && p.shadow_model == ShadowModel::Paper)
-      bytes += z.nf * 16 + texels * 3 * z.rs;  // the penumbra map P and its sums
-    else if (p.shadows == Shadows::Soft)
-      bytes += texels / 2 * z.rs;  // the search map: S and A at a stride of 2 or more (pcf.cpp)
-    if (backward) bytes += texels * 7 * z.rs;  // gradients of S (P or A), image, depth
-    if (backward && p.shadow_model == ShadowModel::Accurate) {
-      bytes += texels * z.rs;                // pcf_gather's bucket radii (pcf.cpp)
-      for (const Camera& c : scene.cameras)  // its entries' copies of the fragments, one call's
-        call = std::max(call, fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel) *
-                                  (10 * z.rs + sizeof(int)));
-    }
+    bytes += view_bytes(z, texels, 0, 0, backward, per_texel);
+    const detail::ModelBytes own =
+        model_bytes({z.rs, z.nf, texels, camera_fragments, backward, p.shadows});
+    bytes += own.kept;  // the model's own maps (shadow_models.cpp)
+    call = std::max(call, own.call);
+    if (backward) bytes += texels * 7 * z.rs;               // gradients of S (P or A), image, depth
     if (backward && !sampling_method(p.sampling).windowed)  // the exact gathers' chunk boxes
       for (const Camera& c : scene.cameras)
         bytes += (fragments(size_t(c.width) * size_t(c.height), kFragmentsPerPixel) /

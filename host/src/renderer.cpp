@@ -10,6 +10,7 @@
 #include "common/layout.h"
 #include "penumbra/error.hpp"
 #include "renderer_impl.hpp"
+#include "shadow_models.hpp"
 #include "view_params.hpp"
 
 namespace penumbra {
@@ -192,17 +193,18 @@ detail::Fragments take_spare(std::vector<detail::Fragments>& spares, int i) {
 }
 }  // namespace
 
-// transform → raster → resolve: the shadow map S (and coverage A), then the penumbra map.
+// transform → raster → resolve: the shadow map S (and coverage A), then the model's light map
+// (the paper model's penumbra map).
 void Renderer::Impl::shadow_map_pass(int light, detail::Fragments spare) {
   LightPass& lp = light_passes[light];
   const int size = shadow_map_side(scene.params);
   stage("shadow map");
   rasterise(lp, size, size, 0, detail::light_view_params(scene, light), std::move(spare));
   lp.resolved = detail::raster_resolve(kernels, lp.view, lp.fragments);
-  if (scene.params.shadows == Shadows::Soft && scene.params.shadow_model == ShadowModel::Paper) {
-    stage("penumbra map");
-    lp.penumbra =
-        detail::penumbra_forward(kernels, geometry, lp.view, lp.screen, lp.resolved.depth);
+  const detail::ShadowModelPasses& model = detail::shadow_model_passes(scene.params.shadow_model);
+  if (model.builds_light_map(scene.params)) {
+    stage(model.light_map_stage);
+    lp.penumbra = model.light_map(kernels, geometry, lp.view, lp.screen, lp.resolved.depth);
   }
 }
 
@@ -213,15 +215,11 @@ RenderOutput Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
   stage("raster");
   view_P.push_back(detail::view_params(scene, cam));
   rasterise(cp, cam.width, cam.height, int(scene.lights.size()), view_P.back(), std::move(spare));
+  const detail::ShadowModelPasses& model = detail::shadow_model_passes(scene.params.shadow_model);
   for (size_t l = 0; l < light_passes.size(); ++l) {
     stage("shadow lookups");
-    const detail::LightMaps maps = light_passes[l].maps();
-    if (scene.params.shadow_model == ShadowModel::Accurate)
-      detail::pcf_forward(kernels, scene.params,
-                          blocker_search_sigma(scene.params, scene.lights[l]), cp.view,
-                          cp.fragments, int(l), maps);
-    else
-      detail::shadow_forward(kernels, scene.params, cp.view, cp.fragments, int(l), maps);
+    model.lookup(kernels, scene.params, scene.lights[l], cp.view, cp.fragments, int(l),
+                 light_passes[l].maps());
   }
   stage("resolve");
   cp.resolved = detail::raster_resolve(kernels, cp.view, cp.fragments);

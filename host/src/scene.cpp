@@ -204,11 +204,11 @@ void check_combination(const RenderParams& p) {
           "soft shadows sum with penumbra's kernels; their sum does not factor into matrix "
           "products (exact backend 'clblast', sampling 'gemm'): use exact backend 'kernels' "
           "or 'auto'");
-    if (p.shadows != Shadows::None && p.shadow_model == ShadowModel::Accurate)
-      fail(
-          "the accurate shadow model compares, then filters; its sum does not factor into "
-          "matrix products (exact backend 'clblast', sampling 'gemm'): use exact backend "
-          "'kernels' or 'auto', or shadow model 'paper'");
+    if (const ShadowModelTraits& m = shadow_model_traits(p.shadow_model);
+        p.shadows != Shadows::None && !m.exact_products)
+      fail(std::string("the ") + m.word + " shadow model " + m.no_products +
+           "; its sum does not factor into matrix products (exact backend 'clblast', sampling "
+           "'gemm'): use exact backend 'kernels' or 'auto', or shadow model 'paper'");
   }
 }
 
@@ -298,10 +298,32 @@ std::string sampling_word_choices() {
   for (const auto& [value, w] : enum_words<Sampling>()) out += w + ", ";
   return out.substr(0, out.size() - 2) + " or " + gemm_shorthand();
 }
+// The defaults and their reasons: docs/shadows.md (paper: math.md §10). The accurate model's
+// compare needs no slack for a tilted receiver, so a small β keeps contact shadows closed; its
+// hard shadow's edge falls within a fraction of a texel of the true edge, so the map sets how
+// far it can stray (against the ray tracer a 256² map left one contact pixel lit on a knot
+// touching the ground, bench/accuracy.hpp).
+const std::vector<ShadowModelTraits>& shadow_models() {
+  static const std::vector<ShadowModelTraits> models{
+      {ShadowModel::Accurate, "accurate",
+       "percentage-closer filtering; soft shadows by a blocker search, PCSS", 0.35, 0.004, 0.01,
+       384, true, false, "compares, then filters"},
+      {ShadowModel::Paper, "paper", "filter then compare; the penumbra map", 2.0, 0.02, 0.05, 256,
+       false, true, ""}};
+  return models;
+}
+const ShadowModelTraits& shadow_model_traits(ShadowModel m) {
+  for (const ShadowModelTraits& t : shadow_models())
+    if (t.value == m) return t;
+  throw Error("shadow model " + std::to_string(int(m)) + " is not in shadow_models()");
+}
 template <>
 const std::vector<std::pair<ShadowModel, std::string>>& enum_words<ShadowModel>() {
-  static const std::vector<std::pair<ShadowModel, std::string>> words{
-      {ShadowModel::Accurate, "accurate"}, {ShadowModel::Paper, "paper"}};
+  static const std::vector<std::pair<ShadowModel, std::string>> words = [] {
+    std::vector<std::pair<ShadowModel, std::string>> w;
+    for (const ShadowModelTraits& m : shadow_models()) w.emplace_back(m.value, m.word);
+    return w;
+  }();
   return words;
 }
 
@@ -350,17 +372,16 @@ double light_pass_gamma(const RenderParams& p) {
 }
 
 double shadow_sigma_s(const RenderParams& p) {
-  return p.sigma_s ? *p.sigma_s : p.shadow_model == ShadowModel::Paper ? 2.0 : 0.35;
+  return p.sigma_s ? *p.sigma_s : shadow_model_traits(p.shadow_model).sigma_s;
 }
 double shadow_gamma_s(const RenderParams& p) {
-  return p.gamma_s ? *p.gamma_s
-                   : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.02 : 0.004);
+  return p.gamma_s ? *p.gamma_s : p.depth_unit * shadow_model_traits(p.shadow_model).gamma_s;
 }
 double shadow_beta(const RenderParams& p) {
-  return p.beta ? *p.beta : p.depth_unit * (p.shadow_model == ShadowModel::Paper ? 0.05 : 0.01);
+  return p.beta ? *p.beta : p.depth_unit * shadow_model_traits(p.shadow_model).beta;
 }
 int shadow_map_side(const RenderParams& p) {
-  return p.shadow_map_size ? *p.shadow_map_size : p.shadow_model == ShadowModel::Paper ? 256 : 384;
+  return p.shadow_map_size ? *p.shadow_map_size : shadow_model_traits(p.shadow_model).map_side;
 }
 
 Camera orbit(const Camera& camera, double angle) {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "common/layout.h"
+#include "shadow_models.hpp"
 
 namespace penumbra::detail {
 namespace {
@@ -118,10 +119,10 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
   std::vector<double> P =
       base_params(s.params, s.params.sigma, s.params.gamma, c.near, c.far, camera_frame(c));
   P[P_NLIGHTS] = double(s.lights.size());
-  const bool accurate = s.params.shadow_model == ShadowModel::Accurate;
-  P[P_SHADOW_MODEL] = accurate ? 1 : 0;
-  P[P_RECEIVER_PLANE] =
-      s.params.shadows == Shadows::Soft || (accurate && s.params.shadows == Shadows::Hard);
+  const ShadowModelPasses& model = shadow_model_passes(s.params.shadow_model);
+  P[P_SHADOW_MODEL] = model.layout_code;
+  P[P_RECEIVER_PLANE] = s.params.shadows == Shadows::Soft ||
+                        (model.hard_receiver_plane && s.params.shadows == Shadows::Hard);
   put3(P, P_AMBIENT, s.ambient);
   put3(P, P_BACKGROUND, s.background);
   for (size_t i = 0; i < s.lights.size(); ++i) {
@@ -147,7 +148,7 @@ std::vector<double> light_view_params(const Scene& s, size_t i) {
                                       light_frame(s.lights[i]));
   P[P_SHADOWS] = 0;
   P[P_LIGHT_SIZE] = s.lights[i].size;
-  if (r.shadow_model == ShadowModel::Accurate) {  // the map holds the casters alone (pcf.cl)
+  if (shadow_model_traits(r.shadow_model).casters_only) {  // the map holds the casters alone
     const Bounds b = bounds(s);
     P[P_CASTERS_ONLY] = 1;
     put3(P, P_SCENE_LO, b.lo);

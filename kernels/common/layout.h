@@ -35,14 +35,14 @@
 #define P_WINDOW_R2 22   /* 2σ_s·ln(1/ε_λ): squared radius of the truncated shadow-map window */
 #define P_WINDOW_R 23    /* its square root */
 #define P_FRAME 24       /* the view's camera frame (FR_SIZE reals) */
-#define P_SHADOW_MODEL 38 /* 0 paper (filter then compare, penumbra map), 1 accurate (pcf.cl) */
+#define P_SHADOW_MODEL 38 /* 0 paper (filter then compare, penumbra map), 1 accurate (PCF) */
 #define P_RECEIVER_PLANE 39 /* 1: fragments keep their receiver-plane depth gradient ∇_μ d */
 #define P_CASTERS_ONLY 40 /* a light's view in the accurate model: 1 drops the faces that cannot
                              cast a shadow (transform.cl's casts_no_shadow) */
 #define P_SCENE_LO 41    /* the scene's bounding box, xyz (with P_CASTERS_ONLY) */
 #define P_SCENE_HI 44
 #define P_NEAREST_TEXEL_COUNTS 47 /* 1: the texel nearest any μ in a map weighs g' > 0 in the
-                                     truncated window (shadow.cl's shadow_sample) */
+                                     truncated window (paper_lookups.cl's shadow_sample) */
 #define P_LIGHTS 48      /* P_LIGHT_STRIDE reals per light: */
 #define L_POS 0          /*   position (point) or travel direction (directional), xyz */
 #define L_POINT 3        /*   1 point light, 0 directional */

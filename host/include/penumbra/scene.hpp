@@ -88,15 +88,37 @@ struct SamplingMethod {
 const std::vector<SamplingMethod>& sampling_methods();
 const SamplingMethod& sampling_method(Sampling s);
 // Who computes the exact sum of the paper model's hard shadows, which factors into two matrix
-// products: `Kernels` (penumbra's kernels/matmul.cl), `CLBlast` (CLBlast's GEMM), or `Auto`
-// (the tuning's choice for the device: ExactSumTuning::clblast, data/tuning/*.json). Every
+// products: `Kernels` (penumbra's kernels/paper_hard_exact.cl), `CLBlast` (CLBlast's GEMM), or
+// `Auto` (the tuning's choice for the device: ExactSumTuning::clblast, data/tuning/*.json). Every
 // other exact sum (soft shadows, the accurate model) runs penumbra's own kernels.
 enum class ExactBackend { Auto, Kernels, CLBlast };
 // How shadows are computed (docs/shadows.md): `Accurate` (percentage-closer filtering of a
 // smooth-step depth compare with a receiver-plane bias; soft shadows widen the filter by the
 // penumbra width found by a blocker search; light frusta fitted tightly to the occluders) or
 // `Paper` (the paper's model: filter then compare for hard shadows, the penumbra map for soft).
-enum class ShadowModel { Accurate, Paper };
+// `Count` is no model but how many there are: every value below it has its row in
+// shadow_models() and in the renderer's table (tests/test_shadow_models.cpp checks both).
+enum class ShadowModel { Accurate, Paper, Count };
+// One row per shadow model, in scene.cpp's table: its word (scene files, --shadow-model,
+// Python, messages) and what it does (--shadow-model's help); its defaults of σ_s (texel²), γ_s and
+// β (per depth unit) and of the map side W_s (shadow_sigma_s, ...); whether its light pass holds
+// only the faces that can cast a shadow (`casters_only`: their coverage A is a lookup input and the
+// frustum is fitted tightly to them; otherwise every vertex, so that every receiver lies in the
+// map); and whether the exact sum of its hard shadows factors into two matrix products
+// (`exact_products`: paper_hard_exact.cl or CLBlast, exact backend `clblast`), with why not where
+// it does not
+// (`no_products`).
+struct ShadowModelTraits {
+  ShadowModel value;
+  const char* word;
+  const char* does;
+  double sigma_s, gamma_s, beta;
+  int map_side;
+  bool casters_only, exact_products;
+  const char* no_products;
+};
+const std::vector<ShadowModelTraits>& shadow_models();
+const ShadowModelTraits& shadow_model_traits(ShadowModel m);
 
 // The words scene files, the command line and messages use for each value of an enum above,
 // in one place: word(e), the value of a word (nullptr-like failure as false), and the list

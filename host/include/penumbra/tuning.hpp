@@ -41,8 +41,8 @@ struct XgemmParameters {
   std::string describe() const;  // "MWG 64 NWG 64 KWG 32 ...": the fields that matter most
 };
 
-// kernels/matmul.cl and CLBlast: the products of exact-sum hard shadows. Changing them changes
-// the summation order of those sums (results agree to rounding).
+// kernels/paper_hard_exact.cl and CLBlast: the products of exact-sum hard shadows. Changing them
+// changes the summation order of those sums (results agree to rounding).
 struct ExactSumTuning {
   // Exact backend `auto` (RenderParams::exact_backend): CLBlast's GEMM instead of penumbra's
   // kernels. An explicit `kernels` or `clblast` ignores it.
@@ -57,7 +57,7 @@ struct ExactSumTuning {
   int min_indirect_size = 0;
 };
 
-// kernels/penumbra.cl: map tile of the per-face culling (same result for every value).
+// kernels/paper_soft_map.cl: map tile of the per-face culling (same result for every value).
 struct PenumbraTuning {
   int tile = 16;
 };

@@ -14,10 +14,11 @@ namespace penumbra::detail {
 // What depends on the kind of device when no tuning decides, in one place. CPUs (PoCL) give a
 // work-item vectors of pixels or texels; GPUs keep the parallelism of one per item.
 struct DeviceDefaults {
-  int pixels_per_item;    // raster (the tuning's default) and penumbra map: 8 on CPUs
-  int shadow_row;         // ROW of shadow.cl/pcf.cl's lookups: 16 floats fill an AVX-512 register
-  int gather_height;      // GatherTuning::height: on CPUs a fragment's weights and tests shared
-                          // by 8 rows (Xeon: pcf_gather 32 -> 22 ms with 8 instead of 4 rows)
+  int pixels_per_item;  // raster (the tuning's default) and penumbra map: 8 on CPUs
+  int shadow_row;       // ROW of paper_lookups.cl/accurate_lookups.cl's lookups: 16 floats fill an
+                        // AVX-512 register
+  int gather_height;    // GatherTuning::height: on CPUs a fragment's weights and tests shared
+                        // by 8 rows (Xeon: pcf_gather 32 -> 22 ms with 8 instead of 4 rows)
   bool exact_on_clblast;  // the heuristic tuning's exact backend: CLBlast on GPUs
   int face_lanes;         // the raster backward's work-items per face: a GPU waits for its
                           // longest work-item (bundled scene, H200: raster_bwd 23 ms with 1)

@@ -47,7 +47,7 @@ struct BinLists {
   auto fields() const { return std::tie(offsets, counts, items); }
 };
 
-// The head of every per-fragment lookup of a light's map (shadow.cl, pcf.cl).
+// The head of every per-fragment lookup of a light's map (paper_lookups.cl, accurate_lookups.cl).
 struct MapLookup {
   const cl::Buffer& P;             // the camera view's parameters
   cl_int nrec, light, nl, Wm, Hm;  // fragments, the light and lights, the map's size

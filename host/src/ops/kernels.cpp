@@ -8,6 +8,7 @@
 #include "ops/ops.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/renderer.hpp"
+#include "shadow_models.hpp"
 #include "tuning/stages.hpp"
 
 namespace penumbra {
@@ -40,7 +41,7 @@ std::string program_options(const std::string& file, Precision precision, const 
          " -DBRUTE_FORCE=" + std::to_string(r.brute_force ? 1 : 0) +
          " -DFACE_LANES=" + std::to_string(r.face_lanes);
   }
-  if (file == "shadow.cl" || file == "pcf.cl") {  // the gathers' program: the tuning's block
+  if (lookup_file_model(file) != nullptr) {  // the gathers' program: the tuning's block
     const GatherTuning& g = tuning.gather;
     o += part == KernelPart::Gather
              ? " -DROW=" + std::to_string(g.width) + " -DGATHER_ROWS=" + std::to_string(g.height) +
@@ -48,9 +49,9 @@ std::string program_options(const std::string& file, Precision precision, const 
              : " -DROW=" + std::to_string(device_defaults(device).shadow_row);
     o += " -DGATHER_CHUNK=" + std::to_string(kGatherChunk);
   }
-  if (file == "penumbra.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
+  if (file == "paper_soft_map.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
   if (file == "bin.cl") o += " -DSORT_GROUP=" + std::to_string(device_defaults(device).sort_group);
-  if (file == "matmul.cl")
+  if (file == "paper_hard_exact.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
   if (is_oclgrind(device)) o += " -DPENUMBRA_OCLGRIND";
@@ -65,9 +66,9 @@ std::vector<std::string> program_variants(const std::string& file, const Tuning&
     if (!tuning.raster.brute_force) v.push_back(bin_define(tuning.raster.tile));
     return v;
   }
-  if (file == "shadow.cl" || file == "pcf.cl") {  // shadow.cl's hard-shadow kernels take none
+  if (const ShadowModelPasses* model = lookup_file_model(file)) {
     std::vector<std::string> v;
-    if (file == "shadow.cl") v.push_back("");
+    if (model->unsampled_variant) v.push_back("");  // paper_lookups.cl's hard-shadow kernels
     for (const SamplingMethod& m : sampling_methods()) v.push_back(sampling_define(m.value));
     return v;
   }

@@ -1,7 +1,9 @@
 #pragma once
-// The pipeline stages on the host side, one file each, mirroring kernels/:
-// transform.cpp ↔ transform.cl, bin.cpp ↔ bin.cl, raster.cpp ↔ raster.cl,
-// shadow.cpp ↔ shadow.cl, matmul.cpp ↔ matmul.cl.
+// The pipeline stages on the host side, one file each, mirroring kernels/, in the order they
+// run: transform.cpp ↔ transform.cl, bin.cpp ↔ bin.cl, raster.cpp ↔ raster.cl, then per
+// shadow model (<model>_<what>): the light map paper_soft_map.cpp ↔ paper_soft_map.cl, and the
+// lookups accurate_lookups.cpp ↔ accurate_lookups.cl, paper_lookups.cpp ↔ paper_lookups.cl with
+// paper_hard_exact.cpp ↔ paper_hard_exact.cl (the exact hard shadows' products).
 #include <CL/opencl.hpp>
 #include <algorithm>
 #include <cctype>
@@ -123,7 +125,7 @@ inline std::string sampling_define(Sampling s) {
 }
 
 // Whether the matrix products of the paper model's exact hard shadows run on CLBlast (the
-// exact backend in force, exact_backend_in_force) rather than on matmul.cl.
+// exact backend in force, exact_backend_in_force) rather than on paper_hard_exact.cl.
 inline bool exact_on_clblast(const RenderParams& p, const Tuning& t) {
   return exact_backend_in_force(p, t) == ExactBackend::CLBlast;
 }
@@ -159,11 +161,11 @@ struct ScreenGeometry {
   cl::Buffer fbbox, fnormal;  // nf × int4, nf × real4
 };
 
-// The paper model's exact lookups' Gaussian weight matrices of one light (shadow.cpp), Gx, Gy
-// and with derivatives Gxd, Gyd: rows for `batch` fragments of a W × H map. Every row
-// holds zeros outside its support (exact_weights clears what the row's last batch left before
-// writing its own), so a render keeps them for the next one's lookups of the same shape, which
-// then need no new, zero-filled matrices (whose pages fault in as they are filled).
+// The paper model's exact lookups' Gaussian weight matrices of one light (paper_lookups.cpp), Gx,
+// Gy and with derivatives Gxd, Gyd: rows for `batch` fragments of a W × H map. Every row holds
+// zeros outside its support (exact_weights clears what the row's last batch left before writing its
+// own), so a render keeps them for the next one's lookups of the same shape, which then need no
+// new, zero-filled matrices (whose pages fault in as they are filled).
 struct ExactWeights {
   size_t batch = 0;
   int W = 0, H = 0;
@@ -180,7 +182,7 @@ struct Fragments {
   cl::Buffer aux, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
   // The exact lookups' weights of each light, forward and backward, handed on from render to
-  // render with the rest (shadow.cpp).
+  // render with the rest (paper_lookups.cpp).
   std::vector<ExactWeights> exact_forward, exact_backward;
 };
 
@@ -190,7 +192,7 @@ struct Resolved {
   cl::Buffer image, depth, cover;
 };
 
-// A light's view with the paper model's soft shadows: its penumbra map (penumbra.cl), with
+// A light's view with the paper model's soft shadows: its penumbra map (paper_soft_map.cl), with
 // the faces' boxes and bins and the per-texel sums its backward reads.
 struct PenumbraMap {
   cl::Buffer boxes, map, sums;
@@ -257,10 +259,9 @@ struct ProductScratch {
   cl::Buffer products, products_d;  // CLBlast's A·B and Ad·B (matmul_nn_rowdots)
   cl::Buffer chunks;                // matmul_tn's chunk boxes
 };
-// Row-major products by matmul.cl or (clblast) by CLBlast. `support` (int4 per row of A and
-// B, or of A and D: matmul.cl) bounds the nonzero columns of each row, which the direct
-// kernels skip and CLBlast's GEMM multiplies.
-// C (m × n) = Aᵀ (A is k × m)·B + beta·C.
+// Row-major products by paper_hard_exact.cl or (clblast) by CLBlast. `support` (int4 per row of A
+// and B, or of A and D: paper_hard_exact.cl) bounds the nonzero columns of each row, which the
+// direct kernels skip and CLBlast's GEMM multiplies. C (m × n) = Aᵀ (A is k × m)·B + beta·C.
 void matmul_tn(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, const cl::Buffer& A,
                size_t lda, const cl::Buffer& B, size_t ldb, const cl::Buffer& support,
                ProductScratch& scratch, double beta, cl::Buffer& C, size_t ldc);
@@ -279,10 +280,10 @@ void matmul_nn_rowdots(Kernels& k, bool clblast, size_t m, size_t n, size_t kk, 
 std::optional<XgemmParameters> clblast_tuned_xgemm(Context& ctx, size_t m, size_t n, size_t k,
                                                    double fraction, std::string* why);
 
-// Whether `p` samples shadows by the paper model's exact lookups of hard shadows (exact or gemm
-// sampling), whose weights the fragments keep (ExactWeights).
+// Whether `p` samples shadows by exact lookups of hard shadows that factor into matrix products
+// (the paper model's, exact or gemm sampling), whose weights the fragments keep (ExactWeights).
 inline bool exact_lookups(const RenderParams& p) {
-  return p.shadows == Shadows::Hard && p.shadow_model == ShadowModel::Paper &&
+  return p.shadows == Shadows::Hard && shadow_model_traits(p.shadow_model).exact_products &&
          !sampling_method(p.sampling).windowed;
 }
 
@@ -305,7 +306,7 @@ MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, Fragm
 Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
                    int light, int Wm, int Hm);
 
-// The accurate model (pcf.cl): shadow terms of every fragment of `v` for `light` by
+// The accurate model (accurate_lookups.cl): shadow terms of every fragment of `v` for `light` by
 // percentage-closer filtering of the light's shadow map (a blocker search first for soft
 // shadows).
 void pcf_forward(Kernels& k, const RenderParams& p, double search_sigma, const View& v,

@@ -1,4 +1,4 @@
-// Stage 4 (accurate model) — pcf: the shadow term s of every kept fragment for one light by
+// Stage 5 (accurate model) — lookups: the shadow term s of every kept fragment for one light by
 // percentage-closer filtering (compare, then filter) of the light's shadow map S, forward and
 // backward (math.md §7, §8.4; docs/shadows.md, "The accurate model"):
 //   d_ij = d + ∇_μ d·((i, j) − μ)            receiver-plane depth at texel (i, j) (slope
@@ -42,7 +42,7 @@
 // map (pcf_bucket_radius), one per fragment (pcf_gather_records) or per bucket entry
 // (pcf_gather_entry_of), a single one (pcf_window_logs).
 #include "common/window.clh"
-#include "common/pcf_filter.clh"
+#include "common/accurate_filter.clh"
 
 // The light's soft-shadow constants: D_L, k (texels per lateral unit over depth), σ_b, ortho,
 // the search's stride st.

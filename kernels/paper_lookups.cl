@@ -1,10 +1,11 @@
-// Stage 4 — shadow: the shadow term s of every kept fragment for one light (math.md §6, §8.3; hard
-// shadows, eq. 7: filter then compare), forward and backward, with Gaussian-weighted sampling
+// Stage 5 (paper model) — lookups: the shadow term s of every kept fragment for one light
+// (math.md §6, §8.3; hard shadows, eq. 7: filter then compare; soft shadows with the map P of
+// stage 4, paper_soft_map.cl), forward and backward, with Gaussian-weighted sampling
 // of the light's shadow map S:
 //   truncated  g' = max(0, g − ε_λ) over the window of radius R = sqrt(2σ_s·ln(1/ε_λ)),
 //              one work-item per fragment (shadow_sample*), per texel (shadow_gather)
 //   exact      g over the whole map; since g_ij = gx_i·gy_j the sums are matrix products
-//              (exact_* kernels here, the products by matmul.cl, which skips the weights
+//              (exact_* kernels here, the products by paper_hard_exact.cl, which skips the weights
 //              that are exactly 0, or by CLBlast's GEMM)
 // Buffers (K fragments, nl lights, this light l, map W_s × H_s row-major, row 0 at the top):
 //   rec_light  K·nl × real4 (μx, μy, d, s): s is written here
@@ -107,8 +108,8 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
 // with bin.cl (tile = 1): the gathers below then find the fragments whose window can cover a
 // texel in the buckets within the window radius. Empty outside the map and for a fragment with
 // no gradient to pass to the maps, whose gather scales (rec_lgrad.x as the lookups' backward
-// left it, and pcf.cl's search scale rec_lgrad2.z) are both ±0, as where it faces away from
-// the light or lies outside the loss. The gathers (shadow_gather, soft_gather, pcf_gather) add
+// left it, and accurate_lookups.cl's search scale rec_lgrad2.z) are both ±0, as where it faces
+// away from the light or lies outside the loss. The gathers (shadow_gather, soft_gather, pcf_gather) add
 // nothing for such a fragment, so leaving it out of the buckets changes no bit.
 BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm,
                                   int Hm, __global const real4* rec_light,
@@ -162,13 +163,13 @@ GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, in
 #endif
 
 // ---- exact sum as matrix products (math.md §6.2): g_ij = gx_i·gy_j, so for fragments r0.. r0+n
-// U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (matmul.cl). --------------------
+// U = Gy·S (n × W_s) and v_r = Σ_i U_ri·Gx_ri / (Σgx_r·Σgy_r) (paper_hard_exact.cl). ---------
 // Gx n × W_s, Gy n × H_s; Gxd, Gyd (backward only) = Gx ⊙ (i − μx)/σ_s, Gy ⊙ (j − μy)/σ_s;
 // norm n × real4 (Σgx, Σgy, looked up?, 0): 0 outside the map and facing away from the light;
 // dsum (backward only) n × real2 (Σgxd, Σgyd); support n × int4: the first and last nonzero
 // entry of the fragment's row of Gx (.xy) and of Gy (.zw), empty (first > last) where not
 // looked up. Far from μ the weights are exactly 0 (exp_or_zero; float: beyond ~19 texels at
-// σ_s = 2), and the products (matmul.cl) skip them.
+// σ_s = 2), and the products (paper_hard_exact.cl) skip them.
 // The weight matrices start zero-filled (the host) and hold zeros outside the supports:
 // exact_weights writes only the entries within zero_radius of μ, after clearing the support
 // the batch before left in the row, and exact_finish_bwd scales only the support.
@@ -260,7 +261,7 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   if (with_derivative) dsum[k] = (real2)(sx.y, sy.y);
 }
 
-// dot_r.x = Σ_ij gy_rj·S_ji·gx_ri (matmul_nn_rowdot, matmul.cl).
+// dot_r.x = Σ_ij gy_rj·S_ji·gx_ri (matmul_nn_rowdot, paper_hard_exact.cl).
 FORWARD_KERNEL void exact_finish(__global const real* P, int r0, int n, int light, int nl,
                                  __global const real4* dot, __global const real4* norm,
                                  __global real4* rec_light) {

@@ -1,7 +1,7 @@
-// The accurate shadow model (kernels/pcf.cl, docs/shadows.md): percentage-closer filtering of
-// a smooth-step depth compare with the receiver-plane bias, a blocker search for soft shadows
-// (PCSS), and light frusta fitted tightly to what can cast a shadow; on small scenes built here
-// (an icosphere above a ground grid, lit by point and directional lights).
+// The accurate shadow model (kernels/accurate_lookups.cl, docs/shadows.md): percentage-closer
+// filtering of a smooth-step depth compare with the receiver-plane bias, a blocker search for soft
+// shadows (PCSS), and light frusta fitted tightly to what can cast a shadow; on small scenes built
+// here (an icosphere above a ground grid, lit by point and directional lights).
 //
 //   PcfKernels.*      colours against the reference (double ~1e-9, float with a stated bound),
 //                     hard and soft, truncated and exact sampling
@@ -355,8 +355,8 @@ constexpr const char* kFlatStore = "(real4)(flat ? 0 : k, gmu, gd)";
 
 TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
-  const std::string never =
-      patched_kernels("penumbra_pcf_never_flat", "common/pcf_filter.clh", kFlatTest, "  return 0;");
+  const std::string never = patched_kernels("penumbra_pcf_never_flat", "common/accurate_filter.clh",
+                                            kFlatTest, "  return 0;");
   for_each_variant({Layout::Point, Layout::Directional}, [&](Precision p, const Scene& scene,
                                                              const std::string& what) {
     const auto weights = random_loss_weights(scene, 7);
@@ -367,8 +367,8 @@ TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
 
 TEST(PcfGather, FlatFiltersOccur) {
   REQUIRE_CONTEXT(ctx);
-  const std::string poisoned = patched_kernels("penumbra_pcf_flat_nan", "pcf.cl", kFlatStore,
-                                               "(real4)(flat ? NAN : k, gmu, gd)");
+  const std::string poisoned = patched_kernels("penumbra_pcf_flat_nan", "accurate_lookups.cl",
+                                               kFlatStore, "(real4)(flat ? NAN : k, gmu, gd)");
   for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
     const Scene scene = pcf_scene(Layout::Point, sh, Sampling::Truncated);
     const auto weights = random_loss_weights(scene, 7);
@@ -394,8 +394,8 @@ TEST(PcfFacing, SkippedLookupsChangeNoBit) {
 
 TEST(PcfFacing, LookupsSkipped) {
   REQUIRE_CONTEXT(ctx);
-  const std::string poisoned = patched_kernels("penumbra_pcf_facing_nan", "pcf.cl", kFacingStore,
-                                               "    rec_light[at].w = NAN;");
+  const std::string poisoned = patched_kernels("penumbra_pcf_facing_nan", "accurate_lookups.cl",
+                                               kFacingStore, "    rec_light[at].w = NAN;");
   for (Shadows sh : {Shadows::Hard, Shadows::Soft})
     expect_skip_taken(poisoned, pcf_scene(Layout::Point, sh, Sampling::Truncated), name_of(sh));
 }

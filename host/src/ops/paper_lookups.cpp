@@ -1,6 +1,6 @@
-// Host side of kernels/shadow.cl: sampling a light's maps for every kept fragment.
+// Host side of kernels/paper_lookups.cl: sampling a light's maps for every kept fragment.
 // Hard shadows: truncated (a window per fragment) or exact (the whole map, as matrix products
-// computed by matmul.cl or by CLBlast). Soft shadows: truncated or exact, direct sums.
+// computed by paper_hard_exact.cl or by CLBlast). Soft shadows: truncated or exact, direct sums.
 #include <algorithm>
 
 #include "ops/args.hpp"
@@ -11,7 +11,7 @@ namespace penumbra::detail {
 namespace {
 
 struct ShadowBoxesArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "shadow_boxes";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -20,7 +20,7 @@ struct ShadowBoxesArgs {
 };
 
 struct ShadowSampleArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "shadow_sample";
   MapLookup at;
   const cl::Buffer &S, &rec_shade, &rec_light, &rec_light2;
@@ -28,7 +28,7 @@ struct ShadowSampleArgs {
 };
 
 struct ShadowSampleBwdArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "shadow_sample_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -37,7 +37,7 @@ struct ShadowSampleBwdArgs {
 };
 
 struct ShadowGatherArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "shadow_gather";
   static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
@@ -48,7 +48,7 @@ struct ShadowGatherArgs {
 };
 
 struct SoftSampleArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "soft_sample";
   MapLookup at;
   const cl::Buffer &S, &Pmap, &rec_shade, &rec_light, &rec_light2;
@@ -56,7 +56,7 @@ struct SoftSampleArgs {
 };
 
 struct SoftSampleBwdArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "soft_sample_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -67,7 +67,7 @@ struct SoftSampleBwdArgs {
 };
 
 struct SoftGatherArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "soft_gather";
   static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
@@ -80,7 +80,7 @@ struct SoftGatherArgs {
 };
 
 struct SoftGatherChunksArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "soft_gather_chunks";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -90,7 +90,7 @@ struct SoftGatherChunksArgs {
 
 // The exact path's kernels take a batch of m fragments from r0 instead of a MapLookup.
 struct ExactWeightsArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "exact_weights";
   const cl::Buffer& P;
   cl_int r0, m, light, nl, Wm, Hm;
@@ -104,7 +104,7 @@ struct ExactWeightsArgs {
 };
 
 struct ExactFinishArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "exact_finish";
   const cl::Buffer& P;
   cl_int r0, m, light, nl;
@@ -113,7 +113,7 @@ struct ExactFinishArgs {
 };
 
 struct ExactFinishBwdArgs {
-  static constexpr const char* file = "shadow.cl";
+  static constexpr const char* file = "paper_lookups.cl";
   static constexpr const char* kernel = "exact_finish_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer& P;

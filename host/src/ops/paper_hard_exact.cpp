@@ -1,5 +1,5 @@
-// Host side of kernels/matmul.cl: dense products for the exact-sum shadow sampling, by the
-// direct kernels or by CLBlast's GEMM (the same numbers up to summation order).
+// Host side of kernels/paper_hard_exact.cl: dense products for the exact-sum shadow sampling, by
+// the direct kernels or by CLBlast's GEMM (the same numbers up to summation order).
 #include <clblast.h>
 
 #include <algorithm>
@@ -160,7 +160,7 @@ void clblast_gemm(Kernels& k, bool ta, bool tb, size_t m, size_t n, size_t kk, c
 }
 
 struct MatmulTnArgs {
-  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* file = "paper_hard_exact.cl";
   static constexpr const char* kernel = "matmul_tn";
   cl_int M, N, K;
   const cl::Buffer& A;
@@ -175,19 +175,19 @@ struct MatmulTnArgs {
 };
 
 struct SupportChunksArgs {
-  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* file = "paper_hard_exact.cl";
   static constexpr const char* kernel = "support_chunks";
   cl_int K;
   const cl::Buffer &support, &chunks;
   auto fields() const { return std::tie(K, support, chunks); }
 };
 
-constexpr size_t kTnChunk = 16;  // TN_CHUNK of matmul.cl
+constexpr size_t kTnChunk = 16;  // TN_CHUNK of paper_hard_exact.cl
 constexpr size_t kClblastTnBytes = size_t(2) << 20;
 
 // matmul_nn_rowdot and matmul_nn_rowdots take the same arguments; `kernel` says which.
 struct MatmulRowdotsArgs {
-  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* file = "paper_hard_exact.cl";
   const char* kernel;
   cl_int M, N, K;
   const cl::Buffer &A, &Ad;
@@ -202,7 +202,7 @@ struct MatmulRowdotsArgs {
 
 // row_dot and row_dots take the same arguments; `kernel` says which.
 struct RowDotsArgs {
-  static constexpr const char* file = "matmul.cl";
+  static constexpr const char* file = "paper_hard_exact.cl";
   const char* kernel;
   cl_int M, N;
   const cl::Buffer &C, &Cd;

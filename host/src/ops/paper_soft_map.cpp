@@ -1,4 +1,4 @@
-// Host side of kernels/penumbra.cl: the penumbra map of a light's view, and its backward.
+// Host side of kernels/paper_soft_map.cl: the penumbra map of a light's view, and its backward.
 #include "ops/args.hpp"
 
 namespace penumbra::detail {
@@ -9,7 +9,7 @@ namespace {
 constexpr int cell = 16;
 
 struct PenumbraCellsArgs {
-  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* file = "paper_soft_map.cl";
   static constexpr const char* kernel = "penumbra_cells";
   cl_int W, H;
   const cl::Buffer& S;
@@ -19,7 +19,7 @@ struct PenumbraCellsArgs {
 };
 
 struct PenumbraBoxesArgs {
-  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* file = "paper_soft_map.cl";
   static constexpr const char* kernel = "penumbra_boxes";
   const cl::Buffer &vscreen, &faces, &fnormal, &P;
   cl_int nf, W, H;
@@ -57,7 +57,7 @@ void launch_texels(Kernels& k, cl::Kernel& kernel, const View& lv) {
 }
 
 struct PenumbraFwdArgs {
-  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* file = "paper_soft_map.cl";
   static constexpr const char* kernel = "penumbra_fwd";
   TexelFaces in;
   const cl::Buffer &Pmap, &pen_sums;
@@ -65,7 +65,7 @@ struct PenumbraFwdArgs {
 };
 
 struct PenumbraBwdTexelArgs {
-  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* file = "paper_soft_map.cl";
   static constexpr const char* kernel = "penumbra_bwd_texel";
   static constexpr KernelPart part = KernelPart::Backward;
   TexelFaces in;
@@ -74,7 +74,7 @@ struct PenumbraBwdTexelArgs {
 };
 
 struct PenumbraBwdFaceArgs {
-  static constexpr const char* file = "penumbra.cl";
+  static constexpr const char* file = "paper_soft_map.cl";
   static constexpr const char* kernel = "penumbra_bwd_face";
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vscreen, &faces, &fnormal, &boxes, &P;

@@ -1,22 +1,23 @@
-// Soft shadows (math.md §4.3 penumbra map, §6.3 eq. 11): the penumbra map P of each light, the
+// The paper model's soft shadows (--shadow-model paper --shadows soft; math.md §4.3 penumbra
+// map, §6.3 eq. 11; paper_soft_map.cl, paper_lookups.cl): the penumbra map P of each light, the
 // compare-then-filter lookup with the receiver-plane bias, and their gradients, on small scenes
 // built here — occluders (an icosphere, two small icospheres at different heights, a flat
 // square) above a ground grid, lit by point and directional lights of nonzero size D_L.
 //
-//   PenumbraReference.*    the reference's map: P = 1 for D_L = 0, a penumbra for D_L > 0
-//   PenumbraMaps.*         Renderer::penumbra_maps() against reference::penumbra_map (double
+//   PaperSoftReference.*   the reference's map: P = 1 for D_L = 0, a penumbra for D_L > 0
+//   PaperSoftMaps.*        Renderer::penumbra_maps() against reference::penumbra_map (double
 //                          ~1e-9, float with a stated bound)
-//   PenumbraKernels.*      soft colours against the reference, truncated and exact sampling
+//   PaperSoftKernels.*     soft colours against the reference, truncated and exact sampling
 //                          (double ~1e-9, float with a stated bound)
-//   PenumbraGemm.*         the renderer refuses gemm sampling for soft shadows
-//   PenumbraZeroSize.*     a light of size 0 casts no penumbra: P = 1 everywhere
-//   PenumbraOverlap.*      the two-occluder scene has ground texels in both penumbrae
-//   PenumbraGradCheck.*    backward vs finite differences (truncated, exact) on several scenes,
+//   PaperSoftGemm.*        the renderer refuses gemm sampling for soft shadows
+//   PaperSoftZeroSize.*    a light of size 0 casts no penumbra: P = 1 everywhere
+//   PaperSoftOverlap.*     the two-occluder scene has ground texels in both penumbrae
+//   PaperSoftGradCheck.*   backward vs finite differences (truncated, exact) on several scenes,
 //                          and with a loss on the ground where two penumbrae overlap
-//   PenumbraLightSize.*    dL/dD_L against a central difference of render
-//   PenumbraWidth.*        the penumbra widens with D_L and with the occluder's height
-//   PenumbraDeterminism.*  two backward calls give bit-identical gradients
-//   PenumbraFacing.*       soft_sample's skip of fragments facing away from the light changes no
+//   PaperSoftLightSize.*   dL/dD_L against a central difference of render
+//   PaperSoftWidth.*       the penumbra widens with D_L and with the occluder's height
+//   PaperSoftDeterminism.* two backward calls give bit-identical gradients
+//   PaperSoftFacing.*      soft_sample's skip of fragments facing away from the light changes no
 //                          bit, and happens
 // A missing OpenCL device fails these tests; it never skips them.
 #include <gtest/gtest.h>
@@ -84,7 +85,7 @@ enum class Layout { Point, Directional, Two, Overlap };
 // Overlap: two small icospheres (radius 0.25) at heights 0.6 and 1.5, either side of a point
 // light of size 1.6 straight above, over a ground grid over [−1.6, 1.6]². The higher one's
 // penumbra on the ground (≈ 0.9 wide) reaches into the lower one's (≈ 0.3 wide) in the gap
-// between their shadows, so ground texels lie in both penumbrae (PenumbraOverlap).
+// between their shadows, so ground texels lie in both penumbrae (PaperSoftOverlap).
 Scene soft_scene(Layout layout, Sampling sampling = Sampling::Truncated) {
   Scene s;
   switch (layout) {
@@ -146,7 +147,7 @@ constexpr double kFloatColorTol = 1e-4;
 // ---------------------------------------------------------------------------------------------
 // (a) Penumbra maps and soft colours against the reference.
 
-TEST(PenumbraReference, ZeroSizeGivesOneAndGemmThrows) {
+TEST(PaperSoftReference, ZeroSizeGivesOneAndGemmThrows) {
   Scene s = soft_scene(Layout::Point);
   s.lights[0].size = 0.0;
   const Image P = penumbra::reference::penumbra_map(s, 0);
@@ -161,7 +162,7 @@ TEST(PenumbraReference, ZeroSizeGivesOneAndGemmThrows) {
 
 // The reference's map shows a penumbra: below 1 on the ground around the shadow, near 0 only
 // where an occluder covers the texel's cone, and bounded to [0, 1].
-TEST(PenumbraReference, MapShowsPenumbra) {
+TEST(PaperSoftReference, MapShowsPenumbra) {
   const Scene s = soft_scene(Layout::Point);
   const Image P = penumbra::reference::penumbra_map(s, 0);
   int partial = 0, dark = 0, lit = 0;
@@ -178,7 +179,7 @@ TEST(PenumbraReference, MapShowsPenumbra) {
   EXPECT_GE(lit, int(P.data.size() / 2));
 }
 
-TEST(PenumbraMaps, MatchReference) {
+TEST(PaperSoftMaps, MatchReference) {
   REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
@@ -212,9 +213,9 @@ TEST(PenumbraMaps, MatchReference) {
   EXPECT_TRUE(r.penumbra_maps().empty());
 }
 
-class PenumbraKernels : public ::testing::TestWithParam<Sampling> {};
+class PaperSoftKernels : public ::testing::TestWithParam<Sampling> {};
 
-TEST_P(PenumbraKernels, MatchReference) {
+TEST_P(PaperSoftKernels, MatchReference) {
   REQUIRE_CONTEXT(ctx);
   // The reference once per scene, for both precisions.
   std::vector<std::pair<NamedScene, RenderOutput>> cases;
@@ -248,12 +249,12 @@ TEST_P(PenumbraKernels, MatchReference) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Penumbra, PenumbraKernels,
+INSTANTIATE_TEST_SUITE_P(PaperSoft, PaperSoftKernels,
                          ::testing::Values(Sampling::Truncated, Sampling::Exact),
                          [](const auto& info) { return std::string(name_of(info.param)); });
 
 // The renderer refuses gemm sampling for soft shadows, with a message naming the alternatives.
-TEST(PenumbraGemm, IsRefused) {
+TEST(PaperSoftGemm, IsRefused) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   Scene s = soft_scene(Layout::Point);
@@ -269,7 +270,7 @@ TEST(PenumbraGemm, IsRefused) {
 // ---------------------------------------------------------------------------------------------
 // (b) A light of size 0 casts no penumbra.
 
-TEST(PenumbraZeroSize, MapIsOneEverywhere) {
+TEST(PaperSoftZeroSize, MapIsOneEverywhere) {
   REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
@@ -348,7 +349,7 @@ std::vector<int> overlap_texels(const Scene& scene, double* both_max = nullptr) 
   return texels;
 }
 
-TEST(PenumbraOverlap, GroundTexelsInBothPenumbrae) {
+TEST(PaperSoftOverlap, GroundTexelsInBothPenumbrae) {
   const Scene s = soft_scene(Layout::Overlap);
   double m = 0;
   const std::vector<int> texels = overlap_texels(s, &m);
@@ -388,9 +389,9 @@ void expect_entries(const GradCheckResult& result, const Scene& scene, const std
         << describe(result);
 }
 
-class PenumbraGradCheck : public ::testing::TestWithParam<Sampling> {};
+class PaperSoftGradCheck : public ::testing::TestWithParam<Sampling> {};
 
-TEST_P(PenumbraGradCheck, Double) {
+TEST_P(PaperSoftGradCheck, Double) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   for (auto& [name, scene, seed] : gradient_cases(GetParam())) {
@@ -413,7 +414,7 @@ TEST_P(PenumbraGradCheck, Double) {
 // A loss on the ground pixels that see the texels in both penumbrae of the two-occluder scene
 // (colour only): there the soft term depends on P, built from both occluders' faces, so their
 // vertices reach the loss through P and S alone.
-TEST_P(PenumbraGradCheck, OverlappingPenumbraeOnly) {
+TEST_P(PaperSoftGradCheck, OverlappingPenumbraeOnly) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   Scene scene = soft_scene(Layout::Overlap, GetParam());
@@ -480,7 +481,7 @@ TEST_P(PenumbraGradCheck, OverlappingPenumbraeOnly) {
   EXPECT_NE(analytic.light_size.at(0), 0.0) << tag;
 }
 
-INSTANTIATE_TEST_SUITE_P(Penumbra, PenumbraGradCheck,
+INSTANTIATE_TEST_SUITE_P(PaperSoft, PaperSoftGradCheck,
                          ::testing::Values(Sampling::Truncated, Sampling::Exact),
                          [](const auto& info) { return std::string(name_of(info.param)); });
 
@@ -488,7 +489,7 @@ INSTANTIATE_TEST_SUITE_P(Penumbra, PenumbraGradCheck,
 // (L(D_L + h) − L(D_L − h))/(2h) of render, for a random linear loss. The light size changes
 // only P (never the frusta, the raster or which fragments are kept), so L is smooth in D_L away
 // from the kinks τ = 1 and m = 0.
-TEST(PenumbraLightSize, GradientMatchesCentralDifference) {
+TEST(PaperSoftLightSize, GradientMatchesCentralDifference) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   struct Case {
@@ -593,7 +594,7 @@ double transition_width(Renderer& r, const Scene& scene, double* t_in, double* t
   return crossing(hi) - crossing(lo);
 }
 
-TEST(PenumbraWidth, GrowsWithLightSizeAndOccluderHeight) {
+TEST(PaperSoftWidth, GrowsWithLightSizeAndOccluderHeight) {
   REQUIRE_CONTEXT(ctx);
   Renderer& r = shared_renderer(*ctx, Precision::Double);
   auto measure = [&](double size, double height, const std::string& what) {
@@ -628,7 +629,7 @@ TEST(PenumbraWidth, GrowsWithLightSizeAndOccluderHeight) {
 // ---------------------------------------------------------------------------------------------
 // (e) Determinism.
 
-TEST(PenumbraDeterminism, BackwardIsBitIdentical) {
+TEST(PaperSoftDeterminism, BackwardIsBitIdentical) {
   REQUIRE_CONTEXT(ctx);
   for (Precision precision : {Precision::Double, Precision::Float}) {
     Renderer& r = shared_renderer(*ctx, precision);
@@ -663,7 +664,7 @@ TEST(PenumbraDeterminism, BackwardIsBitIdentical) {
 constexpr const char* kFacingStore =
     "    rec_light[r * nl + light].w = 1;\n    return;\n  }\n  real2";
 
-TEST(PenumbraFacing, SkippedLookupsChangeNoBit) {
+TEST(PaperSoftFacing, SkippedLookupsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string always = kernels_looking_up_every_fragment("penumbra_soft_look_up_all");
   for (Precision p : {Precision::Float, Precision::Double})
@@ -673,10 +674,10 @@ TEST(PenumbraFacing, SkippedLookupsChangeNoBit) {
                                    named.name + " " + name_of(sampling) + " " + name_of(p));
 }
 
-TEST(PenumbraFacing, LookupsSkipped) {
+TEST(PaperSoftFacing, LookupsSkipped) {
   REQUIRE_CONTEXT(ctx);
   const std::string poisoned =
-      patched_kernels("penumbra_soft_facing_nan", "shadow.cl", kFacingStore,
+      patched_kernels("penumbra_soft_facing_nan", "paper_lookups.cl", kFacingStore,
                       "    rec_light[r * nl + light].w = NAN;\n    return;\n  }\n  real2");
   for (Sampling sampling : {Sampling::Truncated, Sampling::Exact})
     expect_skip_taken(poisoned, soft_scene(Layout::Point, sampling), name_of(sampling));

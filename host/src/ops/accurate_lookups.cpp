@@ -1,5 +1,5 @@
-// Host side of kernels/pcf.cl: the accurate model's shadow lookup (percentage-closer filtering,
-// with a blocker search for soft shadows) for every kept fragment, truncated or exact.
+// Host side of kernels/accurate_lookups.cl: the accurate model's shadow lookup (percentage-closer
+// filtering, with a blocker search for soft shadows) for every kept fragment, truncated or exact.
 #include <algorithm>
 #include <cmath>
 
@@ -9,10 +9,10 @@ namespace penumbra::detail {
 
 namespace {
 
-constexpr double kSearchEps = 0.05;  // PCF_SEARCH_EPS of pcf.cl
+constexpr double kSearchEps = 0.05;  // PCF_SEARCH_EPS of accurate_lookups.cl
 
-// The blocker search's texels of a light's map: every stride-th of each axis (pcf.cl's search
-// map); the map itself at stride 1 or where there is no search (hard shadows).
+// The blocker search's texels of a light's map: every stride-th of each axis (accurate_lookups.cl's
+// search map); the map itself at stride 1 or where there is no search (hard shadows).
 struct SearchMap {
   cl::Buffer S, A;
   cl_int W, H;
@@ -20,7 +20,7 @@ struct SearchMap {
 };
 
 struct PcfSearchMapArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_search_map";
   cl_int Wm;
   const cl::Buffer &S, &A;
@@ -30,14 +30,14 @@ struct PcfSearchMapArgs {
 };
 
 struct PcfWindowLogsArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_window_logs";
   const cl::Buffer &P, &logs;
   auto fields() const { return std::tie(P, logs); }
 };
 
 struct PcfSampleArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_sample";
   MapLookup at;
   const cl::Buffer &logs, &S, &A;
@@ -47,7 +47,7 @@ struct PcfSampleArgs {
 };
 
 struct PcfSampleBwdArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_sample_bwd";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -60,7 +60,7 @@ struct PcfSampleBwdArgs {
 };
 
 struct PcfGatherArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_gather";
   static constexpr KernelPart part = KernelPart::Gather;
   MapLookup at;
@@ -74,14 +74,14 @@ struct PcfGatherArgs {
   }
 };
 
-// The gather entries' copies of their fragments (pcf.cl's grec, gslope).
+// The gather entries' copies of their fragments (accurate_lookups.cl's grec, gslope).
 struct GatherRecords {
   cl::Buffer grec, gslope;
   auto fields() const { return std::tie(grec, gslope); }
 };
 
 struct PcfGatherRecordsArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_gather_records";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -93,7 +93,7 @@ struct PcfGatherRecordsArgs {
 };
 
 struct PcfGatherEntryOfArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_gather_entry_of";
   static constexpr KernelPart part = KernelPart::Backward;
   cl_int entries;
@@ -102,7 +102,7 @@ struct PcfGatherEntryOfArgs {
 };
 
 struct PcfGatherChunksArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_gather_chunks";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -111,7 +111,7 @@ struct PcfGatherChunksArgs {
 };
 
 struct PcfBucketRadiusArgs {
-  static constexpr const char* file = "pcf.cl";
+  static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_bucket_radius";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
@@ -213,7 +213,8 @@ SearchMap search_map(Kernels& k, const RenderParams& p, double search_sigma, con
   return m;
 }
 
-// log(1/ε) of the filter's and the search's cuts for view parameters P (pcf.cl's WindowLogs).
+// log(1/ε) of the filter's and the search's cuts for view parameters P (accurate_lookups.cl's
+// WindowLogs).
 cl::Buffer window_logs(Kernels& k, const cl::Buffer& P, Sampling sampling) {
   cl::Buffer logs = alloc_reals(k.ctx(), k.precision(), 2);
   launch_1d(k.ctx(), bind_args(k, PcfWindowLogsArgs{P, logs}, sampling_define(sampling)), 1, 1);

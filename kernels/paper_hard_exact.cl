@@ -1,5 +1,6 @@
-// Dense matrix products for the exact-sum shadow sampling (math.md §6.2, §8.3), the direct-kernel
-// alternative to CLBlast's GEMM. Row-major matrices with leading dimensions:
+// Stage 5 (paper model, hard shadows, exact sampling) — the lookups' matrix products
+// (math.md §6.2, §8.3), the direct-kernel alternative to CLBlast's GEMM. Row-major matrices with
+// leading dimensions:
 //   matmul_tn  C (M × N) = Aᵀ (A is K × M) · B (K × N)  + beta·C   (dL/dS = Gyᵀ·Gx)
 //   matmul_nn_rowdots out_r = (Σ_c (A·B)_rc·D_rc, Σ_c (A·B)_rc·Dd_rc, Σ_c (Ad·B)_rc·D_rc, 0)
 //                     (B is K × N) without storing A·B or Ad·B: with U = Gy·S, the exact sums
@@ -7,7 +8,7 @@
 //                     matmul_nn_rowdot the first alone (.y, .z 0); row_dot(s) of stored products
 // support: per fragment r (a row of A, D in nn; of A, B in tn's chunks), int4: the first and last
 // nonzero column of its row of Gx, Gxd (.xy: D, Dd in nn, B in tn) and of Gy, Gyd (.zw: A,
-// Ad); first > last where the row is all 0 (exact_weights, shadow.cl). The products skip the
+// Ad); first > last where the row is all 0 (exact_weights, paper_lookups.cl). The products skip the
 // zeros outside: the terms they would add are exact zeros (every matrix is finite), and adding
 // ±0 to a sum that starts at +0 changes no bit of it.
 // The products run along rows in MM_VW-wide vectors, which is what makes them fast on CPUs

@@ -1,6 +1,7 @@
-// Shadow stage (math.md §4–§6, hard shadows): the light pass, the shadow-map lookup and their
-// gradients, on small scenes built here — an icosphere occluder above a ground grid, lit by one
-// point light, one directional light, or both.
+// The paper model's hard shadows (--shadow-model paper --shadows hard; math.md §4–§6): the
+// light pass, the shadow-map lookup (paper_lookups.cl, paper_hard_exact.cl) and their gradients, on
+// small scenes built here — an icosphere occluder above a ground grid, lit by one point light, one
+// directional light, or both.
 //
 //   ShadowReference.*  the reference's light pass against closed-form depths (no device needed)
 //   ShadowMaps.*       Renderer::shadow_maps() against the reference's light pass
@@ -204,7 +205,7 @@ TEST(ShadowReference, PointLightCentreTexelAndFitting) {
 }
 
 // With shadows on, a lit receiver far from any occluder keeps almost all its light
-// (s ≈ sigmoid(β/γ_s)). The reference renders soft shadows (test_penumbra.cpp compares them)
+// (s ≈ sigmoid(β/γ_s)). The reference renders soft shadows (test_paper_soft.cpp compares them)
 // but, like the renderer, rejects them with gemm sampling.
 TEST(ShadowReference, NoneAndHardAgreeAwayFromShadowsSoftGemmThrows) {
   Scene hard = shadow_scene(Lighting::Overhead);
@@ -336,11 +337,11 @@ TEST(ShadowDouble, ShadowsChangeTheImage) {
 // Exact on penumbra's kernels (exact backend `kernels`, named here so that the tuning's `auto`
 // cannot pick CLBlast for both) and gemm (exact backend `clblast`) evaluate the same sum
 // v = Σ g·S / Σ g, both as Σ_i (Σ_j gy_j·S_ji)·gx_i / (Σgx·Σgy) through matrix products, in
-// matmul.cl's and CLBlast's different orders. In double they agree to rounding (~1e-16 relative in
-// v, times 1/γ_s = 25 in the logit): 1e-11. In float the reordering costs ~1e-7 relative in v (≈
-// 5e-7 absolute at depth ≈ 5), ≈ 1e-5 in the logit after 1/γ_s, so ≤ s(1 − s)·1e-5 ≤ 3e-6 of a
-// light's colour, besides the raster's own float rounding being the same in both: 1e-5.
-// The comparison scenes, and the first again with a 40² map: no multiple of matmul.cl's
+// paper_hard_exact.cl's and CLBlast's different orders. In double they agree to rounding (~1e-16
+// relative in v, times 1/γ_s = 25 in the logit): 1e-11. In float the reordering costs ~1e-7
+// relative in v (≈ 5e-7 absolute at depth ≈ 5), ≈ 1e-5 in the logit after 1/γ_s, so ≤ s(1 − s)·1e-5
+// ≤ 3e-6 of a light's colour, besides the raster's own float rounding being the same in both: 1e-5.
+// The comparison scenes, and the first again with a 40² map: no multiple of paper_hard_exact.cl's
 // column blocks (MM_VW, 2·MM_VW), so that the products' ragged edges are compared too.
 std::vector<NamedScene> exact_scenes() {
   std::vector<NamedScene> scenes = comparison_scenes(Method::Exact);
@@ -377,7 +378,7 @@ TEST(ShadowSampling, ExactEqualsGemm) {
 
 // The bundled scene at 128² with a 256² map keeps ~12k fragments, which the exact path takes in
 // two batches forward and three backward (double: 8192 and 4096 fragments each), its weight
-// matrices kept zero outside each batch's nonzero weights (shadow.cl, the exact sum): the
+// matrices kept zero outside each batch's nonzero weights (paper_lookups.cl, the exact sum): the
 // batches agree with CLBlast's GEMM, which multiplies every weight, as one batch does.
 TEST(ShadowSampling, ExactInBatchesEqualsGemm) {
   REQUIRE_CONTEXT(ctx);
@@ -783,11 +784,11 @@ TEST(ShadowFacing, SkippedLookupsChangeNoBit) {
 TEST(ShadowFacing, LookupsSkipped) {
   REQUIRE_CONTEXT(ctx);
   const std::string poisoned =
-      patched_kernels("penumbra_shadow_facing_nan", "shadow.cl", kFacingStore,
+      patched_kernels("penumbra_shadow_facing_nan", "paper_lookups.cl", kFacingStore,
                       "    rec_light[r * nl + light].w = NAN;");
   expect_skip_taken(poisoned, shadow_scene(Lighting::Point), "point");
   const std::string exact = patched_kernels(  // s = NaN for the rows left out as facing away
-      "penumbra_shadow_facing_exact_nan", "shadow.cl", kExactNorm,
+      "penumbra_shadow_facing_exact_nan", "paper_lookups.cl", kExactNorm,
       std::string(kExactNorm) + "\n  if (inside_map(x.xy, Wm, Hm) && !looked_up) norm[k].z = NAN;");
   for (Method method : {Method::Exact, Method::Gemm})
     expect_skip_taken(exact, shadow_scene(Lighting::Point, method), name_of(method));
@@ -823,7 +824,7 @@ std::vector<OutputGrads> right_half_loss(const Scene& scene) {
 TEST(ShadowBuckets, FragmentsWithoutGradientLeftOutChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string every =
-      patched_kernels("penumbra_bucket_every", "shadow.cl", kBucketTest, "r < nrec");
+      patched_kernels("penumbra_bucket_every", "paper_lookups.cl", kBucketTest, "r < nrec");
   for (Precision p : {Precision::Float, Precision::Double})
     for (Lighting lighting : {Lighting::Point, Lighting::Two})
       for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
@@ -843,11 +844,12 @@ TEST(ShadowBuckets, FragmentsWithoutGradientLeftOutChangeNoBit) {
 
 TEST(ShadowBuckets, FragmentsWithoutGradientLeftOut) {
   REQUIRE_CONTEXT(ctx);
-  const KernelEdit poison{"shadow.cl", "    if (k == 0) continue;",
+  const KernelEdit poison{"paper_lookups.cl", "    if (k == 0) continue;",
                           "    if (k == 0) {\n      accS[0] = NAN;\n      continue;\n    }"};
   const std::string poisoned = patched_kernels("penumbra_bucket_nan", {poison}),
-                    every = patched_kernels("penumbra_bucket_every_nan",
-                                            {poison, {"shadow.cl", kBucketTest, "r < nrec"}});
+                    every =
+                        patched_kernels("penumbra_bucket_every_nan",
+                                        {poison, {"paper_lookups.cl", kBucketTest, "r < nrec"}});
   const Scene scene = bucket_scene(Lighting::Point, Shadows::Soft, ShadowModel::Paper);
   const auto weights = right_half_loss(scene);
   EXPECT_TRUE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)));

@@ -1,5 +1,6 @@
-// Stage 5 — penumbra map P of one light (math.md §4.3, §8.5; paper eqs. 9–10, outer penumbra only),
-// rendered in the light's own view after its shadow map S; forward and backward.
+// Stage 4 (paper model, soft shadows) — the penumbra map P of one light (math.md §4.3, §8.5;
+// paper eqs. 9–10, outer penumbra only), rendered in the light's own view after its shadow map S
+// (stages 1–3) and read by the lookups (stage 5, paper_lookups.cl); forward and backward.
 // For texel q with receiver depth S_q and each face t in front of it (z_t < S_q):
 //   d_t distance from q to t (screen units, 0 inside), z_t its depth at q,
 //   b_t = D_L·(S_q − z_t)/S_q cone width, r_t = d_t·z_t·tan(θ/2) (or d_t·h), τ_t = r_t/b_t < 1,
