@@ -52,7 +52,7 @@ bool degenerate(const Mesh& mesh, const glm::ivec3& f) {
   return finite && (f.x == f.y || f.y == f.z || f.z == f.x || degenerate_triangle(a, b, c));
 }
 
-// The element counts an OFF or PLY header declares ("" where it declares none): Assimp
+// The element counts an OFF or PLY header declares (none where it declares none): Assimp
 // reserves memory for them before reading them, so a file of a few bytes declaring billions of
 // vertices would take minutes and gigabytes before its error.
 std::vector<unsigned long long> declared_counts(const std::string& bytes,
