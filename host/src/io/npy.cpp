@@ -228,11 +228,7 @@ void save_npy(const std::vector<double>& values, size_t rows, size_t cols, const
 }
 
 Image load_npy(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw Error("cannot open NumPy file " + quoted_path(path) + ": " + std::strerror(errno));
-  std::ostringstream s;
-  s << f.rdbuf();
-  const std::string bytes = s.str();
+  const std::string bytes = read_whole_file(path, "NumPy file");
   const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
   auto bad = [&](const std::string& what) {
     return Error("cannot read NumPy file " + quoted_path(path) + ": " + what);

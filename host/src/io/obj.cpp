@@ -226,7 +226,7 @@ Mesh load_obj(const std::string& path, glm::dvec3 default_albedo, DegenerateFace
   drop_degenerate_faces(mesh, policy, file,
                         [&](size_t f) { return "line " + std::to_string(lines[f]); });
   try {
-    validate(mesh);
+    validate(mesh, DegenerateFaces::Allow);  // drop_degenerate_faces judged those
   } catch (const Error& e) {
     throw Error(file + ": " + e.what());
   }

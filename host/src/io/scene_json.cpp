@@ -372,12 +372,7 @@ Scene parse(const std::string& text, const std::filesystem::path& base, const st
   } catch (const json::exception& e) {
     throw scene_error(label, json_message(e));
   } catch (const Error& e) {
-    throw scene_error(label, e.what());  // from fit_light_frusta
-  }
-  try {
-    validate(scene);
-  } catch (const Error& e) {
-    throw scene_error(label, e.what());
+    throw scene_error(label, e.what());  // from validate or fit_light_frusta
   }
   return scene;
 }
