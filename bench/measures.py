@@ -162,8 +162,8 @@ def stage_of(kernel):
     if kernel == "clblast_gemm":
         return "CLBlast"
     for prefix, stage in (("bin_", "bin"), ("raster_", "raster"), ("shadow_", "shadow"),
-                          ("exact_", "shadow"), ("soft_", "shadow"), ("matmul_", "matmul"),
-                          ("row_dot", "matmul"), ("penumbra_", "penumbra"), ("pcf_", "pcf")):
+                          ("exact_", "shadow"), ("soft_map_", "soft map"), ("soft_", "shadow"),
+                          ("matmul_", "matmul"), ("row_dot", "matmul"), ("pcf_", "pcf")):
         if kernel.startswith(prefix):
             return stage
     # penumbra's kernels are snake_case; CLBlast's (Xgemm, TransposeMatrix, ...) are not.

@@ -21,11 +21,11 @@
 // P W·H × real (output), pen_sums W·H × real2 (the shift v₀ and the shifted denominator
 // e^{−γ_P(1−v₀)} + Σ (1 − v)·e^{−γ_P(v−v₀)}), gP W·H × real (backward input).
 // cell_max (cells_x × cells_y × real) the largest S of each cell × cell texels.
-// Launch: penumbra_cells one work-item per cell; penumbra_boxes and penumbra_bwd_face one
-// work-item per face; penumbra_fwd and penumbra_bwd_texel PPW consecutive texels of a row per
+// Launch: soft_map_cells one work-item per cell; soft_map_boxes and soft_map_bwd_face one
+// work-item per face; soft_map_fwd and soft_map_bwd_texel PPW consecutive texels of a row per
 // work-item (2-D; a run never straddles two tiles).
 #ifndef PPW
-#define PPW 1  // texels per work-item in penumbra_fwd and penumbra_bwd_texel; divides the tile
+#define PPW 1  // texels per work-item in soft_map_fwd and soft_map_bwd_texel; divides the tile
 #endif
 #include "common/lanes.clh"
 
@@ -80,7 +80,7 @@ INLINE void occluder_bwd(real S, const Occluder* o, __global const real* P, real
 
 // dP/dv_t for P = N/Dn with a = (1 − v)·e^{−γ_P v}, from the shifted denominator and shift
 // (pen_sums): the ratio is the same for any shift.
-inline real penumbra_dv(const Occluder* o, real Pq, real2 sums, __global const real* P) {
+inline real soft_map_dv(const Occluder* o, real Pq, real2 sums, __global const real* P) {
   real gp = P[P_GAMMA_P], e = exp(-gp * (o->v - sums.x));
   real a = (1 - o->v) * e, da = -e * (1 + gp * (1 - o->v));
   return (a + (o->v - Pq) * da) / sums.y;
@@ -88,7 +88,7 @@ inline real penumbra_dv(const Occluder* o, real Pq, real2 sums, __global const r
 
 // The largest receiver depth S of each cell of cell × cell texels (the last ones cut by the
 // map's edge), which bounds the cone of every face above it.
-FORWARD_KERNEL void penumbra_cells(int W, int H, __global const real* S, int cell, int cells_x,
+FORWARD_KERNEL void soft_map_cells(int W, int H, __global const real* S, int cell, int cells_x,
                                    int cells_y, __global real* cell_max) {
   int c = get_global_id(0);
   if (c >= cells_x * cells_y) return;
@@ -127,7 +127,7 @@ inline real cells_max(int4 box, __global const real* cell_max, int cell, int cel
 // factor on D_L/h), z_min the smallest corner depth. So from the box of D_L/(z_min·scale),
 // each round's box, which holds every texel the face reaches, bounds S by the cells it
 // touches and shrinks the radius by that factor; two rounds take most of the gain.
-FORWARD_KERNEL void penumbra_boxes(__global const real4* vscreen, __global const int4* faces,
+FORWARD_KERNEL void soft_map_boxes(__global const real4* vscreen, __global const int4* faces,
                                    __global const real4* fnormal, __global const real* P, int nf,
                                    int W, int H, __global const real* cell_max, int cell,
                                    int cells_x, __global int4* boxes) {
@@ -184,8 +184,8 @@ INLINE int lanes_occluder(realP qx, real qy, realP Sq, maskP valid, const Screen
 }
 
 // The occluder term of one entry of the run's tile list (a `continue` when the face counts at
-// none of the run's lanes), as `o`: the loop body's start in penumbra_fwd and
-// penumbra_bwd_texel (i0, j, qx, qy, Sq, valid and the buffers in scope).
+// none of the run's lanes), as `o`: the loop body's start in soft_map_fwd and
+// soft_map_bwd_texel (i0, j, qx, qy, Sq, valid and the buffers in scope).
 #define LANES_OCCLUDER(entry, o)                                                          \
   int f = entry;                                                                          \
   if (!face_box_holds_run(boxes[f], i0, j)) continue;                                     \
@@ -205,7 +205,7 @@ inline realP lanes_load(__global const real* a, int i0, int j, int W) {
   return VLOADP(0, t);
 }
 
-FORWARD_KERNEL void penumbra_fwd(__global const real4* vscreen, __global const int4* faces,
+FORWARD_KERNEL void soft_map_fwd(__global const real4* vscreen, __global const int4* faces,
                                  __global const real4* fnormal, __global const int4* boxes,
                                  __global const real* P, int W, int H, __global const real* S,
                                  TEXEL_FACES, __global real* Pmap, __global real2* pen_sums) {
@@ -241,7 +241,7 @@ FORWARD_KERNEL void penumbra_fwd(__global const real4* vscreen, __global const i
 }
 
 // Backward, per texel: dL/dS_q and dL/dD_L (summed over texels on the host) from dL/dP_q.
-BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global const int4* faces,
+BACKWARD_KERNEL void soft_map_bwd_texel(__global const real4* vscreen, __global const int4* faces,
                                         __global const real4* fnormal, __global const int4* boxes,
                                         __global const real* P, int W, int H,
                                         __global const real* S, TEXEL_FACES,
@@ -268,7 +268,7 @@ BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global 
     int t = (i0 / tile) + (j / tile) * tiles_x;
   for (int k = 0; P[P_LIGHT_SIZE] > 0 && k < tile_counts[t]; ++k) {
     LANES_OCCLUDER(tile_faces[tile_offsets[t] + k], o)
-      // penumbra_dv and occluder_bwd (dL/dS_q and dL/dD_L only) on every lane.
+      // soft_map_dv and occluder_bwd (dL/dS_q and dL/dD_L only) on every lane.
       realP e = exp(-gp * (o.v - shift));
       realP a = (1 - o.v) * e, da = -e * (1 + gp * (1 - o.v));
       realP gv = gPq * (a + (o.v - Pq) * da) / den;
@@ -289,7 +289,7 @@ BACKWARD_KERNEL void penumbra_bwd_texel(__global const real4* vscreen, __global 
 }
 
 // Which of texels i0 .. i0 + PPW − 1 of row j face F counts at (1, else 0): occluder_fwd's
-// test on PPW lanes at once, which round as it does, so that penumbra_bwd_face runs its
+// test on PPW lanes at once, which round as it does, so that soft_map_bwd_face runs its
 // per-texel work only where occluder_fwd passes.
 INLINE void lanes_counted(int i0, int j, int W, int H, const ScreenFace* F,
                           __global const real* S, __global const real* P, real* counts) {
@@ -302,7 +302,7 @@ INLINE void lanes_counted(int i0, int j, int W, int H, const ScreenFace* F,
 
 // Backward, per face: dL/d(light-screen position, depth) of its corners, added to
 // gface_screen (3F × real4) in a fixed texel order.
-BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global const int4* faces,
+BACKWARD_KERNEL void soft_map_bwd_face(__global const real4* vscreen, __global const int4* faces,
                                        __global const real4* fnormal, __global const int4* boxes,
                                        __global const real* P, int nf, int W, int H,
                                        __global const real* S, __global const real* Pmap,
@@ -328,7 +328,7 @@ BACKWARD_KERNEL void penumbra_bwd_face(__global const real4* vscreen, __global c
       Occluder o;
       if (!occluder_fwd(q, S[tex], &F, P, &o)) continue;
       real gz = 0, gd2 = 0, unused = 0, unused2 = 0;
-      real gv = gP[tex] * penumbra_dv(&o, Pmap[tex], pen_sums[tex], P);
+      real gv = gP[tex] * soft_map_dv(&o, Pmap[tex], pen_sums[tex], P);
       occluder_bwd(S[tex], &o, P, gv, &unused, &unused2, &gz, &gd2);
       fragment_geometry_bwd(q, F.p, F.z, F.area, P, &o.fr, gd2, gz, zero, gp, gzk);
     }

@@ -317,7 +317,7 @@ const std::string kOtherEntries = R"({
       }
     },
     "acme/gpu": {
-      "penumbra": {
+      "soft_map": {
         "tile": 32
       }
     }

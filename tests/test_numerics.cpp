@@ -489,7 +489,7 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
   struct Variant {
     int tile, pixels_per_item;
     bool brute_force;
-    int penumbra_tile;
+    int soft_map_tile;
   };
   const std::vector<Variant> variants = {
       {16, 8, false, 16}, {8, 1, false, 16},   {8, 8, false, 8},   {16, 1, false, 16},
@@ -506,7 +506,7 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
         t.raster.tile = v.tile;
         t.raster.pixels_per_item = v.pixels_per_item;
         t.raster.brute_force = v.brute_force;
-        t.penumbra.tile = v.penumbra_tile;
+        t.soft_map.tile = v.soft_map_tile;
         Renderer r(context(), p, t);
         const std::vector<double> all = everything(r, scene);
         if (reference.empty()) {
@@ -515,7 +515,7 @@ TEST(NumericsDeterminism, RasterTuningsAreBitIdentical) {
         }
         EXPECT_TRUE(bit_identical(reference, all))
             << label << ": tile " << v.tile << ", " << v.pixels_per_item << " px/item"
-            << (v.brute_force ? ", brute force" : "") << ", penumbra tile " << v.penumbra_tile
+            << (v.brute_force ? ", brute force" : "") << ", soft map tile " << v.soft_map_tile
             << " differs from tile 16, 8 px/item, penumbra tile 16";
       }
     }

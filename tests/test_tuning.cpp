@@ -178,7 +178,7 @@ TEST(Tuning, EveryPenumbraTileIsBitIdentical) {
   const auto ref = render_with(s, base, Precision::Double);
   for (int tile : {4, 8, 32, 64}) {
     Tuning t = base;
-    t.penumbra.tile = tile;
+    t.soft_map.tile = tile;
     expect_identical(render_with(s, t, Precision::Double), ref,
                      "penumbra tile " + std::to_string(tile));
   }
@@ -458,7 +458,7 @@ TEST(Tuning, TunerTimesEveryStageAndReturnsALegalWinner) {
   for (const auto& c : report.candidates) {
     raster |= c.stage == "raster";
     exact |= c.stage == "exact";
-    pen |= c.stage == "penumbra";
+    pen |= c.stage == "soft_map";
     gather |= c.stage == "gather" && c.name.rfind("group 2x2, block ", 0) == 0;  // any device
     EXPECT_TRUE(c.accepted) << c.stage << " " << c.name << ": " << c.note;
     EXPECT_GT(c.median_ms, 0.0);

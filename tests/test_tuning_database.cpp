@@ -20,7 +20,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
       "Exact Device 1": {"raster": {"tile": 32, "pixels_per_item": 4},
                          "exact": {"clblast": false, "vector_width": 16, "row_block": 2},
                          "penumbra": {"tile": 8}, "gather": {"group": 4, "width": 16}},
-      "Acme/gpu": {"exact": {"clblast": true}, "penumbra": {"tile": 32}},
+      "Acme/gpu": {"exact": {"clblast": true}, "soft_map": {"tile": 32}},
       "cpu": {"raster": {"pixels_per_item": 8}}}})";
   }
   const TuningDatabase db = TuningDatabase::load({path});
@@ -36,7 +36,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   EXPECT_EQ(t.raster.tile, 32);
   EXPECT_EQ(t.raster.face_lanes, 32);  // not in the entry: a GPU's
   EXPECT_EQ(t.exact.vector_width, 16);
-  EXPECT_EQ(t.penumbra.tile, 8);
+  EXPECT_EQ(t.soft_map.tile, 8);
   EXPECT_EQ(t.gather.group, 4);
   EXPECT_EQ(t.gather.width, 16);
   EXPECT_EQ(t.gather.height, 1);  // not in the entry: a GPU's
@@ -45,7 +45,7 @@ TEST(Tuning, DatabaseFallsBackFromDeviceToClassToHeuristic) {
   t = db.lookup(dev, w);
   EXPECT_EQ(t.source, "heuristic+Acme/gpu");
   EXPECT_TRUE(t.exact.clblast);
-  EXPECT_EQ(t.penumbra.tile, 32);
+  EXPECT_EQ(t.soft_map.tile, 32);
   EXPECT_EQ(t.raster.pixels_per_item, 1);  // the heuristic's choice for a GPU
   EXPECT_EQ(t.raster.face_lanes, 32);
   EXPECT_EQ(t.gather.group, 2);  // a GPU's

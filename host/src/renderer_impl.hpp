@@ -44,7 +44,7 @@ struct ViewPass {
 // A light's pass: its view (whose resolved depth is the shadow map S and cover the coverage A)
 // and, for the paper model's soft shadows, its penumbra map.
 struct LightPass : ViewPass {
-  detail::PenumbraMap penumbra;
+  detail::SoftMap penumbra;
   detail::LightMaps maps() const {
     return {view.W, view.H, resolved.depth, resolved.cover, penumbra.map};
   }

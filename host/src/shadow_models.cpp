@@ -54,7 +54,7 @@ constexpr ShadowModelPasses kRows[] = {
      nullptr, nullptr, accurate_lookup, accurate_lookup_backward, accurate_memory},
     {ShadowModel::Paper, "paper_lookups.cl", true, 0, false,
      [](const RenderParams& p) { return p.shadows == Shadows::Soft; }, "penumbra map",
-     penumbra_forward, penumbra_backward_texels, penumbra_backward_faces, paper_lookup,
+     soft_map_forward, soft_map_backward_texels, soft_map_backward_faces, paper_lookup,
      paper_lookup_backward, paper_memory},
 };
 static_assert(std::size(kRows) == size_t(ShadowModel::Count), "a ShadowModel without its row");

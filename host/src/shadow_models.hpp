@@ -38,15 +38,14 @@ struct ShadowModelPasses {
   // its backward to dL/dS (adding dL/dD_L to *gsize), then to the light view's faces.
   bool (*light_map_needed)(const RenderParams& p);
   const char* light_map_stage;
-  PenumbraMap (*light_map)(Kernels& k, const DeviceGeometry& g, const View& lv,
-                           const ScreenGeometry& sg, const cl::Buffer& S);
+  SoftMap (*light_map)(Kernels& k, const DeviceGeometry& g, const View& lv,
+                       const ScreenGeometry& sg, const cl::Buffer& S);
   cl::Buffer (*light_map_backward_texels)(Kernels& k, const DeviceGeometry& g, const View& lv,
                                           const ScreenGeometry& sg, const cl::Buffer& S,
-                                          const PenumbraMap& pm, const cl::Buffer& gP,
-                                          double* gsize);
+                                          const SoftMap& pm, const cl::Buffer& gP, double* gsize);
   void (*light_map_backward_faces)(Kernels& k, const DeviceGeometry& g, const View& lv,
-                                   const ScreenGeometry& sg, const cl::Buffer& S,
-                                   const PenumbraMap& pm, const cl::Buffer& gP, FaceGrads& fg);
+                                   const ScreenGeometry& sg, const cl::Buffer& S, const SoftMap& pm,
+                                   const cl::Buffer& gP, FaceGrads& fg);
   // The shadow terms of every fragment of camera view `v` for light `light` (the scene's `L`),
   // and their backward: completes dL/ds, returns dL/d(the light's maps), adds dL/dD_L to *gsize.
   void (*lookup)(Kernels& k, const RenderParams& p, const Light& L, const View& v, Fragments& f,

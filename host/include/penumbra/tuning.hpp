@@ -58,7 +58,7 @@ struct ExactSumTuning {
 };
 
 // kernels/paper_soft_map.cl: map tile of the per-face culling (same result for every value).
-struct PenumbraTuning {
+struct SoftMapTuning {
   int tile = 16;
 };
 
@@ -79,7 +79,7 @@ struct GatherTuning {
 struct Tuning {
   RasterTuning raster;
   ExactSumTuning exact;
-  PenumbraTuning penumbra;
+  SoftMapTuning soft_map;
   GatherTuning gather;
   std::string source = "default";  // where it came from: default, heuristic, database entry…
 

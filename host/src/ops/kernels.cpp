@@ -49,7 +49,7 @@ std::string program_options(const std::string& file, Precision precision, const 
              : " -DROW=" + std::to_string(device_defaults(device).shadow_row);
     o += " -DGATHER_CHUNK=" + std::to_string(kGatherChunk);
   }
-  if (file == "paper_soft_map.cl") o += " -DPPW=" + std::to_string(penumbra_lanes(device, tuning));
+  if (file == "paper_soft_map.cl") o += " -DPPW=" + std::to_string(soft_map_lanes(device, tuning));
   if (file == "bin.cl") o += " -DSORT_GROUP=" + std::to_string(device_defaults(device).sort_group);
   if (file == "paper_hard_exact.cl")
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
@@ -62,7 +62,7 @@ std::string program_options(const std::string& file, Precision precision, const 
 
 std::vector<std::string> program_variants(const std::string& file, const Tuning& tuning) {
   if (file == "bin.cl") {  // the raster's bins (unless brute force), the penumbra map's, texels
-    std::vector<std::string> v = {bin_define(tuning.penumbra.tile), bin_define(1)};
+    std::vector<std::string> v = {bin_define(tuning.soft_map.tile), bin_define(1)};
     if (!tuning.raster.brute_force) v.push_back(bin_define(tuning.raster.tile));
     return v;
   }

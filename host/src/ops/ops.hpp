@@ -106,11 +106,11 @@ inline int raster_block_width(int pixels_per_item) {
   return pixels_per_item >= 8 ? 4 : std::min(pixels_per_item, 2);
 }
 
-// Texels per work-item of penumbra_fwd: the device's pixels_per_item, at most the penumbra
+// Texels per work-item of soft_map_fwd: the device's pixels_per_item, at most the penumbra
 // tile so that a run stays within one tile's list. Not tied to the raster's tuning, so that
 // raster candidates leave the shadows' bits alone.
-inline int penumbra_lanes(const DeviceInfo& d, const Tuning& t) {
-  return std::min(device_defaults(d).pixels_per_item, t.penumbra.tile);
+inline int soft_map_lanes(const DeviceInfo& d, const Tuning& t) {
+  return std::min(device_defaults(d).pixels_per_item, t.soft_map.tile);
 }
 
 // bin.cl's tile edge in pixels (1: the texel buckets of the shadow gathers).
@@ -194,7 +194,7 @@ struct Resolved {
 
 // A light's view with the paper model's soft shadows: its penumbra map (paper_soft_map.cl), with
 // the faces' boxes and bins and the per-texel sums its backward reads.
-struct PenumbraMap {
+struct SoftMap {
   cl::Buffer boxes, map, sums;
   Bins bins;
 };
@@ -318,15 +318,15 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
                       double* gsize);
 
 // The penumbra map of a light's view `lv` from its screen geometry and shadow map S.
-PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv,
-                             const ScreenGeometry& sg, const cl::Buffer& S);
+SoftMap soft_map_forward(Kernels& k, const DeviceGeometry& g, const View& lv,
+                         const ScreenGeometry& sg, const cl::Buffer& S);
 // Backward for dL/dP = gP: returns dL/dS through P (W·H reals) and adds dL/dD_L to *gsize.
-cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, const View& lv,
+cl::Buffer soft_map_backward_texels(Kernels& k, const DeviceGeometry& g, const View& lv,
                                     const ScreenGeometry& sg, const cl::Buffer& S,
-                                    const PenumbraMap& pm, const cl::Buffer& gP, double* gsize);
+                                    const SoftMap& pm, const cl::Buffer& gP, double* gsize);
 // Adds P's gradient by the light-screen positions and depths of the face corners to fg.screen.
-void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, const View& lv,
-                             const ScreenGeometry& sg, const cl::Buffer& S, const PenumbraMap& pm,
+void soft_map_backward_faces(Kernels& k, const DeviceGeometry& g, const View& lv,
+                             const ScreenGeometry& sg, const cl::Buffer& S, const SoftMap& pm,
                              const cl::Buffer& gP, FaceGrads& fg);
 
 }  // namespace penumbra::detail

@@ -10,7 +10,7 @@ constexpr int cell = 16;
 
 struct PenumbraCellsArgs {
   static constexpr const char* file = "paper_soft_map.cl";
-  static constexpr const char* kernel = "penumbra_cells";
+  static constexpr const char* kernel = "soft_map_cells";
   cl_int W, H;
   const cl::Buffer& S;
   cl_int cell, cells_x, cells_y;
@@ -20,7 +20,7 @@ struct PenumbraCellsArgs {
 
 struct PenumbraBoxesArgs {
   static constexpr const char* file = "paper_soft_map.cl";
-  static constexpr const char* kernel = "penumbra_boxes";
+  static constexpr const char* kernel = "soft_map_boxes";
   const cl::Buffer &vscreen, &faces, &fnormal, &P;
   cl_int nf, W, H;
   const cl::Buffer& cell_max;
@@ -44,21 +44,21 @@ struct TexelFaces {
 };
 
 TexelFaces texel_faces(const DeviceGeometry& g, const View& lv, const ScreenGeometry& sg,
-                       const cl::Buffer& S, const PenumbraMap& pm) {
+                       const cl::Buffer& S, const SoftMap& pm) {
   const Bins& b = pm.bins;
   return {sg.vscreen, g.faces, sg.fnormal, pm.boxes, lv.P, lv.W, lv.H, S, b.tile, b.tiles_x, b};
 }
 
-// penumbra_fwd and penumbra_bwd_texel: rows of `lanes` texels per work-item.
+// soft_map_fwd and soft_map_bwd_texel: rows of `lanes` texels per work-item.
 void launch_texels(Kernels& k, cl::Kernel& kernel, const View& lv) {
-  const int lanes = penumbra_lanes(k.ctx().info(), k.tuning());
+  const int lanes = soft_map_lanes(k.ctx().info(), k.tuning());
   launch(k.ctx(), kernel, cl::NDRange((lv.W + lanes - 1) / lanes, lv.H),
          cl::NDRange(std::max(1, 8 / lanes), 8));
 }
 
 struct PenumbraFwdArgs {
   static constexpr const char* file = "paper_soft_map.cl";
-  static constexpr const char* kernel = "penumbra_fwd";
+  static constexpr const char* kernel = "soft_map_fwd";
   TexelFaces in;
   const cl::Buffer &Pmap, &pen_sums;
   auto fields() const { return std::tie(in, Pmap, pen_sums); }
@@ -66,7 +66,7 @@ struct PenumbraFwdArgs {
 
 struct PenumbraBwdTexelArgs {
   static constexpr const char* file = "paper_soft_map.cl";
-  static constexpr const char* kernel = "penumbra_bwd_texel";
+  static constexpr const char* kernel = "soft_map_bwd_texel";
   static constexpr KernelPart part = KernelPart::Backward;
   TexelFaces in;
   const cl::Buffer &Pmap, &pen_sums, &gP, &gS, &gDL;
@@ -75,7 +75,7 @@ struct PenumbraBwdTexelArgs {
 
 struct PenumbraBwdFaceArgs {
   static constexpr const char* file = "paper_soft_map.cl";
-  static constexpr const char* kernel = "penumbra_bwd_face";
+  static constexpr const char* kernel = "soft_map_bwd_face";
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vscreen, &faces, &fnormal, &boxes, &P;
   cl_int nf, W, H;
@@ -88,11 +88,11 @@ struct PenumbraBwdFaceArgs {
 
 }  // namespace
 
-PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv,
-                             const ScreenGeometry& sg, const cl::Buffer& S) {
+SoftMap soft_map_forward(Kernels& k, const DeviceGeometry& g, const View& lv,
+                         const ScreenGeometry& sg, const cl::Buffer& S) {
   Context& ctx = k.ctx();
   const size_t ntex = size_t(lv.W) * lv.H;
-  PenumbraMap pm;
+  SoftMap pm;
   const int cells_x = (lv.W + cell - 1) / cell, cells_y = (lv.H + cell - 1) / cell;
   const cl::Buffer cell_max = alloc_reals(ctx, k.precision(), size_t(cells_x) * cells_y);
   auto& cells = bind_args(k, PenumbraCellsArgs{lv.W, lv.H, S, cell, cells_x, cells_y, cell_max});
@@ -101,7 +101,7 @@ PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv
   auto& bx = bind_args(k, PenumbraBoxesArgs{sg.vscreen, g.faces, sg.fnormal, lv.P, g.nf, lv.W, lv.H,
                                             cell_max, cell, cells_x, pm.boxes});
   launch_1d(ctx, bx, g.nf);
-  pm.bins = bin_boxes(k, pm.boxes, g.nf, lv.W, lv.H, k.tuning().penumbra.tile);
+  pm.bins = bin_boxes(k, pm.boxes, g.nf, lv.W, lv.H, k.tuning().soft_map.tile);
   pm.map = alloc_reals(ctx, k.precision(), ntex);
   pm.sums = alloc_reals(ctx, k.precision(), ntex * 2);
   auto& pf = bind_args(k, PenumbraFwdArgs{texel_faces(g, lv, sg, S, pm), pm.map, pm.sums});
@@ -109,9 +109,9 @@ PenumbraMap penumbra_forward(Kernels& k, const DeviceGeometry& g, const View& lv
   return pm;
 }
 
-cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, const View& lv,
+cl::Buffer soft_map_backward_texels(Kernels& k, const DeviceGeometry& g, const View& lv,
                                     const ScreenGeometry& sg, const cl::Buffer& S,
-                                    const PenumbraMap& pm, const cl::Buffer& gP, double* gsize) {
+                                    const SoftMap& pm, const cl::Buffer& gP, double* gsize) {
   Context& ctx = k.ctx();
   const size_t ntex = size_t(lv.W) * lv.H;
   cl::Buffer gS = alloc_reals(ctx, k.precision(), ntex),
@@ -125,8 +125,8 @@ cl::Buffer penumbra_backward_texels(Kernels& k, const DeviceGeometry& g, const V
   return gS;
 }
 
-void penumbra_backward_faces(Kernels& k, const DeviceGeometry& g, const View& lv,
-                             const ScreenGeometry& sg, const cl::Buffer& S, const PenumbraMap& pm,
+void soft_map_backward_faces(Kernels& k, const DeviceGeometry& g, const View& lv,
+                             const ScreenGeometry& sg, const cl::Buffer& S, const SoftMap& pm,
                              const cl::Buffer& gP, FaceGrads& fg) {
   auto& pb = bind_args(k, PenumbraBwdFaceArgs{sg.vscreen, g.faces, sg.fnormal, pm.boxes, lv.P, g.nf,
                                               lv.W, lv.H, S, pm.map, pm.sums, gP, fg.screen});

@@ -62,7 +62,7 @@ std::string describe(const Tuning& t, const std::string& stage) {
     s << "matmul vw " << t.exact.vector_width << ", rb " << t.exact.row_block;
   if (stage == "exact" && t.exact.clblast)
     s << "CLBlast GEMM " << (t.exact.xgemm ? t.exact.xgemm->describe() : "(its defaults)");
-  if (stage == "penumbra") s << "tile " << t.penumbra.tile;
+  if (stage == "soft_map") s << "tile " << t.soft_map.tile;
   if (stage == "gather")
     s << "group " << t.gather.group << "x" << t.gather.group << ", block " << t.gather.width << "x"
       << t.gather.height;
@@ -172,10 +172,10 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
     add_if_legal(exact, blas, device);
   }
   stages.push_back(exact);
-  Stage pen{"penumbra", Shadows::Soft, Sampling::Truncated, 0.0, {}};
+  Stage pen{"soft_map", Shadows::Soft, Sampling::Truncated, 0.0, {}};
   for (int tile : quick ? std::vector<int>{16} : std::vector<int>{8, 16, 32}) {
     Tuning t = start;
-    t.penumbra.tile = tile;
+    t.soft_map.tile = tile;
     pen.candidates.push_back(t);
   }
   stages.push_back(pen);
@@ -261,7 +261,7 @@ TuneReport tune(Context& context, const Scene& base, const TuneOptions& options)
       // Candidates of the later stages inherit the winners of the earlier ones.
       if (stage.name != "raster") candidate.raster = best.raster;
       if (stage.name != "exact") candidate.exact = best.exact;
-      if (stage.name != "penumbra") candidate.penumbra = best.penumbra;
+      if (stage.name != "soft_map") candidate.soft_map = best.soft_map;
       TuneReport::Candidate row{stage.name, describe(candidate, stage.name), 0, true, ""};
       if (stage.name == "exact" && candidate.exact.clblast && candidate.exact.xgemm &&
           candidate.exact.xgemm == clblast_tuned)

@@ -70,7 +70,9 @@ void read_into(const json& j, Tuning& t) {
     get(e, "min_indirect_size", t.exact.min_indirect_size);
     if (e.contains("xgemm")) t.exact.xgemm = read_xgemm(e.at("xgemm"));
   }
-  if (j.contains("penumbra")) get(j.at("penumbra"), "tile", t.penumbra.tile);
+  // "penumbra" is the name databases written before "soft_map" gave the stage.
+  for (const char* key : {"penumbra", "soft_map"})
+    if (j.contains(key)) get(j.at(key), "tile", t.soft_map.tile);
   if (j.contains("gather")) {
     get(j.at("gather"), "group", t.gather.group);
     get(j.at("gather"), "width", t.gather.width);
@@ -89,7 +91,7 @@ json to_json(const Tuning& t) {
             {"row_block", t.exact.row_block},
             {"min_indirect_size", t.exact.min_indirect_size},
             {"xgemm", xgemm_json(t.exact.xgemm)}}},
-          {"penumbra", {{"tile", t.penumbra.tile}}},
+          {"soft_map", {{"tile", t.soft_map.tile}}},
           {"gather",
            {{"group", t.gather.group}, {"width", t.gather.width}, {"height", t.gather.height}}}};
 }
@@ -204,8 +206,8 @@ void validate(const Tuning& t, const DeviceInfo& device) {
     throw Error("exact-sum tuning: min_indirect_size " + std::to_string(t.exact.min_indirect_size) +
                 " must be 0 (CLBlast's default) or positive");
   if (t.exact.xgemm) validate(*t.exact.xgemm, device);
-  if (t.penumbra.tile < 1 || t.penumbra.tile > 256)
-    throw Error("penumbra tuning: tile " + std::to_string(t.penumbra.tile) +
+  if (t.soft_map.tile < 1 || t.soft_map.tile > 256)
+    throw Error("penumbra tuning: tile " + std::to_string(t.soft_map.tile) +
                 " must be in 1 to 256");
   const int g = t.gather.group;
   if (g < 0 || g > 16 || size_t(g) * size_t(g) > device.max_work_group)
