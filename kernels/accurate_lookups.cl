@@ -281,6 +281,26 @@ BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int lig
   bucket_radius[t] = r2 < 0 ? -1 : sqrt(r2) + 1;
 }
 
+// One fragment's terms in one row of a gather block (pcf_gather's sums): the filter's with
+// weight a (0: none) and lane weights gx·gy, the search's with weight b (0: none) and hx·hy,
+// at receiver depths d against the row's S and A.
+inline void pcf_gather_row(realR S, realR A, realR d, real zb, __global const real* P, real a,
+                           realR gx, real gy, real eps, real b, realR hx, real hy, real eps_b,
+                           realR* acc, realR* accA) {
+  realR dc, step;
+  realR lit = lit_term(S, A, d, P, &dc, &step);
+  if (a != 0) {
+    realR g = fmax(gx * gy - eps, (realR)0);
+    *acc -= a * g * dc;
+    *accA -= a * g * step;
+  }
+  if (b != 0) {
+    realR h = fmax(hx * hy - eps_b, (realR)0);
+    *acc += b * h * ((1 - lit) + (S - zb) * dc);
+    *accA += b * h * step * (S - zb);
+  }
+}
+
 // dL/dS and dL/dA per texel, gathered in a fixed order (no atomics) from the fragments whose
 // filter or search window holds it (from the nearby texel buckets when truncated; every
 // fragment when exact), with o = 1 − c and `step` the compare's smooth step:
@@ -302,7 +322,7 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
   const real sigma_b = L.sigma_b;
   // The search sums over texels (st·I, st·J) only (the search map's).
   const realR on_grid = select((realR)0, (realR)1, fmod((real)i0 + LANER, (real)L.stride) == 0);
-  realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS], dc, step;
+  realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS];
   FOR_ROWS(t, rows) {
     Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
     Av[t] = loadR(A, (j0 + t) * Wm + i0, n);
@@ -341,17 +361,9 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
       const int filter_row = filter && offy * offy < r2f_m;
       const int search_row = search && (j0 + t) % L.stride == 0 && offy * offy < r2s_m;
       if (!filter_row && !search_row) continue;
-      realR lit = lit_term(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, P, &dc, &step);
-      if (filter_row) {
-        realR g = fmax(gx * gy[t] - eps, (realR)0);
-        acc[t] -= a * g * dc;
-        accA[t] -= a * g * step;
-      }
-      if (search_row) {
-        realR h = fmax(hx * hy[t] - eps_b, (realR)0);
-        acc[t] += b * h * ((1 - lit) + (Sv[t] - zb) * dc);
-        accA[t] += b * h * step * (Sv[t] - zb);
-      }
+      pcf_gather_row(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, zb, P,
+                     filter_row ? a : 0, gx, filter_row ? gy[t] : 0, eps,
+                     search_row ? b : 0, hx, search_row ? hy[t] : 0, eps_b, &acc[t], &accA[t]);
     }
   }
   store_rows(acc, rows, n, i0, j0, Wm, gS);

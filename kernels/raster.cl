@@ -58,6 +58,7 @@
 #include "common/lanes.clh"
 #include "common/raster_face.clh"
 #include "common/raster_tiles.clh"
+#include "common/face_sums.clh"
 
 FORWARD_KERNEL TILE_GROUP
 void raster_count(__global const real4* vscreen, __global const int4* faces,
@@ -104,6 +105,38 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
     if (!block_lane_inside(px0, py0, j, W, H)) continue;
     aux[block_pixel(px0, py0, j, W, H)] = (real4)(Ms[j], ms[j], 0, slogs[j]);
     pix_count[block_pixel(px0, py0, j, W, H)] = (int)counts[j];
+  }
+}
+
+// Record r: face f's fragment at lane j of the terms t (weight, depth z, shading, light terms).
+inline void write_record(int r, int j, int f, real weight, real z, const FragmentTerms* t,
+                         int nl, int shadowed, __global int* rec_face, __global real2* rec_frag,
+                         __global real4* rec_shade, __global real4* rec_light,
+                         __global real4* rec_light2) {
+  rec_face[r] = f;
+  rec_frag[r] = (real2)(weight, z);
+  rec_shade[r * (1 + nl)] = (real4)(t->ambient[0][j], t->ambient[1][j], t->ambient[2][j], 0);
+  for (int l = 0; l < nl; ++l)
+    rec_shade[r * (1 + nl) + 1 + l] =
+        (real4)(t->direct[l][0][j], t->direct[l][1][j], t->direct[l][2][j], t->facing[l][j]);
+  for (int l = 0; shadowed && l < nl; ++l) {
+    rec_light[r * nl + l] = (real4)(t->mu[l][0][j], t->mu[l][1][j], t->mu[l][2][j], 1);
+    rec_light2[r * nl + l] = (real4)(t->slope[l][0][j], t->slope[l][1][j], 0, 0);
+  }
+}
+
+// Slots [from, to) that a pixel's bound reserved but no fragment took: weight 0, outside every
+// light's map, so that kernels running over all slots (shadow sampling) read nothing undefined.
+inline void close_record_list(int from, int to, int nl, int shadowed, __global int* rec_face,
+                              __global real2* rec_frag, __global real4* rec_light,
+                              __global real4* rec_light2) {
+  for (int r = from; r < to; ++r) {
+    rec_face[r] = -1;
+    rec_frag[r] = 0;
+    for (int l = 0; shadowed && l < nl; ++l) {
+      rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
+      rec_light2[r * nl + l] = 0;
+    }
   }
 }
 
@@ -159,33 +192,15 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     for (uint lanes = kept; lanes != 0; lanes &= lanes - 1) {  // the kept lanes: their records
       const int j = lowest_bit(lanes);
       if (n[j] >= bound[j]) continue;  // (the bound holds by construction)
-      int r = first[j] + n[j]++;
-      rec_face[r] = f;
-      rec_frag[r] = (real2)(weights[j], zs[j]);
-      rec_shade[r * (1 + nl)] = (real4)(t.ambient[0][j], t.ambient[1][j], t.ambient[2][j], 0);
-      for (int l = 0; l < nl; ++l)
-        rec_shade[r * (1 + nl) + 1 + l] =
-            (real4)(t.direct[l][0][j], t.direct[l][1][j], t.direct[l][2][j], t.facing[l][j]);
-      for (int l = 0; shadowed && l < nl; ++l) {
-        rec_light[r * nl + l] = (real4)(t.mu[l][0][j], t.mu[l][1][j], t.mu[l][2][j], 1);
-        rec_light2[r * nl + l] = (real4)(t.slope[l][0][j], t.slope[l][1][j], 0, 0);
-      }
+      write_record(first[j] + n[j]++, j, f, weights[j], zs[j], &t, nl, shadowed, rec_face,
+                   rec_frag, rec_shade, rec_light, rec_light2);
     }
   }
   for (int j = 0; j < PPW; ++j) {
     if (!block_lane_inside(px0, py0, j, W, H)) continue;
-    int pix = block_pixel(px0, py0, j, W, H);
-    pix_n[pix] = n[j];
-    // Slots the bound reserved but no fragment took: weight 0, outside every light's map, so
-    // that kernels running over all slots (shadow sampling) read nothing undefined.
-    for (int r = first[j] + n[j]; r < first[j] + bound[j]; ++r) {
-      rec_face[r] = -1;
-      rec_frag[r] = 0;
-      for (int l = 0; shadowed && l < nl; ++l) {
-        rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
-        rec_light2[r * nl + l] = 0;
-      }
-    }
+    pix_n[block_pixel(px0, py0, j, W, H)] = n[j];
+    close_record_list(first[j] + n[j], first[j] + bound[j], nl, shadowed, rec_face, rec_frag,
+                      rec_light, rec_light2);
   }
 }
 
@@ -284,23 +299,80 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
 // position), gface_albedo; per face
 // gface_light F × (6·nl + 1) real4: dL/d light position|direction and dL/d light colour for
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
-#if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
-// Σ of v over the work-items of a face, added in a fixed tree order (every one calls it).
-inline real4 face_sum(real4 v, __local real4* sum, int band) {
-  sum[band] = v;
-  barrier(CLK_LOCAL_MEM_FENCE);
-  for (int stride = FACE_LANES / 2; stride > 0; stride /= 2) {
-    if (band < stride) sum[band] += sum[band + stride];
-    barrier(CLK_LOCAL_MEM_FENCE);
+// Through the shading of kept fragment r (weight w, colour gradient gc = dL/dI·w): adds to the
+// world, normal, albedo and light sums, and returns in gb dL/d(barycentric) of the fragment.
+inline void fragment_shading_bwd(int r, int nl, const Fragment* fr, const Face* F,
+                                 const ReceiverFace* rf, int receiver_plane, real3 gc,
+                                 __global const real* P, __global const real4* rec_light,
+                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
+                                 real* gb, FaceSums* s) {
+  real3 X = fr->b[0] * F->V[0] + fr->b[1] * F->V[1] + fr->b[2] * F->V[2];
+  real3 a = fr->b[0] * F->a[0] + fr->b[1] * F->a[1] + fr->b[2] * F->a[2];
+  real sign = facing_sign(F->n, X, P);
+  real sh[P_MAX_LIGHTS];
+  for (int l = 0; l < nl; ++l) sh[l] = shadow_term(r, l, nl, P, rec_light);
+  real3 gX = 0, gnf = 0, gaf = 0;
+  shade_bwd(X, sign * F->n, a, sh, P, gc, &gX, &gnf, &gaf, &s->gl);
+  for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
+    // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
+    real3 g = rec_lgrad[r * nl + l].yzw;
+    if (receiver_plane)
+      g.z += receiver_gradient_bwd(l, &rf[l], F->V, rec_light[r * nl + l].z,
+                                   rec_lgrad2[r * nl + l].xy, P, s->gV, &s->gframe[l]);
+    gX += light_project_bwd(l, X, g, P, &s->gframe[l]);
   }
-  v = sum[0];
-  barrier(CLK_LOCAL_MEM_FENCE);  // before the next call writes sum again
-  return v;
+  s->gn += sign * gnf;
+  for (int k = 0; k < 3; ++k) {
+    gb[k] = dot(gX, F->V[k]) + dot(gaf, F->a[k]);
+    s->gV[k] += fr->b[k] * gX;
+    s->ga[k] += fr->b[k] * gaf;
+  }
 }
-inline real3 face_sum3(real3 v, __local real4* sum, int band) {
-  return face_sum((real4)(v, 0), sum, band).xyz;
+
+// The backward of one face at one pixel of its box (lane `lane` of `row`), added to s.
+inline void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row, const Face* F,
+                           const ReceiverFace* rf, int receiver_plane, __global const real* P,
+                           int W, int H, __global const real* gcover,
+                           __global const real4* gimage, __global const real* gdepth,
+                           __global const int* pix_offset, __global const int* pix_n,
+                           __global const int* rec_face, __global const real4* rec_light,
+                           __global const real2* rec_wg, __global const real4* rec_lgrad,
+                           __global const real4* rec_lgrad2, FaceSums* s) {
+  const int nl = (int)P[P_NLIGHTS];
+  int pix = py * W + px;
+  real4 gimg = gimage[pix];
+  // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
+  // nothing: every term below is a product with one of these or with dL/ds, which is 0 too.
+  if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) return;
+  // Only a kept fragment (its depth within [near, far]) has weight and shading terms; a
+  // fragment that was not kept, under a silhouette whose 1 − A underflowed to 0 (most of
+  // a dense mesh's pixels), has no gradient: every term below would be a product with 0.
+  int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);
+  real gc = gcover[pix];
+  if (r < 0 && gc == 0) return;
+  real2 q = pixel_centre(px, py, W, H);
+  Fragment fr;
+  lane_fragment(row, lane, P, &fr);
+  real D = sigmoid(fr.u);
+  // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
+  real gu = gc * D;
+  real gzf = 0, gb[3] = {0, 0, 0};
+  if (r >= 0) {
+    fragment_depth(F->z, P, &fr);
+    real2 wg = rec_wg[r];
+    real w = wg.x, G = wg.y;
+    // The weight is D·e^{z̃/γ}/Z: d(log weight)/du = 1 − D, d/dz̃ = 1/γ.
+    gu += w * (1 - D) * G;
+    gzf = gdepth[pix] * w - w * G / P[P_GAMMA] / (P[P_FAR] - P[P_NEAR]);
+    // Through the shading, only with a colour gradient (never in a light's view): without,
+    // each term is a product with dL/dI or with dL/ds (then 0 too), so the sums would only
+    // add zeros to sums that start at +0, which changes no bit.
+    if (gimg.x != 0 || gimg.y != 0 || gimg.z != 0)
+      fragment_shading_bwd(r, nl, &fr, F, rf, receiver_plane, gimg.xyz * w, P, rec_light,
+                           rec_lgrad, rec_lgrad2, gb, s);
+  }
+  fragment_bwd(q, F->p, F->z, F->area, P, &fr, gu, gzf, gb, s->gp, s->gz);
 }
-#endif
 
 BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
                                 __global const int4* faces, __global const int4* fbbox,
@@ -319,19 +391,9 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   // is walked by the face's first work-item alone, as with FACE_LANES = 1.
   const int f = get_global_id(0) / FACE_LANES, band = get_global_id(0) % FACE_LANES;
   if (f >= nf) return;
-  const real gamma = P[P_GAMMA], nearz = P[P_NEAR], farz = P[P_FAR];
   const int nl = (int)P[P_NLIGHTS];
-  real2 gp[3] = {0, 0, 0};
-  real gz[3] = {0, 0, 0};
-  real3 gV[3] = {0, 0, 0}, ga[3] = {0, 0, 0}, gn = 0;
-  LightGrads gl;
-  FrameGrads gframe[P_MAX_LIGHTS];
-  for (int i = 0; i < P_MAX_LIGHTS; ++i) {
-    gl.pos[i] = gl.color[i] = 0;
-    gframe[i].eye = gframe[i].fwd = gframe[i].right = gframe[i].up = 0;
-  }
-  gl.ambient = 0;
-
+  FaceSums s;
+  face_sums_zero(&s);
   int4 bb = fbbox[f];
   const int rows = bb.w - bb.y + 1;
   const int band_rows = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
@@ -347,106 +409,16 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       int lane = (px - bb.x) % PPW;
       if (lane == 0) lanes_row(px, py, W, H, &F, P, &row);
       if (row.reach[lane] == 0) continue;
-      int pix = py * W + px;
-      real4 gimg = gimage[pix];
-      // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
-      // nothing: every term below is a product with one of these or with dL/ds, which is 0 too.
-      if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) continue;
-      // Only a kept fragment (its depth within [near, far]) has weight and shading terms; a
-      // fragment that was not kept, under a silhouette whose 1 − A underflowed to 0 (most of
-      // a dense mesh's pixels), has no gradient: every term below would be a product with 0.
-      int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);
-      real gc = gcover[pix];
-      if (r < 0 && gc == 0) continue;
-      real2 q = pixel_centre(px, py, W, H);
-      Fragment fr;
-      lane_fragment(&row, lane, P, &fr);
-      real D = sigmoid(fr.u);
-      // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
-      real gu = gc * D;
-      real gzf = 0, gb[3] = {0, 0, 0};
-      if (r >= 0) {
-        fragment_depth(F.z, P, &fr);
-        real2 wg = rec_wg[r];
-        real w = wg.x, G = wg.y;
-        // The weight is D·e^{z̃/γ}/Z: d(log weight)/du = 1 − D, d/dz̃ = 1/γ.
-        gu += w * (1 - D) * G;
-        gzf = gdepth[pix] * w - w * G / gamma / (farz - nearz);
-        // Through the shading, only with a colour gradient (never in a light's view): without,
-        // each term is a product with dL/dI or with dL/ds (then 0 too), so the sums below would
-        // only add zeros to sums that start at +0, which changes no bit.
-        if (gimg.x != 0 || gimg.y != 0 || gimg.z != 0) {
-          real3 X = fr.b[0] * F.V[0] + fr.b[1] * F.V[1] + fr.b[2] * F.V[2];
-          real3 a = fr.b[0] * F.a[0] + fr.b[1] * F.a[1] + fr.b[2] * F.a[2];
-          real sign = facing_sign(F.n, X, P);
-          real s[P_MAX_LIGHTS];
-          for (int l = 0; l < nl; ++l) s[l] = shadow_term(r, l, nl, P, rec_light);
-          real3 gX = 0, gnf = 0, gaf = 0;
-          shade_bwd(X, sign * F.n, a, s, P, gimg.xyz * w, &gX, &gnf, &gaf, &gl);
-          for (int l = 0; P[P_SHADOWS] > 0 && l < nl; ++l) {
-            // s depends on X through (μ, d), and for soft shadows on the face's plane (∇_μ d).
-            real3 g = rec_lgrad[r * nl + l].yzw;
-            if (receiver_plane)
-              g.z += receiver_gradient_bwd(l, &rf[l], F.V, rec_light[r * nl + l].z,
-                                           rec_lgrad2[r * nl + l].xy, P, gV, &gframe[l]);
-            gX += light_project_bwd(l, X, g, P, &gframe[l]);
-          }
-          gn += sign * gnf;
-          for (int k = 0; k < 3; ++k) {
-            gb[k] = dot(gX, F.V[k]) + dot(gaf, F.a[k]);
-            gV[k] += fr.b[k] * gX;
-            ga[k] += fr.b[k] * gaf;
-          }
-        }
-      }
-      fragment_bwd(q, F.p, F.z, F.area, P, &fr, gu, gzf, gb, gp, gz);
+      pixel_face_bwd(px, py, lane, f, &row, &F, rf, receiver_plane, P, W, H, gcover, gimage,
+                     gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad,
+                     rec_lgrad2, &s);
     }
   }
 #if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
   __local real4 sum[FACE_LANES];
-  if (rows > band_rows) {  // the same for every work-item of the face
-    for (int k = 0; k < 3; ++k) {
-      real4 pz = face_sum((real4)(gp[k], gz[k], 0), sum, band);
-      gp[k] = pz.xy;
-      gz[k] = pz.z;
-      gV[k] = face_sum3(gV[k], sum, band);
-      ga[k] = face_sum3(ga[k], sum, band);
-    }
-    gn = face_sum3(gn, sum, band);
-    gl.ambient = face_sum3(gl.ambient, sum, band);
-    for (int l = 0; l < nl; ++l) {
-      gl.pos[l] = face_sum3(gl.pos[l], sum, band);
-      gl.color[l] = face_sum3(gl.color[l], sum, band);
-      gframe[l].eye = face_sum3(gframe[l].eye, sum, band);
-      gframe[l].fwd = face_sum3(gframe[l].fwd, sum, band);
-      gframe[l].right = face_sum3(gframe[l].right, sum, band);
-      gframe[l].up = face_sum3(gframe[l].up, sum, band);
-    }
-  }
+  if (rows > band_rows) face_sums_across_bands(&s, nl, sum, band);  // alike for a face's items
 #endif
   if (band > 0) return;
-  if (bb.x <= bb.z) {  // n = normalize(cross(V1 − V0, V2 − V0))
-    real3 e1 = F.V[1] - F.V[0], e2 = F.V[2] - F.V[0];
-    real len = length(cross(e1, e2));
-    real3 gnr = (gn - F.n * dot(F.n, gn)) / len;
-    real3 ge1 = cross(e2, gnr), ge2 = cross(gnr, e1);
-    gV[1] += ge1;
-    gV[2] += ge2;
-    gV[0] -= ge1 + ge2;
-  }
-  for (int k = 0; k < 3; ++k) {
-    gface_screen[3 * f + k] = (real4)(gp[k], gz[k], 0);
-    gface_world[3 * f + k] = (real4)(gV[k], 0);
-    gface_albedo[3 * f + k] = (real4)(ga[k], 0);
-  }
-  __global real4* gL = gface_light + f * (6 * nl + 1);
-  for (int l = 0; l < nl; ++l) {
-    gL[2 * l] = (real4)(gl.pos[l], 0);
-    gL[2 * l + 1] = (real4)(gl.color[l], 0);
-    gL[2 * nl + 1 + 4 * l] = (real4)(gframe[l].eye, 0);
-    gL[2 * nl + 2 + 4 * l] = (real4)(gframe[l].fwd, 0);
-    gL[2 * nl + 3 + 4 * l] = (real4)(gframe[l].right, 0);
-    gL[2 * nl + 4 + 4 * l] = (real4)(gframe[l].up, 0);
-  }
-  gL[2 * nl] = (real4)(gl.ambient, 0);
+  store_face_sums(f, nl, bb.x <= bb.z, &F, &s, gface_screen, gface_world, gface_albedo,
+                  gface_light);
 }

@@ -8,7 +8,9 @@
 #           tests and the benchmarks), headers of the source tree included. It configures the
 #           default preset first when that database is missing (configure only, no build).
 #           readability-function-size is the function-length rule: 60 lines at most;
-#   size    no source file over 500 lines;
+#   size    no source file over 500 lines (C++, OpenCL C, Python), and no kernel or Python
+#           function over 60 lines (scripts/lint_findings.py measures those, as clang-tidy
+#           does the C++'s);
 #   refs    every "math.md §N" in the tree names a section of docs/math.md, and nothing cites a
 #           document outside the tree (scripts/doc_refs.py; ctest runs it too, as doc_refs).
 # A function or a file may be longer only when .lint-allow lists it, with a reason:
@@ -79,11 +81,19 @@ PY
     python3 scripts/lint_findings.py "$root" "$allow" tidy
 }
 
+# The OpenCL C and Python sources, one per line: clang-tidy does not see them.
+other_sources() {
+  find kernels bench python scripts examples -type f \( -name '*.cl' -o -name '*.clh' \
+    -o -name '*.py' \) | LC_ALL=C sort
+}
+
 size() {
-  local files
-  mapfile -t files < <(sources)
+  local files status=0
+  mapfile -t files < <(sources; other_sources)
   wc -l "${files[@]}" | grep -v ' total$' | python3 scripts/lint_findings.py "$(pwd)" "$allow" \
-    size "$max_file_lines"
+    size "$max_file_lines" || status=1
+  other_sources | python3 scripts/lint_findings.py "$(pwd)" "$allow" functions 60 || status=1
+  return $status
 }
 
 refs() {

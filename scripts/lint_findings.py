@@ -3,12 +3,17 @@
 
   lint_findings.py ROOT ALLOW tidy          clang-tidy's output on stdin
   lint_findings.py ROOT ALLOW size MAX      `wc -l` lines on stdin
+  lint_findings.py ROOT ALLOW functions MAX paths of OpenCL C and Python files on stdin
 
 tidy: every finding in a file of the source tree fails, except readability-function-size on a
 function that ALLOW lists.
-size: a file over MAX lines fails unless ALLOW lists it. An ALLOW entry that no longer matches
-(a function now short enough, a file now short enough) fails too. Exit status 1 on failure.
+size: a file over MAX lines fails unless ALLOW lists it.
+functions: what clang-tidy's function-size rule does for C++, for the kernels and the Python: a
+function whose body is over MAX lines fails unless ALLOW lists it.
+An ALLOW entry that no longer matches (a function now short enough, a file now short enough)
+fails too. Exit status 1 on failure.
 """
+import ast
 import os
 import re
 import sys
@@ -111,11 +116,77 @@ def size(root, allow, limit):
     return 1 if failures else 0
 
 
+def python_functions(text):
+    """(name, body lines) of every function of a Python source."""
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            yield node.name, node.end_lineno - node.body[0].lineno + 1
+
+
+OPENCL_NOISE = re.compile(r"//[^\n]*|/\*.*?\*/|\"(?:\\.|[^\"\\])*\"|'(?:\\.|[^'\\])*'", re.S)
+OPENCL_NAME = re.compile(r"(\w+)\s*\([^()]*(?:\([^()]*\)[^()]*)*\)\s*$")
+
+
+def opencl_functions(text):
+    """(name, body lines) of every function of an OpenCL C source: a brace at file scope after
+    a parameter list opens one. Comments, literals and preprocessor lines are left out."""
+    text = OPENCL_NOISE.sub(lambda m: "\n" * m.group(0).count("\n"), text)
+    lines = text.split("\n")
+    depth, head, start, name = 0, "", 0, None
+    in_directive = False
+    for number, line in enumerate(lines, 1):
+        directive = in_directive or line.lstrip().startswith("#")
+        in_directive = directive and line.rstrip().endswith("\\")
+        if directive:
+            continue
+        for i, ch in enumerate(line):
+            if ch == "{":
+                if depth == 0:
+                    m = OPENCL_NAME.search(head + line[:i])
+                    name, start = (m.group(1) if m else None), number
+                depth += 1
+            elif ch == "}":
+                depth -= 1
+                if depth == 0 and name:
+                    yield name, number - start - 1
+                    name = None
+            elif ch == ";" and depth == 0:
+                head = ""
+        head = "" if depth else (head + " " + line)[-2000:]
+
+
+def functions(root, allow, limit):
+    failures, long_functions, counted = 0, set(), set()
+    for raw in sys.stdin:
+        rel = raw.strip()
+        counted.add(rel)
+        text = open(os.path.join(root, rel), encoding="utf-8").read()
+        found = python_functions(text) if rel.endswith(".py") else opencl_functions(text)
+        for name, lines in found:
+            if lines <= limit:
+                continue
+            long_functions.add((rel, name))
+            if ("function", rel, name) not in allow:
+                print(f"{rel}: function {name} is {lines} lines, over {limit}; shorten it or "
+                      "list it in .lint-allow")
+                failures += 1
+    for entry in sorted(allow):
+        if entry[0] == "function" and entry[1] in counted and entry[1:] not in long_functions:
+            print(f"{entry[1]}: the .lint-allow entry for {entry[2]} is no longer needed "
+                  "(remove it)")
+            failures += 1
+    print(f"lint: functions: {len(counted)} kernel and Python files, {len(long_functions)} "
+          f"functions over {limit} lines, {failures} failures")
+    return 1 if failures else 0
+
+
 def main():
     root, allow_path, mode = sys.argv[1:4]
     allow = read_allow(allow_path) if os.path.exists(allow_path) else {}
     if mode == "tidy":
         return tidy(root, allow)
+    if mode == "functions":
+        return functions(root, allow, int(sys.argv[4]))
     return size(root, allow, int(sys.argv[4]))
 
 
