@@ -670,7 +670,7 @@ TEST(RasterFragments, CountsTheKeptFragments) {
 // under a loss whose colour part leaves the image's left half out (its silhouette and depth
 // parts cover it all). And the skip happens: kernels that poison the normal's gradient where it
 // would skip give NaN gradients.
-constexpr const char* kShadingTest = "        if (gimg.x != 0 || gimg.y != 0 || gimg.z != 0) {";
+constexpr const char* kShadingTest = "    if (gimg.x != 0 || gimg.y != 0 || gimg.z != 0)\n";
 
 Scene shading_scene(Shadows shadows, ShadowModel model) {
   Scene s;
@@ -691,7 +691,7 @@ std::vector<OutputGrads> colour_loss_on_right_half(const Scene& scene) {
 TEST(RasterShadingSkip, ChangesNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string always =
-      patched_kernels("penumbra_raster_shade_always", "raster.cl", kShadingTest, "        {");
+      patched_kernels("penumbra_raster_shade_always", "raster.cl", kShadingTest, "");
   std::vector<NamedScene> scenes;
   for (Shadows sh : {Shadows::Hard, Shadows::Soft})
     for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
@@ -716,7 +716,7 @@ TEST(RasterShadingSkip, Taken) {
   REQUIRE_CONTEXT(ctx);
   const std::string poisoned = patched_kernels(
       "penumbra_raster_shade_nan", "raster.cl", kShadingTest,
-      "        if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0) gn = (real3)(NAN);\n        {");
+      "    if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0) s->gn = (real3)(NAN);\n");
   const Scene scene = shading_scene(Shadows::None, ShadowModel::Accurate);
   const auto weights = colour_loss_on_right_half(scene);
   EXPECT_TRUE(all_finite(grads_with("", scene, Precision::Float, weights)));
