@@ -3,6 +3,11 @@
 // OpenCL device; with --variants, each one's expanded source and build options as files, for
 // compiling them offline (scripts/spir_check.sh). Last line:
 //   kernels: variants=N files=F
+// `penumbra kernels --warm [--device D]`: fills the kernel cache with the programs a renderer on
+// that device (default: each device present) builds by itself (penumbra::warm_kernel_cache), as
+// the build does. One line per device:
+//   kernels: N programs for DEVICE in the kernel cache DIR (T s)
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <set>
@@ -19,6 +24,7 @@ namespace {
 
 struct KernelsArgs {
   std::string kind = "all", device, variants;
+  bool warm = false;
 };
 
 // A device of the kind, as a renderer sees it: double precision, and the work-group limit of
@@ -32,7 +38,28 @@ DeviceInfo device_like(const std::string& kind) {
   return d;
 }
 
+// --warm: each device (every one present, without --device) in turn.
+int run_warm(const KernelsArgs& a) {
+  std::vector<std::string> devices = {a.device};
+  if (a.device.empty()) {
+    devices.clear();
+    for (size_t i = 0; i < list_devices().size(); ++i) devices.push_back(std::to_string(i));
+    if (devices.empty()) throw Error("no OpenCL device: no kernel cache to fill");
+  }
+  for (const std::string& device : devices) {
+    const auto start = std::chrono::steady_clock::now();
+    Context context(device);
+    const size_t n = warm_kernel_cache(context).size();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::printf("kernels: %zu programs for %s in the kernel cache %s (%.1f s)\n", n,
+                context.info().name.c_str(), Context::cache_dir().c_str(), seconds);
+  }
+  return 0;
+}
+
 int run_kernels(const KernelsArgs& a) {
+  if (a.warm) return run_warm(a);
   std::vector<DeviceInfo> devices;
   std::unique_ptr<Context> context;
   if (!a.device.empty()) {
@@ -82,9 +109,17 @@ Command add_kernels_command(CLI::App& root) {
       ->add_option("--device", args->device,
                    "for this OpenCL device instead (index or part of its name)")
       ->excludes(kind);
-  c.app->add_option("--variants", args->variants,
-                    "folder for NNNN_<stem>.cl (the expanded source) and NNNN_<stem>.options "
-                    "(the build options) of every variant");
+  CLI::Option* variants =
+      c.app->add_option("--variants", args->variants,
+                        "folder for NNNN_<stem>.cl (the expanded source) and NNNN_<stem>.options "
+                        "(the build options) of every variant");
+  c.app
+      ->add_flag(
+          "--warm", args->warm,
+          "instead, fill the kernel cache with the programs a renderer on --device (default: "
+          "every device) builds by itself, so that later processes load them")
+      ->excludes(kind)
+      ->excludes(variants);
   c.run = [args] { return run_kernels(*args); };
   return c;
 }

@@ -134,6 +134,8 @@ def section(doc):
         f"Load average (1, 5, 15 min) {doc['loadavg_before']} before the runs and",
         f"{doc['loadavg_after']} after (two shared cores: above 2, other processes competed).",
         f"From cold to both warm the first render goes from {cold:,.0f} ms to {warm:,.0f} ms.",
+        "The build fills the kernel cache (`penumbra kernels --warm`, README), so a user's",
+        "first render after setup is the *kernel cache* row.",
         "",
         "On PoCL, asking for a program's binary compiles every kernel of it for any",
         "work-group size, and the binary holds that code. By default PoCL compiles each kernel",

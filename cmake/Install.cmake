@@ -44,6 +44,11 @@ install(FILES ${CMAKE_BINARY_DIR}/penumbra.pc ${CMAKE_BINARY_DIR}/penumbra-app.p
 
 if(PENUMBRA_BUILD_CLI)
   install(TARGETS penumbra RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT cli)
+  if(PENUMBRA_WARM_KERNEL_CACHE)  # loads what the build filled: a second or so
+    install(CODE "execute_process(COMMAND \${CMAKE_COMMAND}
+                  -DCLI=\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_BINDIR}/penumbra
+                  -P ${CMAKE_SOURCE_DIR}/cmake/WarmKernelCache.cmake)" COMPONENT cli)
+  endif()
 endif()
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/data/scenes ${CMAKE_SOURCE_DIR}/data/meshes
                   ${CMAKE_SOURCE_DIR}/data/targets

@@ -372,6 +372,12 @@ void bind_devices(nb::module_& m) {
         return "<DeviceInfo " + std::to_string(d.index) + ": " + d.name + " (" + d.platform + ")>";
       });
   m.def("list_devices", &list_devices);
+  m.def(
+      "warm_kernel_cache", [](Context& context) { return warm_kernel_cache(context).size(); },
+      "context"_a, nb::call_guard<nb::gil_scoped_release>(),
+      "Fills the kernel cache with every program a renderer on the context's device builds by "
+      "itself, so that later processes load them instead of compiling (as the build and `pip "
+      "install` do). Returns how many; raises penumbra.Error when the cache is off.");
   nb::class_<Context>(m, "Context")
       .def(nb::init<const std::string&>(), "device"_a = "",
            "An OpenCL device: an index from list_devices() or part of a device or platform name; "

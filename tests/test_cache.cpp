@@ -246,3 +246,38 @@ TEST(ProgramCache, WarmCacheLeavesPoclNothingToCompile) {
   ScopedEnv specialize("POCL_WORK_GROUP_SPECIALIZATION", "1");
   EXPECT_GT(render_with("specialized"), 0);
 }
+
+// `penumbra kernels --warm` (what the build runs) fills the cache with every program a
+// renderer builds by itself: afterwards a new process's render and backward, in each
+// precision, shadow model, shadow mode and sampling, build nothing from source. The cache is
+// the suite's own (PENUMBRA_CACHE_DIR), which the other tests share, so that filling it costs
+// the suite little.
+TEST(ProgramCache, WarmFillsWhatEveryRenderAndBackwardBuilds) {
+  const fs::path dir = fresh_dir("warm");
+  const RunResult warm = run("kernels --warm", dir, "warm");
+  ASSERT_EQ(warm.exit_code, 0) << show(warm);
+  EXPECT_TRUE(std::regex_search(warm.out, std::regex("^kernels: [1-9][0-9]* programs for ")))
+      << warm.out;
+  const RunResult grads =
+      run("render --width 48 --height 32 --shadows none -o " + quote((dir / "grads.png").string()) +
+              " --raw " + quote((dir / "grads").string()),
+          dir, "grads");
+  ASSERT_EQ(grads.exit_code, 0) << show(grads);
+  ScopedEnv profile("PENUMBRA_PROFILE", "1");
+  for (const char* precision : {"float", "double"})
+    for (const char* model : {"accurate", "paper"})
+      for (const char* shadows : {"none", "hard", "soft"})
+        for (const char* sampling : {"truncated", "exact"}) {
+          const std::string tag =
+              std::string(precision) + "_" + model + "_" + shadows + "_" + sampling;
+          const RunResult r =
+              run(std::string("backward --width 48 --height 32 --map-size 32") + " --precision " +
+                      precision + " --shadow-model " + model + " --shadows " + shadows +
+                      " --sampling " + sampling + " --grad-in " + quote((dir / "grads").string()) +
+                      " -o " + quote((dir / tag).string()),
+                  dir, tag);
+          ASSERT_EQ(r.exit_code, 0) << show(r);
+          EXPECT_EQ(count(r.err, "built from source"), 0) << tag << "\n" << r.err;
+          EXPECT_GE(count(r.err, "loaded from the cache"), 4) << tag << "\n" << r.err;
+        }
+}

@@ -215,6 +215,13 @@ def test_devices_say_how_transfers_move(monkeypatch):
     assert penumbra.Context(str(devices[0].index)).copy_transfers
 
 
+def test_warming_a_cache_that_is_off_is_an_error(monkeypatch):
+    """(The build's own warm-up is tested with the tool: tests/test_cache.cpp.)"""
+    monkeypatch.setenv("PENUMBRA_CACHE_DIR", "off")
+    with pytest.raises(penumbra.Error, match="kernel cache is off"):
+        penumbra.warm_kernel_cache(penumbra.Context())
+
+
 def test_lists_are_copies_that_outlive_their_scene():
     """docs/api.md's pattern, 100 times: each camera read back is the one set, never freed
     memory (list getters used to hand out handles into the scene's list)."""

@@ -45,6 +45,8 @@ class Context {
   // compiler log.
   cl::Program& program(const std::string& file, const std::string& options);
 
+  // The kernel cache's folder (README "Environment variables"); empty when it is off.
+  static std::string cache_dir();
   // Source of kernels/<file> with includes expanded (for tests and diagnostics).
   static std::string kernel_source(const std::string& file);
   // What program() gives the OpenCL compiler for `options`: them and -cl-std=CL1.2.

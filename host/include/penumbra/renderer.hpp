@@ -68,6 +68,13 @@ struct KernelVariant {
 // (penumbra tune), each raster tuning also with brute_force. In file order, no duplicates. For
 // compiling every variant offline (`penumbra kernels`, scripts/spir_check.sh).
 std::vector<KernelVariant> kernel_variants(const DeviceInfo& device);
+// Fills the kernel cache (Context::program) with every program a Renderer on ctx's device
+// builds with the tuning it picks by itself (Tuning not given: the database's entry, or the
+// heuristic's for any scene): float and, with fp64, double, every shadow model, sampling and
+// part. A later process then loads them instead of compiling (`penumbra kernels --warm`, run
+// by the build). `done(k, n)` after each program. Throws penumbra::Error when the cache is off.
+std::vector<KernelVariant> warm_kernel_cache(
+    Context& ctx, const std::function<void(size_t, size_t)>& done = nullptr);
 
 // Where a render() or backward() is, for progress reports (Renderer::set_progress): the call,
 // the pass (a light's shadow-map pass or a camera's view, 1-based of how many), the stage, and

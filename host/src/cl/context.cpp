@@ -250,6 +250,8 @@ void report_build(const std::string& file, const char* how, Clock::time_point st
 
 }  // namespace
 
+std::string Context::cache_dir() { return detail::program_cache_dir(); }
+
 std::string Context::build_options(const std::string& options) {
   return options + " -cl-std=CL1.2";  // OpenCL C 1.2, whatever else the device supports
 }

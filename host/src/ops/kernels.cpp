@@ -1,6 +1,7 @@
 // Kernel programs: the -D options each is built with (the one place that decides them), the
 // variants the stages ask for, every variant a device can build (kernel_variants, for the
 // offline SPIR check), and the kernel objects of one precision and tuning (ops.hpp).
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -87,6 +88,64 @@ Kernels::Entry& Kernels::get(const std::string& file, const std::string& name,
 
 }  // namespace detail
 
+namespace {
+
+// The kernel files and the parts (forward, backward, gathers) each holds.
+std::vector<std::pair<std::string, std::vector<detail::KernelPart>>> kernel_files() {
+  std::vector<std::pair<std::string, std::vector<detail::KernelPart>>> files;
+  for (const auto& [name, text] : detail::embedded_kernels())
+    if (name.find('/') == std::string::npos && name.size() > 3 &&
+        name.compare(name.size() - 3, 3, ".cl") == 0) {
+      files.push_back({name, {detail::KernelPart::Forward}});
+      if (text.find("BACKWARD_KERNEL") != std::string::npos)
+        files.back().second.push_back(detail::KernelPart::Backward);
+      if (text.find("GATHER_KERNEL") != std::string::npos)
+        files.back().second.push_back(detail::KernelPart::Gather);
+    }
+  return files;
+}
+
+// Every program the tunings legal on `device` build there, float and (with fp64) double, with
+// the options as Context::program takes them; in file order, no duplicates.
+std::vector<KernelVariant> programs_of(const DeviceInfo& device,
+                                       const std::vector<Tuning>& tunings) {
+  std::vector<Precision> precisions = {Precision::Float};
+  if (device.fp64) precisions.push_back(Precision::Double);
+  std::set<std::pair<std::string, std::string>> seen;
+  std::vector<KernelVariant> out;
+  for (const auto& [file, parts] : kernel_files())
+    for (Precision precision : precisions)
+      for (const Tuning& tuning : tunings) {
+        try {
+          validate(tuning, device);
+        } catch (const Error&) {  // not legal on this device: never built there
+          continue;
+        }
+        for (const std::string& variant : detail::program_variants(file, tuning))
+          for (detail::KernelPart part : parts) {
+            const std::string options =
+                detail::program_options(file, precision, tuning, device, variant, part);
+            if (seen.insert({file, options}).second) out.push_back({file, options});
+          }
+      }
+  return out;
+}
+
+// The tunings a renderer picks by itself on `device` (no Tuning given): the database's, and
+// where the heuristic decides, its pick with each raster tile it may choose for a scene.
+std::vector<Tuning> own_tunings(const DeviceInfo& device) {
+  const Tuning pick = TuningDatabase::load_default().lookup(device, WorkloadStats{});
+  std::vector<Tuning> out = {pick};
+  if (pick.source.rfind("heuristic", 0) == 0)
+    for (int tile : detail::kRasterTiles) {
+      out.push_back(pick);
+      out.back().raster.tile = tile;
+    }
+  return out;
+}
+
+}  // namespace
+
 std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
   // The tunings a renderer can run with: the database's pick (or the heuristic's), a fixed
   // default Tuning, and every candidate the tuner tries from either; each raster tuning also
@@ -103,36 +162,22 @@ std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
     t.raster.brute_force = !t.raster.brute_force;
     tunings.push_back(t);
   }
-  std::vector<std::pair<std::string, std::vector<detail::KernelPart>>> files;  // and their parts
-  for (const auto& [name, text] : detail::embedded_kernels())
-    if (name.find('/') == std::string::npos && name.size() > 3 &&
-        name.compare(name.size() - 3, 3, ".cl") == 0) {
-      files.push_back({name, {detail::KernelPart::Forward}});
-      if (text.find("BACKWARD_KERNEL") != std::string::npos)
-        files.back().second.push_back(detail::KernelPart::Backward);
-      if (text.find("GATHER_KERNEL") != std::string::npos)
-        files.back().second.push_back(detail::KernelPart::Gather);
-    }
-  std::vector<Precision> precisions = {Precision::Float};
-  if (device.fp64) precisions.push_back(Precision::Double);
-  std::set<std::pair<std::string, std::string>> seen;
-  std::vector<KernelVariant> out;
-  for (const auto& [file, parts] : files)
-    for (Precision precision : precisions)
-      for (const Tuning& tuning : tunings) {
-        try {
-          validate(tuning, device);
-        } catch (const Error&) {  // not legal on this device: never built there
-          continue;
-        }
-        for (const std::string& variant : detail::program_variants(file, tuning))
-          for (detail::KernelPart part : parts) {
-            const std::string options = Context::build_options(
-                detail::program_options(file, precision, tuning, device, variant, part));
-            if (seen.insert({file, options}).second) out.push_back({file, options});
-          }
-      }
+  std::vector<KernelVariant> out = programs_of(device, tunings);
+  for (KernelVariant& v : out) v.options = Context::build_options(v.options);
   return out;
+}
+
+std::vector<KernelVariant> warm_kernel_cache(Context& ctx,
+                                             const std::function<void(size_t, size_t)>& done) {
+  if (Context::cache_dir().empty())
+    throw Error("the kernel cache is off (PENUMBRA_CACHE_DIR=off): nothing to fill");
+  std::vector<KernelVariant> programs = programs_of(ctx.info(), own_tunings(ctx.info()));
+  for (size_t i = 0; i < programs.size(); ++i) {
+    ctx.program(programs[i].file, programs[i].options);
+    if (done) done(i + 1, programs.size());
+  }
+  for (KernelVariant& v : programs) v.options = Context::build_options(v.options);
+  return programs;
 }
 
 }  // namespace penumbra

@@ -134,7 +134,7 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
   using Stage = TuneStage;
   std::vector<Stage> stages;
   Stage raster{"raster", Shadows::None, Sampling::Truncated, 0.0, {}};
-  const std::vector<int> tiles = quick ? std::vector<int>{8, 16} : std::vector<int>{8, 16, 32};
+  const std::vector<int> tiles = quick ? std::vector<int>{8, 16} : kRasterTiles;
   const std::vector<int> ppws = quick ? std::vector<int>{1, 8} : std::vector<int>{1, 2, 4, 8, 16};
   for (int tile : tiles)
     for (int ppw : ppws) {
@@ -173,7 +173,7 @@ std::vector<TuneStage> tune_stages(const DeviceInfo& device, const Tuning& start
   }
   stages.push_back(exact);
   Stage pen{"soft_map", Shadows::Soft, Sampling::Truncated, 0.0, {}};
-  for (int tile : quick ? std::vector<int>{16} : std::vector<int>{8, 16, 32}) {
+  for (int tile : quick ? std::vector<int>{16} : kRasterTiles) {
     Tuning t = start;
     t.soft_map.tile = tile;
     pen.candidates.push_back(t);

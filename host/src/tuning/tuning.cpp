@@ -17,6 +17,7 @@
 #include "penumbra/error.hpp"
 #include "penumbra/io.hpp"
 #include "penumbra/scene.hpp"
+#include "tuning/stages.hpp"
 
 namespace penumbra {
 namespace detail {
@@ -273,7 +274,7 @@ Tuning heuristic_tuning(const DeviceInfo& device, const WorkloadStats& w) {
   // tile its box overlaps, plus a fixed cost per (tile, face) entry of the bins.
   const double box = std::sqrt(std::max(w.mean_face_pixels, 0.0)) + 2 * w.cutoff_pixels + 2;
   double best = INFINITY;
-  for (int tile : {8, 16, 32}) {
+  for (int tile : detail::kRasterTiles) {
     if (size_t(tile) * tile / t.raster.pixels_per_item > device.max_work_group) continue;
     const double tiles_per_face = std::pow((box + tile) / tile, 2);
     const double cost = w.faces * (tiles_per_face * tile * tile + 64 * tiles_per_face);
