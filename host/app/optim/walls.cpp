@@ -129,10 +129,9 @@ RenderParams ShadowProblem::default_shadow_fit_params(ShadowModel model) {
   // shadow edge lies where S has come β in front of the wall: β = 2.2, about two thirds of the
   // gap between the occluder's lit side and the wall (≈ 3.25), puts it near the outline, so the
   // fitted shape is not drawn too small; the compare's band [β − 2γ_s, β + 2γ_s] = [1.5, 2.9]
-  // stays within the gap. (Measured on the bundled targets, judged by their hard shadows:
-  // β = 1.5, γ_s = 0.3 gave IoU [0.875, 0.909]; β = 2.2, γ_s = 0.35 [0.936, 0.953]; β = 2.5,
-  // γ_s = 0.3 [0.808, 0.825].) The paper model filters S before the compare, which moves its
-  // edge outwards by itself: its own β = 1.5, γ_s = 0.3.
+  // stays within the gap (docs/applications.md has the IoUs each choice fits to). The paper
+  // model filters S before the compare, which moves its edge outwards by itself: its own
+  // β = 1.5, γ_s = 0.3.
   const bool paper = model == ShadowModel::Paper;
   p.light_gamma = 0.1;
   p.sigma_s = 2.0;
