@@ -5,7 +5,7 @@
 //   kernels: variants=N files=F
 // `penumbra kernels --warm [--device D]`: fills the kernel cache with the programs a renderer on
 // that device (default: each device present) builds by itself (penumbra::warm_kernel_cache), as
-// the build does. One line per device:
+// the build does, with progress lines on stderr after 2 s (CallProgress). One line per device:
 //   kernels: N programs for DEVICE in the kernel cache DIR (T s)
 #include <chrono>
 #include <cstdio>
@@ -38,6 +38,20 @@ DeviceInfo device_like(const std::string& kind) {
   return d;
 }
 
+// Progress lines of --warm: "kernels: warm device 1/1, programs 12/50, 24 %, 17.3 s".
+RenderProgress warm_progress(size_t device, size_t devices, size_t built, size_t programs) {
+  RenderProgress p;
+  p.call = "warm";
+  p.pass = "device";
+  p.index = int(device + 1);
+  p.count = int(devices);
+  p.stage = "programs";
+  p.part = int(built);
+  p.parts = int(programs);
+  p.fraction = double(built) / double(programs);
+  return p;
+}
+
 // --warm: each device (every one present, without --device) in turn.
 int run_warm(const KernelsArgs& a) {
   std::vector<std::string> devices = {a.device};
@@ -46,10 +60,15 @@ int run_warm(const KernelsArgs& a) {
     for (size_t i = 0; i < list_devices().size(); ++i) devices.push_back(std::to_string(i));
     if (devices.empty()) throw Error("no OpenCL device: no kernel cache to fill");
   }
-  for (const std::string& device : devices) {
+  CallProgress progress("kernels");
+  for (size_t i = 0; i < devices.size(); ++i) {
     const auto start = std::chrono::steady_clock::now();
-    Context context(device);
-    const size_t n = warm_kernel_cache(context).size();
+    Context context(devices[i]);
+    progress.start();
+    const size_t n = warm_kernel_cache(context, [&](size_t built, size_t programs) {
+                       progress.update(warm_progress(i, devices.size(), built, programs));
+                     }).size();
+    progress.finish();
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::printf("kernels: %zu programs for %s in the kernel cache %s (%.1f s)\n", n,

@@ -254,10 +254,17 @@ TEST(ProgramCache, WarmCacheLeavesPoclNothingToCompile) {
 // the suite little.
 TEST(ProgramCache, WarmFillsWhatEveryRenderAndBackwardBuilds) {
   const fs::path dir = fresh_dir("warm");
-  const RunResult warm = run("kernels --warm", dir, "warm");
+  RunResult warm;
+  {
+    ScopedEnv progress("PENUMBRA_PROGRESS_AFTER", "0");
+    warm = run("kernels --warm", dir, "warm");
+  }
   ASSERT_EQ(warm.exit_code, 0) << show(warm);
   EXPECT_TRUE(std::regex_search(warm.out, std::regex("^kernels: [1-9][0-9]* programs for ")))
       << warm.out;
+  EXPECT_TRUE(std::regex_search(
+      warm.err, std::regex("kernels: warm device 1/[0-9]+, programs ([0-9]+)/\\1, 100 %")))
+      << warm.err;
   const RunResult grads =
       run("render --width 48 --height 32 --shadows none -o " + quote((dir / "grads.png").string()) +
               " --raw " + quote((dir / "grads").string()),
