@@ -714,9 +714,9 @@ TEST(RasterShadingSkip, ChangesNoBit) {
 
 TEST(RasterShadingSkip, Taken) {
   REQUIRE_CONTEXT(ctx);
-  const std::string poisoned = patched_kernels(
-      "penumbra_raster_shade_nan", "raster.cl", kShadingTest,
-      "    if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0) s->gn = (real3)(NAN);\n");
+  const std::string poisoned =
+      patched_kernels("penumbra_raster_shade_nan", "raster.cl", kShadingTest,
+                      "    if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0) s->gn = (real3)(NAN);\n");
   const Scene scene = shading_scene(Shadows::None, ShadowModel::Accurate);
   const auto weights = colour_loss_on_right_half(scene);
   EXPECT_TRUE(all_finite(grads_with("", scene, Precision::Float, weights)));
