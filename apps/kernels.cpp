@@ -57,7 +57,7 @@ int run_warm(const KernelsArgs& a) {
   std::vector<std::string> devices = {a.device};
   if (a.device.empty()) {
     devices.clear();
-    for (size_t i = 0; i < list_devices().size(); ++i) devices.push_back(std::to_string(i));
+    for (const DeviceInfo& d : list_devices()) devices.push_back(std::to_string(d.index));
     if (devices.empty()) throw Error("no OpenCL device: no kernel cache to fill");
   }
   CallProgress progress("kernels");

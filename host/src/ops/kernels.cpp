@@ -147,12 +147,12 @@ std::vector<Tuning> own_tunings(const DeviceInfo& device) {
 }  // namespace
 
 std::vector<KernelVariant> kernel_variants(const DeviceInfo& device) {
-  // The tunings a renderer can run with: the database's pick (or the heuristic's), a fixed
-  // default Tuning, and every candidate the tuner tries from either; each raster tuning also
-  // with brute_force.
+  // The tunings a renderer can run with: its own picks, a fixed default Tuning, and every
+  // candidate the tuner tries from those; each raster tuning also with brute_force.
+  std::vector<Tuning> starts = own_tunings(device);
+  starts.push_back(detail::for_device(Tuning{}, device));
   std::vector<Tuning> tunings;
-  for (const Tuning& start : {TuningDatabase::load_default().lookup(device, WorkloadStats{}),
-                              detail::for_device(Tuning{}, device)}) {
+  for (const Tuning& start : starts) {
     tunings.push_back(start);
     for (const detail::TuneStage& stage : detail::tune_stages(device, start, false))
       tunings.insert(tunings.end(), stage.candidates.begin(), stage.candidates.end());

@@ -208,7 +208,7 @@ void validate(const Tuning& t, const DeviceInfo& device) {
                 " must be 0 (CLBlast's default) or positive");
   if (t.exact.xgemm) validate(*t.exact.xgemm, device);
   if (t.soft_map.tile < 1 || t.soft_map.tile > 256)
-    throw Error("penumbra tuning: tile " + std::to_string(t.soft_map.tile) +
+    throw Error("soft map tuning: tile " + std::to_string(t.soft_map.tile) +
                 " must be in 1 to 256");
   const int g = t.gather.group;
   if (g < 0 || g > 16 || size_t(g) * size_t(g) > device.max_work_group)
