@@ -54,6 +54,7 @@ struct RenderOptions {
   std::string shadows, sampling;  // none|hard|soft, truncated|exact|gemm
   std::string exact_backend;      // auto|kernels|clblast
   std::string shadow_model;       // accurate|paper
+  std::string shadow_map;         // auto|frustum|cube
   int map_size = 0;               // shadow_map_size
   double light_size = 0, light_sigma = 0, light_gamma = 0, weight_eps = 0;
   int width = 0, height = 0;
@@ -65,7 +66,7 @@ struct RenderOptions {
               *o_shadows = nullptr, *o_sampling = nullptr, *o_exact_backend = nullptr,
               *o_shadow_model = nullptr, *o_map_size = nullptr, *o_light_size = nullptr,
               *o_light_sigma = nullptr, *o_light_gamma = nullptr, *o_weight_eps = nullptr,
-              *o_max_memory = nullptr;
+              *o_max_memory = nullptr, *o_shadow_map = nullptr;
 };
 void add_render_options(CLI::App& cmd, RenderOptions& options);
 // Applies the given overrides to every camera / the scene parameters; throws penumbra::Error for

@@ -114,6 +114,11 @@ void add_render_options(CLI::App& cmd, RenderOptions& o) {
   o.o_shadow_model =
       add_shadow_model_option(cmd, o.shadow_model, shadow_model_help())->group(shadow_group);
   o.o_map_size = cmd.add_option("--map-size", o.map_size, map_size_help())->group(shadow_group);
+  o.o_shadow_map = cmd.add_option("--shadow-map", o.shadow_map,
+                                  "how every point light's shadows are mapped: auto (a cube where "
+                                  "one frustum cannot hold its casters), frustum or cube")
+                       ->check(one_of<ShadowMapShape>())
+                       ->group(shadow_group);
   o.o_light_size = cmd.add_option("--light-size", o.light_size,
                                   "diameter D_L of every light (world units, >= 0; soft shadows)")
                        ->group(shadow_group);
@@ -245,6 +250,11 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
   set_if_given(o.o_map_size, o.map_size, o.map_size >= 1 && o.map_size <= kMaxShadowMapSize,
                "a positive number of texels (at most " + std::to_string(kMaxShadowMapSize) + ")",
                p.shadow_map_size);
+  if (given(o.o_shadow_map)) {
+    const ShadowMapShape shape = parse_word<ShadowMapShape>("--shadow-map", o.shadow_map);
+    for (Light& light : scene.lights)
+      if (light.type == LightType::Point) light.shadow_map = shape, light.frustum.fitted = false;
+  }
   if (given(o.o_light_size)) {
     require(std::isfinite(o.light_size) && o.light_size >= 0, "--light-size",
             "a non-negative diameter", o.light_size);

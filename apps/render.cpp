@@ -85,11 +85,14 @@ int run_render(const RenderArgs& a) {
   for (const Mesh& m : scene.meshes) faces += m.faces.size();
   const Camera& cam = scene.cameras.front();
   std::string shadows = word(scene.params.shadows);
-  if (scene.params.shadows != Shadows::None)
+  if (scene.params.shadows != Shadows::None) {
+    const size_t maps = cube_faces(scene.lights, nullptr).size();  // six for a light's cube
+    const std::string side = std::to_string(shadow_map_side(scene.params));
     shadows += " (" + word(scene.params.shadow_model) + ", " +
                sampling_summary(scene.params, renderer) + ", " +
-               std::to_string(shadow_map_side(scene.params)) + "x" +
-               std::to_string(shadow_map_side(scene.params)) + " map)";
+               (maps == 1 ? "" : std::to_string(maps) + " ") + side + "x" + side +
+               (maps == 1 ? " map)" : " maps)");
+  }
   std::printf("rendered %zu view%s, %dx%d, %zu faces, shadows %s, %.1f ms (%s) -> %s%s\n",
               views.size(), views.size() == 1 ? "" : "s", cam.width, cam.height, faces,
               shadows.c_str(), ms, precision == Precision::Double ? "double" : "float",
@@ -109,7 +112,8 @@ Command add_render_command(CLI::App& root) {
   c.app->add_option("--raw", args->raw_dir,
                     "also write DIR/color.npy (H,W,3), silhouette.npy (H,W), depth.npy (H,W) "
                     "as float32 (suffix _k for camera k >= 1), and with shadows on "
-                    "shadow_map_<l>.npy (H_s,W_s), the light-view depth map S of light l, and "
+                    "shadow_map_<l>.npy (H_s,W_s), the light-view depth map S of shadow map l (six "
+                    "for a light's cube), and "
                     "with soft shadows penumbra_map_<l>.npy, its penumbra map P");
   add_precision_option(*c.app, args->precision, "float");
   add_render_options(*c.app, args->render);

@@ -75,6 +75,15 @@ void set_scene(Scene& s, const std::string& name) {
     L.position = glm::dvec3(0, 0.5, 0) + 8.0 * (std::cos(e) * h + glm::dvec3(0, std::sin(e), 0));
     return;
   }
+  if (name == "among" || name == "among_frustum") {
+    const glm::dvec3 at[] = {{1.1, 0.3, -0.3}, {0, 0.3, 0.8}, {-1.1, 0.3, -0.3}, {0, 0.3, -1.4}};
+    caster = icosphere(8, at[0], 0.3, albedo);
+    for (int i = 1; i < 4; ++i)
+      s.meshes.insert(s.meshes.begin() + i, icosphere(8, at[i], 0.3, albedo));
+    L.position = {0, 0.9, -0.3};
+    if (name == "among_frustum") L.shadow_map = ShadowMapShape::Frustum;
+    return;
+  }
   if (name.rfind("knot_h", 0) == 0) {
     caster = torus_knot(2, 3, 0.9, 0.35, 0.16, 192, 10, knot_lift(name), albedo);
     return;
@@ -195,8 +204,8 @@ Mesh torus_knot(int p, int q, double R, double r, double tube, int segments, int
 }
 
 const std::vector<std::string>& accuracy_scene_names() {
-  static const std::vector<std::string> names = {"sphere", "knot_h0", "knot_h0.3", "knot_h1",
-                                                 "grazing"};
+  static const std::vector<std::string> names = {"sphere",  "knot_h0", "knot_h0.3",
+                                                 "knot_h1", "grazing", "among"};
   return names;
 }
 

@@ -9,7 +9,12 @@
 //                      a (2, 3) torus knot tube (torus_knot: 3840 faces, 2.8 wide, 1.0 tall)
 //                      lying flat, its lowest point 0 (touching the ground), 0.3 and 1 above it;
 //   grazing            a sphere of radius 0.5 resting on the ground under a light 8 away at an
-//                      elevation of 18° (seen from the sphere's centre).
+//                      elevation of 18° (seen from the sphere's centre);
+//   among              a light 0.9 above the ground among four spheres of radius 0.3 resting
+//                      on it, 1.1 away on four sides: its shadows fall 40° to 75° from straight
+//                      down, in four directions (ShadowMapShape::Auto maps them on a cube);
+//   among_frustum      the same held to one frustum (ShadowMapShape::Frustum, 120°): what
+//                      the cube gives, and costs (a benchmark case, outside the targets).
 //
 // Metrics of one render against the truth that matches its shadow mode (point light for hard
 // and none, sphere light for soft), over ground pixels (the rays of the pixel and of every

@@ -1,6 +1,7 @@
 """The page's "Accuracy beside cost": every shadow model, mode and sampling against the
 ray-traced truth, and the accurate model's targets."""
-from measures import (ACC_SCENES, ACC_SCENE_WORDS, ACC_TARGETS, acc_case, acc_ratio, fmt, ms)
+from measures import (ACC_CONTRASTS, ACC_SCENES, ACC_SCENE_WORDS, ACC_TARGETS, acc_case, acc_ratio,
+                      fmt, ms)
 from page_template import block, table
 from plots import copy_comparisons
 
@@ -33,7 +34,7 @@ def target_checks(a, ratio):
 def accuracy_target_rows(res):
     """The targets for the accurate model, truncated, per scene and mode."""
     rows, misses = [], []
-    for sc in ACC_SCENES:
+    for sc in (sc for sc in ACC_SCENES if sc not in ACC_CONTRASTS):
         for sh in ("hard", "soft"):
             a = acc_case(res, sc, "accurate", sh, "truncated")
             if not a:
@@ -58,7 +59,8 @@ def time_ratios(res):
     sums, defaults = [], []
     for sh in ("hard", "soft"):
         for default_maps, out in ((False, sums), (True, defaults)):
-            pairs = [acc_ratio(res, sc, sh, default_maps) for sc in ACC_SCENES]
+            pairs = [acc_ratio(res, sc, sh, default_maps) for sc in ACC_SCENES
+                     if sc not in ACC_CONTRASTS]
             if not (pairs and all(pairs)):
                 continue
             ratio = sum(r["ms_accurate"] for r in pairs) / sum(r["ms_paper"] for r in pairs)

@@ -160,6 +160,9 @@ void register_accuracy_benchmarks() {
         add(make(scene, model, sh, Sampling::Exact, 256), true);
       }
   }
+  // The light among the objects held to one frustum, beside its cube.
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+    add(make("among_frustum", ShadowModel::Accurate, sh, Sampling::Truncated));
   // The sphere scene: filter width (those of 0.5, 2 and 8 texel² that are not the model's
   // default) and map size (those of 128², 256² and 512² that are not), both models.
   for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})

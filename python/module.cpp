@@ -76,6 +76,7 @@ void bind_enums(nb::module_& m) {
       .value("per_face", AlbedoMode::PerFace);
   bind_words<Projection>(m, "Projection");
   bind_words<LightType>(m, "LightType");
+  bind_words<ShadowMapShape>(m, "ShadowMapShape");
   bind_words<Shadows>(m, "Shadows");
   bind_words<Sampling>(m, "Sampling");
   bind_words<ExactBackend>(m, "ExactBackend");
@@ -193,13 +194,17 @@ void bind_frustum(nb::module_& m) {
       .def_rw("distance", &LightFrustum::distance)
       .def_rw("near", &LightFrustum::near)
       .def_rw("far", &LightFrustum::far)
-      .def_rw("search_sigma", &LightFrustum::search_sigma);
+      .def_rw("search_sigma", &LightFrustum::search_sigma)
+      .def_ro("cube", &LightFrustum::cube)
+      .def_ro("cube_face", &LightFrustum::cube_face);
 }
 
 Light make_light(LightType type, glm::dvec3 position, glm::dvec3 direction, glm::dvec3 color,
-                 double size, const std::optional<LightFrustum>& frustum) {
+                 double size, ShadowMapShape shadow_map,
+                 const std::optional<LightFrustum>& frustum) {
   Light l;
   l.type = type, l.position = position, l.direction = direction, l.color = color, l.size = size;
+  l.shadow_map = shadow_map;
   if (frustum) l.frustum = *frustum;
   return l;
 }
@@ -211,22 +216,27 @@ void bind_light(nb::module_& m) {
       .def(
           "__init__",
           [](Light* self, LightType t, glm::dvec3 p, glm::dvec3 dir, glm::dvec3 c, double size,
-             const std::optional<LightFrustum>& f) {
-            new (self) Light(make_light(t, p, dir, c, size, f));
+             ShadowMapShape shape, const std::optional<LightFrustum>& f) {
+            new (self) Light(make_light(t, p, dir, c, size, shape, f));
           },
           nb::kw_only(), "type"_a = d.type, "position"_a = d.position, "direction"_a = d.direction,
-          "color"_a = d.color, "size"_a = d.size, "frustum"_a = nb::none())
+          "color"_a = d.color, "size"_a = d.size, "shadow_map"_a = d.shadow_map,
+          "frustum"_a = nb::none())
       .def_static(
           "point",
-          [](glm::dvec3 p, glm::dvec3 c, double size, const std::optional<LightFrustum>& f) {
-            return make_light(LightType::Point, p, Light{}.direction, c, size, f);
+          [](glm::dvec3 p, glm::dvec3 c, double size, ShadowMapShape shape,
+             const std::optional<LightFrustum>& f) {
+            return make_light(LightType::Point, p, Light{}.direction, c, size, shape, f);
           },
           "position"_a, nb::kw_only(), "color"_a = d.color, "size"_a = d.size,
-          "frustum"_a = nb::none(), "A point light (a sphere of diameter `size` for soft shadows).")
+          "shadow_map"_a = d.shadow_map, "frustum"_a = nb::none(),
+          "A point light (a sphere of diameter `size` for soft shadows); `shadow_map` 'auto' maps "
+          "its shadows on a cube where one frustum cannot hold its casters.")
       .def_static(
           "directional",
           [](glm::dvec3 dir, glm::dvec3 c, double size, const std::optional<LightFrustum>& f) {
-            return make_light(LightType::Directional, Light{}.position, dir, c, size, f);
+            return make_light(LightType::Directional, Light{}.position, dir, c, size,
+                              ShadowMapShape::Auto, f);
           },
           "direction"_a, nb::kw_only(), "color"_a = d.color, "size"_a = d.size,
           "frustum"_a = nb::none(), "A directional light travelling along `direction`.")
@@ -235,6 +245,7 @@ void bind_light(nb::module_& m) {
       .def_rw("direction", &Light::direction)
       .def_rw("color", &Light::color)
       .def_rw("size", &Light::size)
+      .def_rw("shadow_map", &Light::shadow_map)
       .def_rw("frustum", &Light::frustum);
 }
 

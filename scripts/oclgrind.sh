@@ -4,7 +4,8 @@
 # and API calls (--check-api): forward and backward, float and double, both shadow models,
 # no, hard and soft shadows, truncated and exact sampling, and CLBlast's GEMM (--sampling
 # gemm), each as a `penumbra gradcheck` of a random scene at tiny sizes (a render, its
-# backward, and the renders of the finite differences). The double-precision cases must also
+# backward, and the renders of the finite differences), and a light's cube of six maps
+# (--shadow-map cube). The double-precision cases must also
 # pass the gradient check itself: the gradients proven on a second implementation. Float
 # cases check the kernels only (--rtol 1: float differences are not what they test). The cpu-*
 # cases run with a CPU's launch parameters instead of a GPU's.
@@ -48,6 +49,10 @@ cases() {
       done
     done
     echo "$p-paper-hard-gemm $size $check --shadow-model paper --shadows hard --sampling gemm"
+    # Six maps of a light's cube, their shares and the seams between them.
+    for m in accurate paper; do
+      echo "$p-$m-soft-cube $size $check --shadow-model $m --shadows soft --shadow-map cube"
+    done
     # The launch parameters of a CPU (cpu_tuning below), in the shadow stages that use them.
     for m in accurate paper; do
       echo "cpu-$p-$m-soft-truncated $size $check --shadow-model $m --shadows soft"

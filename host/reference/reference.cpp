@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "common/layout.h"
 #include "penumbra/error.hpp"
 #include "reference/raster.hpp"
 
@@ -46,11 +47,34 @@ using namespace detail;  // the rasterizer (raster.hpp)
 
 namespace {
 
-// The scene as the renderer sees it: light frusta not given are fitted (math.md §4.1).
+// The scene as the renderer sees it: light frusta not given are fitted (math.md §4.1), a cube's
+// faces lights of their own (cube_faces).
 Scene fitted(const Scene& scene) {
   Scene s = scene;
   if (!s.lights.empty()) fit_light_frusta(s);
+  s.lights = cube_faces(s.lights, nullptr);
   return s;
+}
+
+// The share of `light` at X: a cube's face k (math.md §4.1) W_k / Σ_j W_j, W_j the product of
+// g(r) = 1 − smoothstep(−1, 1, ln r / ln CUBE_BLEND_TAN) over X's two tangents r off face j's
+// axis (0 behind the face); any other light 1.
+double share(const Light& light, const dvec3& X) {
+  const int face = light.frustum.cube_face;
+  if (face < 0) return 1.0;
+  const dvec3 u = X - light.position;
+  auto g = [](double r) {
+    const double t = std::clamp((std::log(r) / std::log(CUBE_BLEND_TAN) + 1) / 2, 0.0, 1.0);
+    return 1 - t * t * (3 - 2 * t);
+  };
+  double W[6];
+  for (int j = 0; j < 6; ++j) {
+    const int a = j / 2;
+    const double d = j % 2 ? -u[a] : u[a];
+    W[j] = d > 0 ? g(std::abs(u[(a + 1) % 3]) / d) * g(std::abs(u[(a + 2) % 3]) / d) : 0.0;
+  }
+  const double sum = W[0] + W[1] + W[2] + W[3] + W[4] + W[5];
+  return sum > 0 ? W[face] / sum : 0.0;
 }
 
 // The light pass of light `index` of a scene whose frusta are fitted (math.md §4.2): the soft depth
@@ -346,11 +370,13 @@ dvec3 shade(const Scene& scene, const View& view, const std::vector<ShadowMap>& 
   dvec3 color = a * scene.ambient;  // never shadowed
   for (size_t li = 0; li < scene.lights.size(); ++li) {
     const Light& light = scene.lights[li];
+    const double w = share(light, X);
+    if (w == 0) continue;
     const dvec3 l = light.type == LightType::Point ? glm::normalize(light.position - X)
                                                    : -glm::normalize(light.direction);
     const double s =
         maps.empty() ? 1.0 : shadow_term_of_model(maps[li], scene.params, light, face, X);
-    color += s * a * light.color * std::max(0.0, glm::dot(n, l));
+    color += s * w * a * light.color * std::max(0.0, glm::dot(n, l));
   }
   return color;
 }

@@ -74,8 +74,9 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
   // member of Scene: one added to Scene stops the build here until it is copied too.
   [[maybe_unused]] const auto& [meshes, cameras, lights, ambient, background, params] = given;
   Scene fitted{{}, cameras, lights, ambient, background, params};
-  for (size_t l = 0; l < fitted.lights.size() && l < scene.lights.size(); ++l)
+  for (size_t l = 0; l < fitted.lights.size() && l < frusta.size(); ++l)
     if (!fitted.lights[l].frustum.fitted) fitted.lights[l].frustum = frusta[l];
+  fitted.lights = drawn_lights(fitted, nullptr);
   fitted = detail::normalised(fitted, norm);
   bool same = same_meshes(given.meshes, meshes_as_given()) &&
               fitted.cameras.size() == camera_passes.size() &&
@@ -227,6 +228,9 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
   }
   const std::vector<double>& gl = sums.lights;
   const int nl = int(s.lights.size());
+  out.light_position.assign(frusta.size(), glm::dvec3(0.0));  // one per given light
+  out.light_color.assign(frusta.size(), glm::dvec3(0.0));
+  out.light_size.assign(frusta.size(), 0.0);
   for (int l = 0; l < nl; ++l) {
     // Frame gradients from the camera passes (fragments projected into the map) and from the
     // light's own pass (vertices projected into the map).
@@ -237,17 +241,21 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
       gpos += detail::light_frame_backward(
           s.lights[l], vec3_at(gl, fo) + vec3_at(fr, 0), vec3_at(gl, fo + 4) + vec3_at(fr, 4),
           vec3_at(gl, fo + 8) + vec3_at(fr, 8), vec3_at(gl, fo + 12) + vec3_at(fr, 12));
-    out.light_position.push_back(gpos);
-    out.light_color.push_back(vec3_at(gl, 8 * size_t(l) + 4));
-    out.light_size.push_back(sums.light_size[l]);
+    // A cube's faces are lights of their own here: each adds to the light it comes from.
+    const size_t to = size_t(light_of[size_t(l)]);
+    out.light_position[to] += gpos;
+    out.light_color[to] += vec3_at(gl, 8 * size_t(l) + 4);
+    out.light_size[to] += sums.light_size[l];
   }
   out.ambient = vec3_at(gl, 8 * size_t(nl));
   if (const double k = norm.scale; k != 1) {  // d/d(world length) = scale · d/d(device length)
     for (auto& mesh : out.vertices)
       for (glm::dvec3& g : mesh) g *= k;
-    for (int l = 0; l < nl; ++l) {
-      if (s.lights[l].type == LightType::Point) out.light_position[l] *= k;
-      out.light_size[l] *= k;
+    for (int l = 0; l < nl; ++l) {  // once per given light: at the first of its maps
+      const size_t to = size_t(light_of[size_t(l)]);
+      if (l > 0 && light_of[size_t(l) - 1] == int(to)) continue;
+      if (s.lights[size_t(l)].type == LightType::Point) out.light_position[to] *= k;
+      out.light_size[to] *= k;
     }
   }
   return out;

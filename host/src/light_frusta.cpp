@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/layout.h"
 #include "penumbra/error.hpp"
 #include "penumbra/scene.hpp"
 
@@ -94,6 +95,13 @@ void fit_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& ai
   f.automatic = true;
 }
 
+// The filter window's share of half the map (texels), at most a half: the margin a frustum's
+// edge keeps around what it must hold, so that the windows of the points there lie inside.
+double window_share(const RenderParams& p) {
+  const double window = std::sqrt(2 * shadow_sigma_s(p) * std::log(1 / p.lambda_eps)) + 1;
+  return std::min(2.0 * window / shadow_map_side(p), 0.5);
+}
+
 // σ_b for the nearest blocker at depth `zmin` (along the light's view) over the farthest
 // receiver at the frustum's far plane: σ_s + (widest penumbra in texels)²/16, the penumbra
 // capped at half the map.
@@ -131,9 +139,7 @@ void fit_tight_frustum(const Scene& scene, Light& l, const Bounds& b) {
 void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ) {
   const RenderParams& p = scene.params;
   const double soft = p.shadows == Shadows::Soft ? l.size : 0.0;
-  const double window =
-      std::sqrt(2 * shadow_sigma_s(p) * std::log(1 / p.lambda_eps)) + 1;   // texels
-  const double texels = std::min(2.0 * window / shadow_map_side(p), 0.5);  // share of the map
+  const double texels = window_share(p);
   if (l.type == LightType::Point) {
     double zocc = std::numeric_limits<double>::infinity();
     for (const glm::dvec3& v : occ) zocc = std::min(zocc, glm::length(v - l.position));
@@ -151,7 +157,65 @@ void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::d
   fit_frustum(scene, l, occ, (h + 0.5 * soft * depth) / (1 - texels) - h);
 }
 
+// |v|∞: a point's depth in the cube face that lights it.
+double cube_depth(glm::dvec3 v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); }
+
+// A point light's cube (LightFrustum::cube): each face's 90° widened by the band where it hands
+// over to the next (CUBE_BLEND_TAN), by the penumbra a light of diameter D_L casts around the
+// nearest of `occ` (the casters) and by the filter window, so that the windows (and penumbrae)
+// of the points in that band lie in its map; depths hold every vertex, and the accurate
+// model's blocker search reaches the penumbra of the nearest caster.
+void fit_cube(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ) {
+  const RenderParams& p = scene.params;
+  const double r = std::max(bounds(scene).radius(), 1e-9), margin = 1.02;
+  double zmin = std::numeric_limits<double>::infinity(), zmax = 0, zocc = zmin;
+  for (const glm::dvec3& v : scene_vertices(scene)) {
+    zmin = std::min(zmin, cube_depth(v - l.position));
+    zmax = std::max(zmax, cube_depth(v - l.position));
+  }
+  for (const glm::dvec3& v : occ) zocc = std::min(zocc, cube_depth(v - l.position));
+  LightFrustum& f = l.frustum;
+  f.near = std::max(zmin / (2 * margin), 1e-3 * r);
+  f.far = std::max(zmax * margin, 2 * f.near);
+  const double soft = p.shadows == Shadows::Soft ? l.size : 0.0;
+  const double halo = 0.5 * soft / std::max(std::min(zocc, zmax), f.near);
+  f.fov_deg =
+      2 * std::atan((CUBE_BLEND_TAN + halo) / (1 - window_share(p))) * 180 / 3.14159265358979323846;
+  f.target = l.position + glm::dvec3(0, -1, 0);  // unused; keeps the frustum well formed
+  f.up = {0, 0, 1};
+  f.cube = f.fitted = f.automatic = true;
+  if (shadow_model_traits(p.shadow_model).casters_only && soft > 0 && !occ.empty())
+    f.search_sigma = search_sigma_from(p, l, std::max(zocc, f.near));
+}
+
+// Whether light `l`, fitted as one frustum, should be mapped on a cube instead.
+bool wants_cube(const Light& l) {
+  if (l.type != LightType::Point || l.shadow_map == ShadowMapShape::Frustum) return false;
+  return l.shadow_map == ShadowMapShape::Cube || l.frustum.fov_deg >= kWidestFit;
+}
+
 }  // namespace
+
+std::vector<Light> cube_faces(const std::vector<Light>& lights, std::vector<int>* light_of) {
+  std::vector<Light> out;
+  if (light_of) light_of->clear();
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const int faces = lights[i].frustum.cube ? 6 : 1;
+    for (int k = 0; k < faces; ++k) {
+      out.push_back(lights[i]);
+      if (light_of) light_of->push_back(int(i));
+      if (faces == 1) continue;
+      LightFrustum& f = out.back().frustum;
+      glm::dvec3 axis(0.0);
+      axis[k / 2] = k % 2 ? -1.0 : 1.0;
+      f.target = lights[i].position + axis;
+      f.up = k / 2 == 1 ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+      f.cube = false;
+      f.cube_face = k;
+    }
+  }
+  return out;
+}
 
 std::vector<glm::dvec3> scene_vertices(const Scene& scene) {
   std::vector<glm::dvec3> all;
@@ -166,11 +230,14 @@ void fit_light_frusta(Scene& scene) {
   const Bounds b = bounds(scene);
   for (Light& l : scene.lights) {
     if (l.frustum.fitted) continue;
-    l.frustum.search_sigma = 0.0;  // set by the accurate model's fit (soft shadows)
-    if (shadow_model_traits(scene.params.shadow_model).casters_only)
+    l.frustum = LightFrustum{};  // search_sigma set by the accurate model's fit (soft shadows)
+    const bool tight = shadow_model_traits(scene.params.shadow_model).casters_only;
+    if (tight)
       fit_tight_frustum(scene, l, b);
     else
       fit_frustum(scene, l, scene_vertices(scene), 0.0);
+    if (wants_cube(l))
+      fit_cube(scene, l, tight ? occluder_vertices(scene, l, b) : scene_vertices(scene));
   }
 }
 

@@ -129,6 +129,11 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   check_frusta(given, scene);
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);
+  scene.lights = drawn_lights(scene, &light_of);
+  if (scene.lights.size() > P_MAX_LIGHTS)
+    throw Error("the scene's lights need " + std::to_string(scene.lights.size()) +
+                " shadow maps (a light mapped on a cube needs 6); at most " +
+                std::to_string(P_MAX_LIGHTS) + " are supported");
   norm = detail::normalisation(scene);
   if (norm.identity()) {
     given_meshes.clear();
@@ -144,6 +149,13 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   detail::check_memory(ctx, estimate,
                        "rendering the scene (" + std::to_string(packed.nf) + " faces)");
   return estimate;
+}
+
+std::vector<Light> Renderer::Impl::drawn_lights(const Scene& s, std::vector<int>* light_of) {
+  if (s.params.shadows != Shadows::None) return cube_faces(s.lights, light_of);
+  std::vector<Light> lights = s.lights;
+  for (Light& l : lights) l.frustum.cube = false;
+  return cube_faces(lights, light_of);
 }
 
 void Renderer::Impl::upload_geometry() {
@@ -297,6 +309,7 @@ void Renderer::Impl::check_frusta(const Scene& given, const Scene& s) {
   if (warned_frustum || s.params.shadows == Shadows::None) return;
   for (size_t l = 0; l < s.lights.size(); ++l) {
     const LightFrustum& f = s.lights[l].frustum;
+    if (f.cube) continue;  // holds every direction
     const bool widest = f.automatic && f.fov_deg >= kWidestFit;
     // A fit to this scene narrower than its widest holds every caster by construction.
     if ((!given.lights[l].frustum.fitted && !widest) || frustum_holds_casters(s, s.lights[l]))

@@ -57,7 +57,13 @@ struct Renderer::Impl {
   TuningDatabase database;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
-  Scene scene;  // as rendered: light frusta fitted, then normalised (`norm`)
+  // As rendered: light frusta fitted, the lights as drawn (drawn_lights), then normalised
+  // (`norm`); light_of[l] is the given light that scene.lights[l] comes from.
+  Scene scene;
+  std::vector<int> light_of;
+  // The lights of `s` as the passes draw them: a cube's faces as lights of their own
+  // (cube_faces), but with shadows off every light as it is (no map, so one light).
+  static std::vector<Light> drawn_lights(const Scene& s, std::vector<int>* light_of);
   // The meshes as given, which backward() must be given again: scene.meshes, or where the
   // scene was normalised (its meshes moved), given_meshes (empty otherwise: not copied twice).
   std::vector<Mesh> given_meshes;

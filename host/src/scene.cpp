@@ -166,7 +166,11 @@ void validate_light(const Light& l, const std::string& label) {
   if (!std::isfinite(l.size)) fail(label + ": size " + num(l.size) + " is not finite");
   if (l.size < 0) fail(label + ": size " + num(l.size) + " is negative");
   const LightFrustum& f = l.frustum;
+  if (l.shadow_map == ShadowMapShape::Cube && l.type == LightType::Directional)
+    fail(label + ": shadow_map 'cube' is for point lights; a directional light has one frustum");
   if (!f.fitted) return;
+  if (l.shadow_map == ShadowMapShape::Cube && !f.automatic && !f.cube)
+    fail(label + ": shadow_map 'cube' fits its own frusta; give no frustum with it");
   if (!finite(f.target) || !finite(f.up))
     fail(label + ": frustum target/up " + vec(f.target) + " " + vec(f.up) + " is not finite");
   if (l.type == LightType::Point && !(f.fov_deg > 0 && f.fov_deg < 180))
@@ -245,6 +249,14 @@ template <>
 const std::vector<std::pair<LightType, std::string>>& enum_words<LightType>() {
   static const std::vector<std::pair<LightType, std::string>> words{
       {LightType::Point, "point"}, {LightType::Directional, "directional"}};
+  return words;
+}
+template <>
+const std::vector<std::pair<ShadowMapShape, std::string>>& enum_words<ShadowMapShape>() {
+  static const std::vector<std::pair<ShadowMapShape, std::string>> words{
+      {ShadowMapShape::Auto, "auto"},
+      {ShadowMapShape::Frustum, "frustum"},
+      {ShadowMapShape::Cube, "cube"}};
   return words;
 }
 template <>

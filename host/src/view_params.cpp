@@ -50,6 +50,9 @@ Frame light_frame(const Light& L) {
 // dL/d(light position, or direction) through the light's frame, given dL/d(eye, fwd, right, up).
 glm::dvec3 light_frame_backward(const Light& L, glm::dvec3 g_eye, glm::dvec3 g_fwd,
                                 glm::dvec3 g_right, glm::dvec3 g_up) {
+  // A cube's face looks along its axis wherever the light is (cube_faces): its frame moves with
+  // the light without turning.
+  if (L.frustum.cube_face >= 0) return g_eye;
   const Frame fr = light_frame(L);
   const LightFrustum& f = L.frustum;
   // up = right × fwd
@@ -136,6 +139,7 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
     P[at + L_MAP_W] = P[at + L_MAP_H] = shadow_map_side(s.params);
     P[at + L_SEARCH_SIGMA] = blocker_search_sigma(s.params, L);
     P[at + L_SEARCH_STRIDE] = blocker_search_stride(P[at + L_SEARCH_SIGMA]);
+    P[at + L_CUBE_FACE] = L.frustum.cube_face;
   }
   return P;
 }

@@ -53,8 +53,12 @@
 #define L_MAP_H 23
 #define L_SEARCH_SIGMA 24 /*   accurate soft shadows: variance σ_b (texel²) of the blocker search */
 #define L_SEARCH_STRIDE 25 /*   its stride st: it sums over every st-th texel of each axis */
+#define L_CUBE_FACE 26   /*   LightFrustum::cube_face: the face of a cube it is (0 … 5), or −1 */
+/* A cube's faces hand over across their edges in a band of tangents 1/CUBE_BLEND_TAN …
+   CUBE_BLEND_TAN off each face's axis (shade.clh: cube_share), ±2.7° about the edge's 45°. */
+#define CUBE_BLEND_TAN 1.1
 #define P_LIGHT_STRIDE 32
-#define P_MAX_LIGHTS 4
+#define P_MAX_LIGHTS 8
 #define P_SIZE (P_LIGHTS + P_LIGHT_STRIDE * P_MAX_LIGHTS)
 
 #endif

@@ -32,16 +32,26 @@ RenderParams = penumbra.RenderParams
 class Light:
     """A light whose position (or direction), colour and size may be tensors: render() then
     gives them gradients. `frustum` (a penumbra.LightFrustum) fixes its shadow map's frustum;
-    None fits it to the geometry of every call."""
+    None fits it to the geometry of every call. A point light's `shadow_map` ("auto", "frustum"
+    or "cube") says how its shadows are mapped: "auto" takes a cube where one frustum cannot hold
+    its casters (a light among the objects)."""
 
-    def __init__(self, type, vector, color=(1.0, 1.0, 1.0), size=0.0, frustum=None):
+    def __init__(self, type, vector, color=(1.0, 1.0, 1.0), size=0.0, frustum=None,
+                 shadow_map="auto"):
         self.type, self.frustum = type, frustum
         self.vector, self.color, self.size = vector, color, size
+        if isinstance(shadow_map, str):
+            if shadow_map not in penumbra.ShadowMapShape.__members__:
+                raise penumbra.Error(f"shadow_map '{shadow_map}' is none of "
+                                     + ", ".join(penumbra.ShadowMapShape.__members__))
+            shadow_map = penumbra.ShadowMapShape.__members__[shadow_map]
+        self.shadow_map = shadow_map
 
     @classmethod
-    def point(cls, position, *, color=(1.0, 1.0, 1.0), size=0.0, frustum=None):
+    def point(cls, position, *, color=(1.0, 1.0, 1.0), size=0.0, frustum=None,
+              shadow_map="auto"):
         """A point light at `position`: a sphere of diameter `size` for soft shadows."""
-        return cls(penumbra.LightType.point, position, color, size, frustum)
+        return cls(penumbra.LightType.point, position, color, size, frustum, shadow_map)
 
     @classmethod
     def directional(cls, direction, *, color=(1.0, 1.0, 1.0), size=0.0, frustum=None):
@@ -60,7 +70,7 @@ class Light:
 
     def template(self):
         """A penumbra.Light of this type and frustum (its values come from row())."""
-        light = penumbra.Light(type=self.type)
+        light = penumbra.Light(type=self.type, shadow_map=self.shadow_map)
         if self.frustum is not None:
             light.frustum = self.frustum
         return light

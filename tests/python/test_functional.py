@@ -99,22 +99,49 @@ def test_shadows_follow_the_mesh_and_a_fixed_frustum_warns(context, capfd):
     assert err.count("penumbra: warning:") == 1 and "leaves out faces" in err, err
 
 
-def test_a_light_among_the_objects_warns_that_shadows_are_missing(capfd):
-    """Balls on four sides of a point light: one frustum cannot hold them all."""
+def balls_around_a_light():
+    """Balls on four sides of a point light, seen from above: one frustum cannot hold them all."""
     ball, faces = pt.load_mesh(penumbra.data_dir() / "meshes" / "icosphere.obj")
     balls = [ball * 0.3 + torch.tensor(c) for c in ([1.5, 0, 0], [-1.5, 0, 0], [0, 0, 1.5],
                                                     [0, 0, -1.5])]
     camera = penumbra.Camera.look_at((0, 6, 0.01), (0, 0, 0), width=16, height=16)
-    light = pt.Light.point(torch.tensor([0.0, 0.1, 0.0]))
+    return balls, [faces] * 4, camera
+
+
+def test_a_light_held_to_one_frustum_among_the_objects_warns_that_shadows_are_missing(capfd):
+    balls, faces, camera = balls_around_a_light()
+    light = pt.Light.point(torch.tensor([0.0, 0.1, 0.0]), shadow_map="frustum")
     own = penumbra.Context()  # renderers that have not warned yet
     capfd.readouterr()
-    pt.render(balls, [faces] * 4, camera, light, context=own)
-    pt.render(balls, [faces] * 4, camera, light, context=own)
+    pt.render(balls, faces, camera, light, context=own)
+    pt.render(balls, faces, camera, light, context=own)
     err = capfd.readouterr().err
     assert err.count("penumbra: warning:") == 1 and "light 0 is among the objects" in err, err
     # One ball beside the light fits in front of it: no warning, from renderers that could.
-    pt.render(balls[:1], [faces], camera, light, context=penumbra.Context())
+    pt.render(balls[:1], faces[:1], camera, light, context=penumbra.Context())
     assert "penumbra: warning" not in capfd.readouterr().err
+
+
+def test_a_light_among_the_objects_casts_shadows_on_every_side(capfd):
+    """By default such a light maps its shadows on a cube: the balls' far sides, which face
+    away from it, and the shadowed ground are dark on all four sides, and nothing warns."""
+    balls, faces, camera = balls_around_a_light()
+    ground = torch.tensor([[-4.0, -0.3, -4.0], [4.0, -0.3, -4.0], [4.0, -0.3, 4.0],
+                           [-4.0, -0.3, 4.0]])
+    quad = torch.tensor([[0, 2, 1], [0, 3, 2]])
+    dark = {}
+    for shape in ("auto", "frustum"):
+        light = pt.Light.point(torch.tensor([0.0, 0.1, 0.0]), shadow_map=shape)
+        params = penumbra.RenderParams()
+        params.shadows = penumbra.Shadows.hard
+        colour, _, _ = pt.render(balls + [ground], faces + [quad], camera, light, ambient=0.0,
+                                 params=params, context=penumbra.Context())
+        dark[shape] = int((colour.amax(-1) < 0.02).sum())
+    err = capfd.readouterr().err
+    assert err.count("penumbra: warning:") == 1, err  # the frustum's, not the cube's
+    assert dark["auto"] > dark["frustum"], dark
+    with pytest.raises(penumbra.Error, match="shadow_map 'sphere'"):
+        pt.Light.point((0, 1, 0), shadow_map="sphere")
 
 
 def test_a_collapsed_face_contributes_nothing(context):

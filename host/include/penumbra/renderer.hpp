@@ -116,10 +116,11 @@ class Renderer {
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
 
   // The shadow map S of every light (math.md §4.2) from the most recent render() with shadows on
-  // (empty otherwise), W_s × H_s, light-view depth.
+  // (empty otherwise), W_s × H_s, light-view depth; a light mapped on a cube has six, its faces
+  // in the order of LightFrustum::cube_face (cube_faces).
   std::vector<Image> shadow_maps() const;
   // The penumbra map P of every light (math.md §4.3) from the most recent render() with soft
-  // shadows (empty otherwise).
+  // shadows (empty otherwise), one per shadow map as shadow_maps().
   std::vector<Image> penumbra_maps() const;
 
   // How many fragments each camera's view kept in the most recent render() (empty before one):

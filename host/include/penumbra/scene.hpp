@@ -42,9 +42,17 @@ enum class LightType { Point, Directional };
 // Point light: eye at the light's position, looking at `target`, perspective with `fov_deg`.
 // Directional light: orthographic with half-size `half_size`, looking along the light's
 // direction at `target` from `distance` away.
-// The widest frustum fit_light_frusta gives a point light (degrees): one among the objects gets
-// it, and casters beyond it cast no shadow.
+// The widest frustum fit_light_frusta gives a point light (degrees): where its casters need a
+// wider one (a light among the objects), it maps them on a cube (ShadowMapShape::Auto), or, held
+// to one frustum, gives it this width, and casters beyond it cast no shadow.
 constexpr double kWidestFit = 120.0;
+
+// How a point light's shadows are mapped (docs/shadows.md, "Cube shadow maps"): `Frustum` (one
+// shadow map, the frustum above), `Cube` (six, one per face of a cube around the light, each
+// shading the points in its 90°: shadows in every direction, for six maps' cost), or `Auto`
+// (one frustum when the casters fit in one at most kWidestFit wide, the cube when not).
+// Directional lights have one frustum.
+enum class ShadowMapShape { Auto, Frustum, Cube };
 
 struct LightFrustum {
   bool fitted = false;
@@ -59,6 +67,15 @@ struct LightFrustum {
   // Accurate soft shadows: the blocker search's variance σ_b (texel²), fixed with the fit like
   // the rest of the frustum; 0 (a given frustum): blocker_search_sigma computes it.
   double search_sigma = 0.0;
+  // A point light's cube (fitted for ShadowMapShape::Cube or Auto): six frusta of `fov_deg`
+  // sharing `near` and `far`, each looking along one axis from the light (`target` and `up`
+  // unused). The renderer draws one shadow map per face (cube_faces).
+  bool cube = false;
+  // One face of a cube: 0 … 5 for +x, −x, +y, −y, +z, −z; −1 for a frustum of its own. A face
+  // sheds its light only on the points whose direction from the light lies nearest its axis
+  // (ties to the lower axis), so that exactly one face lights each point; its `fov_deg`, wider
+  // than 90°, holds the filter windows of the points near its edges.
+  int cube_face = -1;
 };
 
 struct Light {
@@ -67,8 +84,14 @@ struct Light {
   glm::dvec3 direction{0, -1, 0};  // directional light: direction the light travels
   glm::dvec3 color{1, 1, 1};       // RGB intensity I_L
   double size = 0.0;               // light diameter D_L (soft shadows)
-  LightFrustum frustum;            // fitted by fit_light_frusta when not given
+  ShadowMapShape shadow_map = ShadowMapShape::Auto;  // point lights
+  LightFrustum frustum;                              // fitted by fit_light_frusta when not given
 };
+
+// The lights as the renderer draws their shadow maps: each light whose frustum is a cube as its
+// six faces (LightFrustum::cube_face 0 … 5, each a frustum of its own), every other light as
+// it is; `light_of` gets, for each, the index of the light it came from.
+std::vector<Light> cube_faces(const std::vector<Light>& lights, std::vector<int>* light_of);
 
 enum class Shadows { None, Hard, Soft };
 // How the Gaussian shadow filter is summed (docs/shadows.md): `Truncated` (the texels within

@@ -231,8 +231,9 @@ LightFrustum parse_frustum(const json& j, const std::string& where) {
 }
 
 Light parse_light(const json& j, const std::string& where) {
-  check_object(j, where,
-               {"type", "position", "direction", "color", "intensity", "size", "frustum"});
+  check_object(
+      j, where,
+      {"type", "position", "direction", "color", "intensity", "size", "shadow_map", "frustum"});
   Light l;
   opt(j, where, "type", l.type, get_enum<LightType>);
   opt(j, where, "position", l.position, get_vec3);
@@ -242,6 +243,7 @@ Light parse_light(const json& j, const std::string& where) {
   opt(j, where, "intensity", intensity, get_number);
   l.color *= intensity;
   opt(j, where, "size", l.size, get_number);
+  opt(j, where, "shadow_map", l.shadow_map, get_enum<ShadowMapShape>);
   if (j.contains("frustum")) l.frustum = parse_frustum(j["frustum"], child(where, "frustum"));
   return l;
 }
