@@ -241,22 +241,18 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
       gpos += detail::light_frame_backward(
           s.lights[l], vec3_at(gl, fo) + vec3_at(fr, 0), vec3_at(gl, fo + 4) + vec3_at(fr, 4),
           vec3_at(gl, fo + 8) + vec3_at(fr, 8), vec3_at(gl, fo + 12) + vec3_at(fr, 12));
-    // A cube's faces are lights of their own here: each adds to the light it comes from.
+    // A cube's faces are lights of their own here: each adds to the light it comes from, in
+    // world units (d/d(world length) = scale · d/d(device length)).
+    const double k = norm.scale;
     const size_t to = size_t(light_of[size_t(l)]);
-    out.light_position[to] += gpos;
+    out.light_position[to] += s.lights[size_t(l)].type == LightType::Point ? gpos * k : gpos;
     out.light_color[to] += vec3_at(gl, 8 * size_t(l) + 4);
-    out.light_size[to] += sums.light_size[l];
+    out.light_size[to] += sums.light_size[l] * k;
   }
   out.ambient = vec3_at(gl, 8 * size_t(nl));
   if (const double k = norm.scale; k != 1) {  // d/d(world length) = scale · d/d(device length)
     for (auto& mesh : out.vertices)
       for (glm::dvec3& g : mesh) g *= k;
-    for (int l = 0; l < nl; ++l) {  // once per given light: at the first of its maps
-      const size_t to = size_t(light_of[size_t(l)]);
-      if (l > 0 && light_of[size_t(l) - 1] == int(to)) continue;
-      if (s.lights[size_t(l)].type == LightType::Point) out.light_position[to] *= k;
-      out.light_size[to] *= k;
-    }
   }
   return out;
 }
