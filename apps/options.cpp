@@ -214,10 +214,8 @@ void set_if_given(const CLI::Option* option, T value, bool ok, const std::string
   target = value;
 }
 
-}  // namespace
-
-void apply_render_options(const RenderOptions& o, Scene& scene) {
-  RenderParams& p = scene.params;
+// The model's scalar parameters: σ, γ, ε, the shadow terms and the light's blur.
+void apply_model_numbers(const RenderOptions& o, RenderParams& p) {
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   const char* const kPositive = "a positive finite number";
   set_if_given(o.o_sigma, o.sigma, positive(o.sigma), kPositive, p.sigma);
@@ -231,6 +229,18 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
   set_if_given(o.o_gamma_s, o.gamma_s, positive(o.gamma_s), kPositive, p.gamma_s);
   set_if_given(o.o_beta, o.beta, std::isfinite(o.beta), "a finite number", p.beta);
   set_if_given(o.o_gamma_p, o.gamma_p, positive(o.gamma_p), kPositive, p.gamma_p);
+  set_if_given(o.o_light_sigma, o.light_sigma,
+               std::isfinite(o.light_sigma) && o.light_sigma >= 0 && o.light_sigma < 1,
+               "in [0, 1) (0: a tenth of --sigma)", p.light_sigma);
+  set_if_given(o.o_light_gamma, o.light_gamma,
+               std::isfinite(o.light_gamma) && o.light_gamma >= 0 && o.light_gamma < 1,
+               "in [0, 1) (0: the same as --gamma)", p.light_gamma);
+  set_if_given(o.o_weight_eps, o.weight_eps, positive(o.weight_eps) && o.weight_eps < 1,
+               "in (0, 1)", p.weight_eps);
+}
+
+// The words that pick a method: shadows, sampling and its backend, the shadow model.
+void apply_method_words(const RenderOptions& o, RenderParams& p) {
   if (given(o.o_shadows)) p.shadows = parse_shadows(o.shadows);
   if (given(o.o_sampling)) {
     std::optional<ExactBackend> implied;  // --sampling gemm
@@ -247,9 +257,10 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
   }
   if (given(o.o_shadow_model))
     p.shadow_model = parse_word<ShadowModel>("--shadow-model", o.shadow_model);
-  set_if_given(o.o_map_size, o.map_size, o.map_size >= 1 && o.map_size <= kMaxShadowMapSize,
-               "a positive number of texels (at most " + std::to_string(kMaxShadowMapSize) + ")",
-               p.shadow_map_size);
+}
+
+// Settings each light or camera carries: its shadow map and size, the image size.
+void apply_scene_overrides(const RenderOptions& o, Scene& scene) {
   if (given(o.o_shadow_map)) {
     const ShadowMapShape shape = parse_word<ShadowMapShape>("--shadow-map", o.shadow_map);
     for (Light& light : scene.lights)
@@ -260,25 +271,28 @@ void apply_render_options(const RenderOptions& o, Scene& scene) {
             "a non-negative diameter", o.light_size);
     for (Light& light : scene.lights) light.size = o.light_size;
   }
-  set_if_given(o.o_light_sigma, o.light_sigma,
-               std::isfinite(o.light_sigma) && o.light_sigma >= 0 && o.light_sigma < 1,
-               "in [0, 1) (0: a tenth of --sigma)", p.light_sigma);
-  set_if_given(o.o_light_gamma, o.light_gamma,
-               std::isfinite(o.light_gamma) && o.light_gamma >= 0 && o.light_gamma < 1,
-               "in [0, 1) (0: the same as --gamma)", p.light_gamma);
-  set_if_given(o.o_weight_eps, o.weight_eps, positive(o.weight_eps) && o.weight_eps < 1,
-               "in (0, 1)", p.weight_eps);
-  constexpr int kMaxSize = kMaxImageSize;
+  const std::string pixels =
+      "a positive number of pixels (at most " + std::to_string(kMaxImageSize) + ")";
   if (given(o.o_width)) {
-    require(o.width > 0 && o.width <= kMaxSize, "--width",
-            "a positive number of pixels (at most " + std::to_string(kMaxSize) + ")", o.width);
+    require(o.width > 0 && o.width <= kMaxImageSize, "--width", pixels, o.width);
     for (Camera& cam : scene.cameras) cam.width = o.width;
   }
   if (given(o.o_height)) {
-    require(o.height > 0 && o.height <= kMaxSize, "--height",
-            "a positive number of pixels (at most " + std::to_string(kMaxSize) + ")", o.height);
+    require(o.height > 0 && o.height <= kMaxImageSize, "--height", pixels, o.height);
     for (Camera& cam : scene.cameras) cam.height = o.height;
   }
+}
+
+}  // namespace
+
+void apply_render_options(const RenderOptions& o, Scene& scene) {
+  RenderParams& p = scene.params;
+  apply_model_numbers(o, p);
+  apply_method_words(o, p);
+  set_if_given(o.o_map_size, o.map_size, o.map_size >= 1 && o.map_size <= kMaxShadowMapSize,
+               "a positive number of texels (at most " + std::to_string(kMaxShadowMapSize) + ")",
+               p.shadow_map_size);
+  apply_scene_overrides(o, scene);
   validate(scene);
   refit_light_frusta(scene);  // the fit depends on the shadow settings
 }
