@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <memory>
+#include <sstream>
 
 #include "penumbra/error.hpp"
 #include "penumbra/image_io.hpp"
@@ -66,7 +68,7 @@ void set_scene(Scene& s, const std::string& name) {
   Mesh& caster = s.meshes.front();
   const glm::dvec3 albedo = caster.albedo.front();
   Light& L = s.lights.front();
-  if (name == "sphere") return;
+  if (name == "sphere" || name == "sphere_100k") return;  // (accuracy_scene sizes the latter)
   if (name == "grazing") {
     caster = icosphere(8, {0, 0.5, 0}, 0.5, albedo);
     rest_at(caster, 0.0);
@@ -216,6 +218,7 @@ Scene accuracy_scene(const AccuracyCase& c) {
   k.exact_backend = c.exact_backend;
   k.model = c.model;
   k.image = 256;
+  if (c.scene == "sphere_100k") k.frequency = icosphere_frequency_for(100820);
   Scene s = make_scene(k);
   s.params.shadow_map_size = c.map;
   s.params.sigma_s = c.sigma_s;
@@ -327,6 +330,76 @@ void save_comparison(const GroundTruth& truth, const Image& color, const std::st
       for (int k = 0; k < 3; ++k) strip.at(2 * W + x, y, k) = diff[k];
     }
   save_png(strip, path);
+}
+
+}  // namespace penumbra::bench
+
+namespace penumbra::bench {
+
+namespace {
+
+// "[x, y, z]", each to the last bit.
+std::string json_vec3(const glm::dvec3& v) {
+  std::ostringstream o;
+  o.precision(17);
+  o << '[' << v.x << ", " << v.y << ", " << v.z << ']';
+  return o.str();
+}
+
+// The scene as a scene file (docs/scene-format.md) with its meshes beside it as OBJ: camera 0
+// and light 0, what the comparison needs.
+std::vector<FileContent> scene_files(const Scene& s, const std::string& dir,
+                                     const std::string& name) {
+  std::vector<FileContent> files;
+  std::ostringstream json;
+  json.precision(17);
+  json << "{\n  \"meshes\": [";
+  for (size_t i = 0; i < s.meshes.size(); ++i) {
+    const Mesh& m = s.meshes[i];
+    const std::string obj = name + "_mesh" + std::to_string(i) + ".obj";
+    files.push_back({(std::filesystem::path(dir) / obj).string(), obj_text(m), "mesh"});
+    json << (i ? ",\n" : "\n") << "    {\"file\": \"" << obj << "\", \"name\": \"" << m.name
+         << "\", \"albedo\": " << json_vec3(m.albedo.empty() ? glm::dvec3(0.8) : m.albedo[0])
+         << '}';
+  }
+  const Camera& c = s.cameras.front();
+  const Light& L = s.lights.front();
+  json << "\n  ],\n  \"cameras\": [{\"eye\": " << json_vec3(c.eye)
+       << ", \"target\": " << json_vec3(c.target) << ", \"up\": " << json_vec3(c.up)
+       << ", \"fov\": " << c.fov_deg << ", \"near\": " << c.near << ", \"far\": " << c.far
+       << ", \"width\": " << c.width << ", \"height\": " << c.height << "}],\n"
+       << "  \"lights\": [{\"type\": \"point\", \"position\": " << json_vec3(L.position)
+       << ", \"color\": " << json_vec3(L.color) << ", \"size\": " << L.size << "}],\n"
+       << "  \"ambient\": " << json_vec3(s.ambient)
+       << ",\n  \"background\": " << json_vec3(s.background) << "\n}\n";
+  files.push_back({dir + "/" + name + ".json", json.str(), "scene"});
+  return files;
+}
+
+Image truth_image(const GroundTruth& t) {
+  Image out(t.W, t.H, 3);
+  out.data = t.color;
+  return out;
+}
+
+}  // namespace
+
+void save_side_by_side(const std::string& scene, const std::string& dir) {
+  AccuracyCase c;
+  c.scene = scene;
+  std::vector<FileContent> files = scene_files(accuracy_scene(c), dir, scene);
+  const GroundTruth& T = truth(scene, TruthLight::Sphere);
+  Image region(T.W, T.H, 1);
+  const Regions& R = regions(scene);
+  for (size_t p = 0; p < R.shadow.size(); ++p) region.data[p] = R.shadow[p] ? 1.0 : 0.0;
+  const std::string at = dir + "/" + scene;
+  files.push_back({at + "_region.npy", npy_bytes(region, at + "_region.npy"), "array"});
+  for (TruthLight light : {TruthLight::Point, TruthLight::Sphere}) {
+    const std::string path =
+        at + (light == TruthLight::Point ? "_truth_hard" : "_truth_soft") + ".npy";
+    files.push_back({path, npy_bytes(truth_image(truth(scene, light)), path), "array"});
+  }
+  write_files(files);
 }
 
 }  // namespace penumbra::bench

@@ -15,6 +15,8 @@
 //                      down, in four directions (ShadowMapShape::Auto maps them on a cube);
 //   among_frustum      the same held to one frustum (ShadowMapShape::Frustum, 120°): what
 //                      the cube gives, and costs (a benchmark case, outside the targets).
+//   sphere_100k        the sphere scene with a sphere of 100,820 faces in its place: penumbra
+//                      at scale beside a ray tracer (a benchmark case, outside the targets).
 //
 // Metrics of one render against the truth that matches its shadow mode (point light for hard
 // and none, sphere light for soft), over ground pixels (the rays of the pixel and of every
@@ -99,5 +101,11 @@ struct AccuracyTargets {
 // agree, red where penumbra is darker than the truth, blue where it is brighter, at 4× the
 // mean difference of the channels.
 void save_comparison(const GroundTruth& truth, const Image& color, const std::string& path);
+
+// What a side-by-side comparison with another renderer needs (bench/mitsuba_side_by_side.py),
+// written into `dir`: the scene as a scene file, <scene>.json, with its meshes as OBJ beside
+// it; the truth's colour for hard and soft shadows, <scene>_truth_<hard|soft>.npy (H × W × 3);
+// and the shadow region of rmse_shadow, <scene>_region.npy (H × W, 1 inside, 0 outside).
+void save_side_by_side(const std::string& scene, const std::string& dir);
 
 }  // namespace penumbra::bench

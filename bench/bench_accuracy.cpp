@@ -12,7 +12,8 @@
 // the timing counters of the render cases. With $PENUMBRA_BENCH_IMAGES set, every case at the
 // reference settings (truncated, the model's default map size and σ_s) writes
 // truth | penumbra | difference as
-// compare_<scene>_<model>_<shadows>.png there.
+// compare_<scene>_<model>_<shadows>.png there, penumbra's colour as <scene>_<model>_<shadows>.npy,
+// and, once per scene, what save_side_by_side writes (the scene, its truth and shadow region).
 //
 // Built only when CMake finds Embree 3 (Debian: libembree-dev); otherwise the group is absent
 // and the suite says so once.
@@ -25,10 +26,12 @@
 
 #include <cstdlib>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <vector>
 
 #include "accuracy.hpp"
+#include "penumbra/io.hpp"
 
 namespace penumbra::bench {
 
@@ -61,9 +64,13 @@ bool reference_settings(const AccuracyCase& c) {
 void save_images(const AccuracyCase& c, const Image& color) {
   const char* dir = std::getenv("PENUMBRA_BENCH_IMAGES");
   if (!dir || !*dir || !reference_settings(c)) return;
+  const std::string at = std::string(dir) + "/" + c.scene;
+  static std::set<std::string> saved;  // the scene, its truth and region: once per scene
+  if (saved.insert(c.scene).second) save_side_by_side(c.scene, dir);
+  const std::string tail = "_" + word(c.model) + "_" + word(c.shadows);
+  save_npy(color, at + tail + ".npy");
   save_comparison(truth(c.scene, truth_for(c.shadows)), color,
-                  std::string(dir) + "/compare_" + c.scene + "_" + word(c.model) + "_" +
-                      word(c.shadows) + ".png");
+                  std::string(dir) + "/compare_" + c.scene + tail + ".png");
 }
 
 void run_accuracy(benchmark::State& state, const AccuracyCase& c) {
@@ -163,6 +170,10 @@ void register_accuracy_benchmarks() {
   // The light among the objects held to one frustum, beside its cube.
   for (Shadows sh : {Shadows::Hard, Shadows::Soft})
     add(make("among_frustum", ShadowModel::Accurate, sh, Sampling::Truncated));
+  // The bundled scene with a 100,820-face sphere: penumbra at scale, beside a ray tracer
+  // (bench/mitsuba_side_by_side.py).
+  for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+    add(make("sphere_100k", ShadowModel::Accurate, sh, Sampling::Truncated));
   // The sphere scene: filter width (those of 0.5, 2 and 8 texel² that are not the model's
   // default) and map size (those of 128², 256² and 512² that are not), both models.
   for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})

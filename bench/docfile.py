@@ -1,4 +1,5 @@
-"""Writing the benchmark pages and plots (bench/report.py, bench/first_call.py): every file goes
+"""Writing the benchmark pages and plots (bench/report.py, bench/first_call.py,
+bench/mitsuba_side_by_side.py): every file goes
 through a temporary file in its folder and a rename, so a failed run leaves the old file whole;
 onto what is not a regular file (a pipe, /dev/null) it is written directly."""
 import os
@@ -46,14 +47,31 @@ def copy_file(src, path):
     _replace_with(path, lambda p: shutil.copyfile(src, p), os.path.splitext(path)[1])
 
 
+def _section_bounds(text, title):
+    """[start, end) of the section of `text` (a list of lines) titled `title`, up to the next
+    "## "; None where there is none."""
+    if title not in text:
+        return None
+    start = text.index(title)
+    end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")), len(text))
+    return start, end
+
+
+def section_lines(path, title):
+    """The lines of the page's section titled `title`, [] where the page has none."""
+    if not os.path.isfile(path):
+        return []
+    text = open(path).read().split("\n")
+    bounds = _section_bounds(text, title)
+    return text[bounds[0]:bounds[1]] if bounds else []
+
+
 def replace_section(path, lines, before=None):
     """Replaces the section of the page titled lines[0] (up to the next "## ") with `lines`;
     a page without it gets it before the line `before`, else at the end."""
     text = open(path).read().split("\n")
-    if lines[0] in text:
-        start = text.index(lines[0])
-        end = next((i for i in range(start + 1, len(text)) if text[i].startswith("## ")),
-                   len(text))
-    else:
-        start = end = text.index(before) if before in text else len(text)
-    write_text(path, "\n".join(text[:start] + lines + text[end:]))
+    bounds = _section_bounds(text, lines[0])
+    if bounds is None:
+        at = text.index(before) if before in text else len(text)
+        bounds = (at, at)
+    write_text(path, "\n".join(text[:bounds[0]] + lines + text[bounds[1]:]))

@@ -5,6 +5,8 @@ from measures import (DENSE_SIGMA_S, FRAME_TARGETS, PAPER, SERIES, best, bwd_ove
                       sweep, verdict)
 from page_template import block, named, table, text
 
+# The section bench/mitsuba_side_by_side.py writes (report.py keeps it when it rewrites the page).
+SIDE_BY_SIDE = "## Beside a ray tracer: Mitsuba 3"
 # The sweeps' sections: key, title, the x axis's name, the plot.
 SWEEPS = (("img", "Image size", "image", "res"), ("map", "Shadow-map size", "map", "map"),
           ("faces", "Face count", "faces", "faces"), ("sigma_s", "σ_s", "σ_s", "sigma_s"),
