@@ -13,10 +13,13 @@ B for a batch. It is differentiable in the vertices, albedo, light positions (di
 colours and sizes, and ambient light. float32 tensors render in float, float64 in double.
 Each light's shadow-map frustum, unless given, is fitted to the geometry of the call, and the
 derivative treats it as a constant of the call. SceneRenderer renders a penumbra.Scene whose
-parameters come from tensors. Tensors live on the CPU; penumbra's own device (any OpenCL device)
+parameters come from tensors; with torch 2.4 or later its call is the operator
+penumbra::scene_render, which torch.compile holds in one graph. Tensors live on the CPU; penumbra's own device (any OpenCL device)
 is chosen by the Context. docs/api.md documents it all.
 """
+import itertools
 import threading
+import weakref
 
 import numpy as np
 import torch
@@ -160,6 +163,46 @@ def _array(t):
     return t.detach().contiguous().numpy()
 
 
+def _scenes(scene, vertices, albedo, lights, ambient):
+    """A copy of `scene` per shape of the batch, its parameters from the tensors."""
+    scenes = []
+    for b in range(vertices.shape[0]):
+        s = penumbra.Scene(scene)
+        s.set_parameters(_array(vertices[b]), _array(albedo[b] if albedo.dim() == 3 else albedo),
+                         _array(lights), _array(ambient))
+        scenes.append(s)
+    return scenes
+
+
+def _output_size(scene, batch):
+    """(B, C, H, W) of a render of `scene`'s cameras, which must share one image size."""
+    cameras = scene.cameras
+    if len({(c.width, c.height) for c in cameras}) != 1:
+        raise penumbra.Error("every camera must have the same image size (got "
+                             f"{sorted({(c.width, c.height) for c in cameras})})")
+    return (batch, len(cameras), cameras[0].height, cameras[0].width)
+
+
+def _render(scene, slots, scenes, dtype):
+    """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `scenes`, one per slot."""
+    size = _output_size(scene, len(scenes))
+    colour = torch.empty(size + (3,), dtype=dtype)
+    silhouette, depth = torch.empty(size, dtype=dtype), torch.empty(size, dtype=dtype)
+    for b, s in enumerate(scenes):
+        slots[b].render_into(s, colour[b].numpy(), silhouette[b].numpy(), depth[b].numpy())
+    return colour, silhouette, depth
+
+
+def _backward(slots, scenes, batched_albedo, dtypes, d_colour, d_silhouette, d_depth):
+    """(d vertices, d albedo, d lights, d ambient) of the renders of `scenes`."""
+    grads = [slots[b].backward(s, _array(d_colour[b]), _array(d_silhouette[b]),
+                               _array(d_depth[b])) for b, s in enumerate(scenes)]
+    stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
+    d_albedo = stack("albedo") if batched_albedo else stack("albedo").sum(0)
+    out = [stack("vertices"), d_albedo, stack("lights").sum(0), stack("ambient").sum(0)]
+    return tuple(g.to(t) for g, t in zip(out, dtypes))
+
+
 class Render(torch.autograd.Function):
     """(scene, slots, vertices (B, V, 3), albedo ((B,) A, 3), lights (L, 7), ambient (3,))
     -> colour (B, C, H, W, 3), silhouette and depth (B, C, H, W): scene's cameras, faces and
@@ -167,33 +210,17 @@ class Render(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, scene, slots, vertices, albedo, lights, ambient):
-        batch, cameras = vertices.shape[0], scene.cameras
-        if len({(c.width, c.height) for c in cameras}) != 1:
-            raise penumbra.Error("every camera must have the same image size (got "
-                                 f"{sorted({(c.width, c.height) for c in cameras})})")
-        size = (batch, len(cameras), cameras[0].height, cameras[0].width)
-        colour = torch.empty(size + (3,), dtype=vertices.dtype)
-        silhouette, depth = torch.empty(size, dtype=vertices.dtype), torch.empty(size, dtype=vertices.dtype)
-        scenes = []
-        for b in range(batch):
-            s = penumbra.Scene(scene)
-            s.set_parameters(_array(vertices[b]), _array(albedo[b] if albedo.dim() == 3 else albedo),
-                             _array(lights), _array(ambient))
-            slots[b].render_into(s, colour[b].numpy(), silhouette[b].numpy(), depth[b].numpy())
-            scenes.append(s)
+        scenes = _scenes(scene, vertices, albedo, lights, ambient)
+        out = _render(scene, slots, scenes, vertices.dtype)
         ctx.slots, ctx.scenes, ctx.batched_albedo = slots, scenes, albedo.dim() == 3
         ctx.dtypes = [t.dtype for t in (vertices, albedo, lights, ambient)]
-        return colour, silhouette, depth
+        return out
 
     @staticmethod
     @torch.autograd.function.once_differentiable
     def backward(ctx, d_colour, d_silhouette, d_depth):
-        grads = [ctx.slots[b].backward(s, _array(d_colour[b]), _array(d_silhouette[b]),
-                                       _array(d_depth[b])) for b, s in enumerate(ctx.scenes)]
-        stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
-        d_albedo = stack("albedo") if ctx.batched_albedo else stack("albedo").sum(0)
-        out = [stack("vertices"), d_albedo, stack("lights").sum(0), stack("ambient").sum(0)]
-        return (None, None, *(g.to(t) for g, t in zip(out, ctx.dtypes)))
+        return (None, None, *_backward(ctx.slots, ctx.scenes, ctx.batched_albedo, ctx.dtypes,
+                                       d_colour, d_silhouette, d_depth))
 
 
 def _meshes(vertices, faces):
@@ -288,6 +315,9 @@ class SceneRenderer:
         penumbra.refit_light_frusta(self.scene)
         self.context = context if context is not None else penumbra.Context(device)
         self._slots = _Slots(self.context)
+        self._lock, self._last = threading.Lock(), None
+        self._key = f"scene_renderer_{next(_keys)}"
+        _registered[self._key] = self
 
     def parameters(self, dtype=torch.float64):
         """The scene's parameters as tensors: a dict of vertices, albedo, lights, ambient."""
@@ -295,6 +325,81 @@ class SceneRenderer:
 
     def __call__(self, vertices, albedo, lights, ambient):
         """(colour (C, H, W, 3), silhouette (C, H, W), depth (C, H, W)); differentiable."""
-        slots = self._slots.get(_precision(vertices.dtype), 1)
-        out = Render.apply(self.scene, slots, vertices[None], albedo, lights, ambient)
+        if _operator is not None:
+            out = _operator(self._key, vertices[None], albedo, lights, ambient)
+        else:
+            slots = self._slots.get(_precision(vertices.dtype), 1)
+            out = Render.apply(self.scene, slots, vertices[None], albedo, lights, ambient)
         return tuple(o[0] for o in out)
+
+    def _render(self, vertices, albedo, lights, ambient):
+        """The operator's forward: the render, and its scenes kept for the backward."""
+        slots = self._slots.get(_precision(vertices.dtype), vertices.shape[0])
+        scenes = _scenes(self.scene, vertices, albedo, lights, ambient)
+        out = _render(self.scene, slots, scenes, vertices.dtype)
+        with self._lock:
+            self._last = ([t.detach().clone() for t in (vertices, albedo, lights, ambient)], scenes)
+        return out
+
+    def _backward(self, inputs, d_outputs):
+        """The operator's backward: the scenes of the last render where its inputs were these
+        (the slots' renders of them stand), else new ones (which the slots render again)."""
+        with self._lock:
+            last = self._last
+        if last is not None and all(torch.equal(a, b) for a, b in zip(last[0], inputs)):
+            scenes = last[1]
+        else:
+            scenes = _scenes(self.scene, *inputs)
+        vertices, albedo = inputs[0], inputs[1]
+        slots = self._slots.get(_precision(vertices.dtype), vertices.shape[0])
+        return _backward(slots, scenes, albedo.dim() == 3, [t.dtype for t in inputs], *d_outputs)
+
+
+# torch.compile: where torch has torch.library.custom_op (2.4 and later), a SceneRenderer's call
+# is the operator penumbra::scene_render (tensors and the renderer's key in, tensors out), with
+# its backward penumbra::scene_render_backward, so that a compiled graph holds it whole.
+_registered = weakref.WeakValueDictionary()  # key -> SceneRenderer
+_keys = itertools.count()
+
+
+def _register_operator():
+    from typing import Tuple
+    Tensor = torch.Tensor
+
+    @torch.library.custom_op("penumbra::scene_render", mutates_args=())
+    def scene_render(key: str, vertices: Tensor, albedo: Tensor, lights: Tensor,
+                     ambient: Tensor) -> Tuple[Tensor, Tensor, Tensor]:
+        return _registered[key]._render(vertices, albedo, lights, ambient)
+
+    @torch.library.custom_op("penumbra::scene_render_backward", mutates_args=())
+    def scene_render_backward(key: str, vertices: Tensor, albedo: Tensor, lights: Tensor,
+                              ambient: Tensor, d_colour: Tensor, d_silhouette: Tensor,
+                              d_depth: Tensor) -> Tuple[Tensor, Tensor, Tensor, Tensor]:
+        return _registered[key]._backward((vertices, albedo, lights, ambient),
+                                          (d_colour, d_silhouette, d_depth))
+
+    @scene_render.register_fake
+    def _(key, vertices, albedo, lights, ambient):
+        size = _output_size(_registered[key].scene, vertices.shape[0])
+        return vertices.new_empty(size + (3,)), vertices.new_empty(size), vertices.new_empty(size)
+
+    @scene_render_backward.register_fake
+    def _(key, vertices, albedo, lights, ambient, d_colour, d_silhouette, d_depth):
+        return tuple(torch.empty_like(t) for t in (vertices, albedo, lights, ambient))
+
+    def setup_context(ctx, inputs, output):
+        ctx.key = inputs[0]
+        ctx.save_for_backward(*inputs[1:])
+
+    def backward(ctx, d_colour, d_silhouette, d_depth):
+        vertices = ctx.saved_tensors[0]
+        size = _output_size(_registered[ctx.key].scene, vertices.shape[0])
+        d = [torch.zeros(size + extra, dtype=vertices.dtype) if g is None else g  # unused outputs
+             for g, extra in zip((d_colour, d_silhouette, d_depth), ((3,), (), ()))]
+        return (None, *scene_render_backward(ctx.key, *ctx.saved_tensors, *d))
+
+    scene_render.register_autograd(backward, setup_context=setup_context)
+    return torch.ops.penumbra.scene_render
+
+
+_operator = _register_operator() if hasattr(torch.library, "custom_op") else None

@@ -54,7 +54,7 @@ def test_two_processes_give_the_single_process_gradients(tmp_path):
     mp.spawn(worker, args=(2, tmp_path / "store", tmp_path / "grads"), nprocs=2)
     single = loss_and_grads(four_views())
     for rank in range(2):
-        grads = torch.load(tmp_path / f"grads.{rank}")
+        grads = torch.load(tmp_path / f"grads.{rank}", weights_only=True)
         for k in NAMES:
             assert grads[k].abs().max() > 0
             # The same sums, added in another order: equal to rounding.

@@ -83,3 +83,29 @@ def test_threads_sharing_a_scene_renderer_get_their_own_gradients(context):
     for t in threads:
         t.join()
     assert failures == []
+
+
+@pytest.mark.skipif(not hasattr(torch.library, "custom_op"),
+                    reason="the operator needs torch.library.custom_op (torch 2.4 or later)")
+def test_compiled_graph_holds_the_render_whole(context):
+    """A SceneRenderer's call is the operator penumbra::scene_render: torch.compile traces it
+    with no graph break (fullgraph), and it renders and differentiates as Render does."""
+    render = pt.SceneRenderer(small_scene("soft"), context)
+    p = render.parameters(torch.float64)
+    inputs = [p[k].clone().requires_grad_() for k in ("vertices", "albedo", "lights", "ambient")]
+
+    def loss(vertices, albedo, lights, ambient):
+        colour, silhouette, _ = render(vertices, albedo, lights, ambient)
+        return colour.square().mean() + silhouette.mean()
+
+    compiled = torch.compile(loss, fullgraph=True, backend="aot_eager")
+    value = compiled(*inputs)
+    grads = torch.autograd.grad(value, inputs)
+    slots = render._slots.get(penumbra.Precision.double, 1)
+    colour, silhouette, _ = pt.Render.apply(render.scene, slots, inputs[0][None], *inputs[1:])
+    expected = colour[0].square().mean() + silhouette[0].mean()
+    assert torch.equal(value, expected)
+    for got, want in zip(grads, torch.autograd.grad(expected, inputs)):
+        assert torch.equal(got, want)
+    torch.library.opcheck(torch.ops.penumbra.scene_render.default,
+                          (render._key, inputs[0][None].detach(), *(t.detach() for t in inputs[1:])))
