@@ -2,7 +2,7 @@
 // Accuracy against the ray-traced truth (truth.hpp), shared by the benchmark group
 // (bench_accuracy.cpp) and the test of the accurate model's targets (test_accuracy.cpp).
 //
-// Scenes (camera 0 of data/scenes/turnaround.json, 256², a point light of diameter
+// Scenes (camera 0 of data/scenes/turnaround.json, 256² unless named, a point light of diameter
 // D_L = 0.5 on the 8 × 8 ground plane, default settings):
 //   sphere             the bundled unit sphere resting on the ground, light at (3, 6, 2.5);
 //   knot_h0, knot_h0.3, knot_h1
@@ -15,8 +15,10 @@
 //                      down, in four directions (ShadowMapShape::Auto maps them on a cube);
 //   among_frustum      the same held to one frustum (ShadowMapShape::Frustum, 120°): what
 //                      the cube gives, and costs (a benchmark case, outside the targets).
-//   sphere_100k        the sphere scene with a sphere of 100,820 faces in its place: penumbra
-//                      at scale beside a ray tracer (a benchmark case, outside the targets).
+//   sphere_100k, sphere_100k_512
+//                      the sphere scene with a sphere of 100,820 faces in its place, at 256²
+//                      and at 512²: penumbra at scale beside a ray tracer (benchmark cases,
+//                      outside the targets).
 //
 // Metrics of one render against the truth that matches its shadow mode (point light for hard
 // and none, sphere light for soft), over ground pixels (the rays of the pixel and of every

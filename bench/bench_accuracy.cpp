@@ -1,7 +1,7 @@
 // Accuracy beside cost: each shadow model, mode and sampling against the ray-traced truth
 // (bench/truth.hpp) on the scenes of bench/accuracy.hpp, next to its forward time.
 //
-// Case names: accuracy/fwd/<shadows>/<sampling>/img:256/map:M/faces:F/sigma_s:S/lights:1/
+// Case names: accuracy/fwd/<shadows>/<sampling>/img:W/map:M/faces:F/sigma_s:S/lights:1/
 // model:<accurate|paper>/scene:<name>, and accuracy/ratio/<shadows>/truncated/img:256/map:256/
 // lights:1/scene:<name> (both models at a 256² map) or .../img:256/maps:default/... (each at its
 // own default map): the accurate model's forward time over the paper model's, a frame of
@@ -114,9 +114,10 @@ std::string name_of(const AccuracyCase& c, bool large) {
   const Scene s = accuracy_scene(c);
   std::ostringstream o;
   o << (large ? "large/" : "") << "accuracy/fwd/" << word(c.shadows) << '/'
-    << word(c.sampling, c.exact_backend) << "/img:256/map:" << shadow_map_side(s.params)
-    << "/faces:" << total_faces(s) << "/sigma_s:" << shadow_sigma_s(s.params)
-    << "/lights:1/model:" << word(c.model) << "/scene:" << c.scene;
+    << word(c.sampling, c.exact_backend) << "/img:" << s.cameras.front().width
+    << "/map:" << shadow_map_side(s.params) << "/faces:" << total_faces(s)
+    << "/sigma_s:" << shadow_sigma_s(s.params) << "/lights:1/model:" << word(c.model)
+    << "/scene:" << c.scene;
   return o.str();
 }
 
@@ -170,10 +171,11 @@ void register_accuracy_benchmarks() {
   // The light among the objects held to one frustum, beside its cube.
   for (Shadows sh : {Shadows::Hard, Shadows::Soft})
     add(make("among_frustum", ShadowModel::Accurate, sh, Sampling::Truncated));
-  // The bundled scene with a 100,820-face sphere: penumbra at scale, beside a ray tracer
-  // (bench/mitsuba_side_by_side.py).
-  for (Shadows sh : {Shadows::Hard, Shadows::Soft})
-    add(make("sphere_100k", ShadowModel::Accurate, sh, Sampling::Truncated));
+  // The bundled scene with a 100,820-face sphere, at 256² and 512²: penumbra at scale, beside a
+  // ray tracer (bench/mitsuba_side_by_side.py).
+  for (const char* scene : {"sphere_100k", "sphere_100k_512"})
+    for (Shadows sh : {Shadows::Hard, Shadows::Soft})
+      add(make(scene, ShadowModel::Accurate, sh, Sampling::Truncated));
   // The sphere scene: filter width (those of 0.5, 2 and 8 texel² that are not the model's
   // default) and map size (those of 128², 256² and 512² that are not), both models.
   for (ShadowModel model : {ShadowModel::Accurate, ShadowModel::Paper})

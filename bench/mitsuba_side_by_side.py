@@ -6,8 +6,8 @@ integrator), on the same scenes and camera: what each costs at equal error.
 
 Needs `pip install mitsuba` and an LLVM newer than Debian 12's default (Debian: libllvm19); it
 is not part of the test run. The scenes are the accuracy suite's `sphere` (the bundled scene)
-and `sphere_100k` (the same with a 100,820-face sphere), 256², with a point light (hard shadows)
-or a sphere light of the same diameter (soft).
+and `sphere_100k` (the same with a 100,820-face sphere), 256², and `sphere_100k_512`, that at
+512², with a point light (hard shadows) or a sphere light of the same diameter (soft).
 
 Errors are colour RMSE over the accuracy suite's shadow region (ground pixels within 8 px of
 the soft truth's shadow): penumbra's is its bias against the Embree ray-traced truth (the
@@ -25,6 +25,7 @@ vertex positions.
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -35,7 +36,7 @@ import numpy as np
 from docfile import replace_section
 from sections import SIDE_BY_SIDE as SECTION
 
-SCENES = ["sphere", "sphere_100k"]
+SCENES = ["sphere", "sphere_100k", "sphere_100k_512"]
 SHADOWS = ["hard", "soft"]
 
 
@@ -46,7 +47,7 @@ def fail(message):
 def run_bench(bench, out_dir, runs):
     """penumbra's forward time and rmse_shadow per (scene, shadows), its step time per shadows,
     and, in out_dir, the scenes, truths and regions (PENUMBRA_BENCH_IMAGES)."""
-    cases = ("^(accuracy/fwd/(hard|soft)/truncated/.*model:accurate/scene:sphere(_100k)?/|"
+    cases = ("^(accuracy/fwd/(hard|soft)/truncated/.*model:accurate/scene:sphere(_100k(_512)?)?/|"
              "step/(hard|soft)/truncated/img:256/map:256/faces:100852/.*model:accurate/)")
     json_path = os.path.join(out_dir, "penumbra.json")
     cmd = [bench, f"--benchmark_filter={cases}", f"--benchmark_repetitions={runs}",
@@ -65,7 +66,8 @@ def run_bench(bench, out_dir, runs):
             step[shadows] = b["real_time"]
         elif b.get("default_map") == 1 and b.get("default_sigma_s") == 1:
             forward[(words["scene"], shadows)] = {"ms": b["real_time"], "rmse": b["rmse_shadow"],
-                                                  "faces": int(words["faces"])}
+                                                  "faces": int(words["faces"]),
+                                                  "img": int(words["img"])}
     return forward, step
 
 
@@ -201,6 +203,7 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--bench", default="build/penumbra_bench", help="penumbra_bench to run")
+    p.add_argument("--cli", default="build/penumbra", help="penumbra's tool, for the first call")
     p.add_argument("--runs", type=int, default=5, help="timed renders per case (median)")
     p.add_argument("--reference-spp", type=int, default=1024, help="Mitsuba's reference")
     p.add_argument("--max-spp", type=int, default=256, help="the most spp Mitsuba is timed at")
@@ -208,8 +211,9 @@ def main():
     p.add_argument("--figure", help="where the picture goes (default: beside --doc, "
                    "images/mitsuba_side_by_side.png)")
     args = p.parse_args()
-    if not os.path.exists(args.bench):
-        fail(f"no {args.bench}: build it first (cmake --build build)")
+    for path in (args.bench, args.cli):
+        if not os.path.exists(path):
+            fail(f"no {path}: build it first (cmake --build build)")
     try:
         import drjit as dr
         import mitsuba as mi
@@ -221,26 +225,14 @@ def main():
     with tempfile.TemporaryDirectory() as work:
         print("penumbra_bench ...", file=sys.stderr)
         forward, step = run_bench(args.bench, work, args.runs)
-        rows, step_rows, shown = [], [], []
-        for scene in SCENES:
-            region = np.load(os.path.join(work, scene + "_region.npy")) > 0.5
-            for shadows in SHADOWS:
-                print(f"mitsuba: {scene} {shadows} ...", file=sys.stderr)
-                pen = forward[(scene, shadows)]
-                truth = np.load(os.path.join(work, f"{scene}_truth_{shadows}.npy"))
-                s = mitsuba_scene(mi, work, scene, shadows)
-                curve, fit, ref = mitsuba_curve(mi, s, truth, region, args)
-                rows.append((scene, pen, shadows, curve, matched(curve, pen["rmse"])))
-                if scene == "sphere" and shadows == "soft":
-                    ours = np.load(os.path.join(work, f"{scene}_accurate_{shadows}.npy"))
-                    spp = rows[-1][4][0] if rows[-1][4] else args.max_spp
-                    shown = [truth, ours, fit(render(mi, s, max(1, round(spp)), 1)), fit(ref)]
-            if scene == "sphere_100k":
-                for shadows in SHADOWS:
-                    print(f"mitsuba: {scene} {shadows} forward + backward ...", file=sys.stderr)
-                    step_rows.append((shadows, step[shadows],
-                                      mitsuba_step_ms(mi, dr, work, scene, shadows, args.runs)))
-        lines = section(rows, step_rows, args)
+        rows, shown = compare_forward(mi, work, forward, args)
+        step_rows = []
+        for shadows in SHADOWS:
+            print(f"mitsuba: sphere_100k {shadows} forward + backward ...", file=sys.stderr)
+            step_rows.append((shadows, step[shadows],
+                              mitsuba_step_ms(mi, dr, work, "sphere_100k", shadows, args.runs)))
+        print("first calls ...", file=sys.stderr)
+        lines = section(rows, step_rows, first_calls(args.cli, work, args.runs), args)
         print("\n".join(lines))
         if args.doc:
             replace_section(args.doc, lines, before="## Large cases")
@@ -248,6 +240,65 @@ def main():
                                                  "mitsuba_side_by_side.png")
             picture(figure, shown, ["ray-traced truth (Embree)", "penumbra (accurate, soft)",
                                     "Mitsuba at matched error", "Mitsuba, reference"])
+
+
+def compare_forward(mi, work, forward, args):
+    """A row per scene and shadow mode: (scene, penumbra's case, shadows, Mitsuba's curve,
+    matched); and the images of the bundled scene's soft shadows for the picture."""
+    rows, shown = [], []
+    for scene in SCENES:
+        region = np.load(os.path.join(work, scene + "_region.npy")) > 0.5
+        for shadows in SHADOWS:
+            print(f"mitsuba: {scene} {shadows} ...", file=sys.stderr)
+            pen = forward[(scene, shadows)]
+            truth = np.load(os.path.join(work, f"{scene}_truth_{shadows}.npy"))
+            s = mitsuba_scene(mi, work, scene, shadows)
+            curve, fit, ref = mitsuba_curve(mi, s, truth, region, args)
+            rows.append((scene, pen, shadows, curve, matched(curve, pen["rmse"])))
+            if scene == "sphere" and shadows == "soft":
+                ours = np.load(os.path.join(work, f"{scene}_accurate_{shadows}.npy"))
+                spp = rows[-1][4][0] if rows[-1][4] else args.max_spp
+                shown = [truth, ours, fit(render(mi, s, max(1, round(spp)), 1)), fit(ref)]
+    return rows, shown
+
+
+# Mitsuba's first render in a new process (argv: this folder, the scenes' folder): ms on stdout.
+MITSUBA_FIRST = """
+import sys, time
+import mitsuba as mi
+mi.set_variant("llvm_ad_rgb")
+sys.path.insert(0, sys.argv[1])
+from mitsuba_side_by_side import mitsuba_scene
+scene = mitsuba_scene(mi, sys.argv[2], "sphere", "hard")
+start = time.perf_counter()
+mi.render(scene, spp=1).numpy()
+print((time.perf_counter() - start) * 1e3)
+"""
+
+
+def first_calls(cli, work, runs):
+    """The first render of the bundled scene (hard shadows, 256²) in a new process with empty
+    kernel caches, medians in ms: penumbra's as its tool prints it (PENUMBRA_CACHE_DIR and
+    POCL_CACHE_DIR empty), Mitsuba's at 1 spp (Dr.Jit's cache, under an empty HOME, empty)."""
+    ours, theirs = [], []
+    for _ in range(runs):
+        with tempfile.TemporaryDirectory() as empty:
+            env = dict(os.environ, HOME=empty, PENUMBRA_CACHE_DIR=os.path.join(empty, "penumbra"),
+                       POCL_CACHE_DIR=os.path.join(empty, "pocl"))
+            out = subprocess.run([cli, "render", os.path.join(work, "sphere.json"), "--shadows",
+                                  "hard", "-o", os.path.join(empty, "first.png")],
+                                 env=env, capture_output=True, text=True)
+            found = re.search(r", ([0-9.]+) ms \(", out.stdout)
+            if out.returncode != 0 or not found:
+                fail(f"{cli} render failed: {out.stderr.strip() or out.stdout.strip()}")
+            ours.append(float(found.group(1)))
+            out = subprocess.run([sys.executable, "-c", MITSUBA_FIRST,
+                                  os.path.dirname(os.path.abspath(__file__)), work],
+                                 env=env, capture_output=True, text=True)
+            if out.returncode != 0:
+                fail(f"Mitsuba's first render failed: {out.stderr.strip()}")
+            theirs.append(float(out.stdout.split()[-1]))
+    return float(np.median(ours)), float(np.median(theirs))
 
 
 def load_words():
@@ -269,16 +320,16 @@ def verdict(rows):
             "it many samples, while penumbra's soft shadows cost little more than its hard ones.")
 
 
-def section(rows, step_rows, args):
+def section(rows, step_rows, first, args):
     lines = [SECTION, "",
              f"penumbra and Mitsuba {args.mitsuba_version} (LLVM variant, `direct` integrator) "
-             "on the same scenes and camera, 256², on two CPU cores (PoCL for penumbra; load "
+             "on the same scenes and camera, on two CPU cores (PoCL for penumbra; load "
              f"{load_words()} at the end, {time.strftime('%Y-%m-%d', time.gmtime())}); by "
              "`bench/mitsuba_side_by_side.py` (its header says how errors are measured). "
              "Mitsuba's error is its noise; penumbra's is its bias against the ray-traced truth; "
              "\"matched\" is Mitsuba at the samples per pixel that give penumbra's error.", "",
-             "| scene | faces | shadows | penumbra | its error | Mitsuba, matched error | "
-             "Mitsuba's time ÷ penumbra's |", "|---|---|---|---|---|---|---|"]
+             "| scene | faces | image | shadows | penumbra | its error | Mitsuba, matched error | "
+             "Mitsuba's time ÷ penumbra's |", "|---|---|---|---|---|---|---|---|"]
     for scene, pen, shadows, curve, m in rows:
         if m is None:
             match, ratio = f"> {args.max_spp} spp (error {curve[-1][1]:.4f})", "–"
@@ -286,7 +337,7 @@ def section(rows, step_rows, args):
             spp, ms, below = m
             match = f"{below}{spp:.3g} spp, {ms:.1f} ms"
             ratio = f"{ms / pen['ms']:.2f}"
-        lines.append(f"| {scene} | {pen['faces']:,} | {shadows} | {pen['ms']:.1f} ms | "
+        lines.append(f"| {scene} | {pen['faces']:,} | {pen['img']}² | {shadows} | {pen['ms']:.1f} ms | "
                      f"{pen['rmse']:.4f} | {match} | {ratio} |")
     lines += ["", verdict(rows), "",
               "Forward and backward, 100,852 faces: penumbra's step (render and backward, the "
@@ -296,6 +347,12 @@ def section(rows, step_rows, args):
               "| shadows | penumbra | Mitsuba | Mitsuba's time ÷ penumbra's |", "|---|---|---|---|"]
     for shadows, ours, theirs in step_rows:
         lines.append(f"| {shadows} | {ours:.1f} ms | {theirs:.1f} ms | {theirs / ours:.2f} |")
+    lines += ["", "The first render in a new process with empty kernel caches (the bundled scene, "
+              "hard shadows, 256²; Mitsuba at 1 spp, its Dr.Jit cache empty), medians of "
+              f"{args.runs}: penumbra {first[0]:,.0f} ms, Mitsuba {first[1]:,.0f} ms "
+              f"(Mitsuba's time ÷ penumbra's: {first[1] / first[0]:.2f}). After setup penumbra's "
+              "kernel cache is full, and its first render is the *kernel cache* row of "
+              "\"First call in a new process\" above."]
     lines += ["", "![truth, penumbra, Mitsuba at matched error, Mitsuba's reference]"
               "(images/mitsuba_side_by_side.png)", ""]
     return lines
