@@ -8,7 +8,8 @@
 //                        the coverage cut-off radius; empty (x0 > x1) for a dropped face
 //   fnormal  F × real4   unit world normal (xyz) and signed screen area (w; 0 if dropped:
 //                        behind the near plane, edge-on, culled, or casting no shadow)
-// Launch: one work-item per vertex (transform_fwd, transform_bwd) or per face (face_setup).
+// Launch: one work-item per vertex (transform_fwd, transform_bwd) or per face (face_setup);
+// sum_rows: one per column and part.
 #include "common/geometry.clh"
 
 // The scene's bounding box may lie this far (times its diagonal) behind a face's plane and the
@@ -89,7 +90,7 @@ FORWARD_KERNEL void face_setup(__global const real4* vworld, __global const real
 //   gface_screen, gface_world  3F × real4
 //   gvworld  V × real4 (output): dL/d world position
 //   gframe   4V × real4 (output): this vertex's share of dL/d(eye, fwd, right, up) of the
-//            view's frame (summed on the host where the frame depends on a light's position)
+//            view's frame (summed by sum_rows where the frame depends on a light's position)
 BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const real4* vscreen,
                                    __global const real* P, int nv, __global const int* adj_offsets,
                                    __global const int* adj, __global const real4* gface_screen,
@@ -108,4 +109,17 @@ BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const 
   gframe[4 * v + 1] = (real4)(gf.fwd, 0);
   gframe[4 * v + 2] = (real4)(gf.right, 0);
   gframe[4 * v + 3] = (real4)(gf.up, 0);
+}
+
+// Backward: the sum over `rows` rows of n reals (per-face light gradients, per-vertex frame
+// gradients), on the device: part p sums rows [p·run, (p + 1)·run) in row order into
+// partial[p·n + i], and the host adds the parts in order, so that the sum is the same on every
+// device however the launch is scheduled. Launch: parts · n work-items.
+BACKWARD_KERNEL void sum_rows(__global const real* in, int rows, int n, int run, int parts,
+                              __global real* partial) {
+  const int id = get_global_id(0), i = id % n, part = id / n;
+  if (part >= parts) return;
+  real sum = 0;
+  for (int r = part * run; r < min(rows, (part + 1) * run); ++r) sum += in[(size_t)r * n + i];
+  partial[(size_t)part * n + i] = sum;
 }

@@ -41,6 +41,14 @@ void accumulate_rows(Context& ctx, Precision precision, std::vector<double>& sum
   });
 }
 
+// Adds the sum of the `rows` rows of `sum.size()` reals of `buf` to `sum`: the device sums runs
+// of rows (sum_rows), the host adds the runs in order, so only a few hundred rows are read.
+void accumulate_row_sum(detail::Kernels& k, std::vector<double>& sum, const cl::Buffer& buf,
+                        size_t rows) {
+  const detail::RowParts parts = detail::sum_rows(k, buf, rows, sum.size());
+  accumulate_rows(k.ctx(), k.precision(), sum, parts.partial, parts.parts);
+}
+
 // Adds the `into.size()` reals of `buf` to `into`.
 void accumulate(Context& ctx, Precision precision, std::vector<double>& into,
                 const cl::Buffer& buf) {
@@ -202,10 +210,10 @@ void Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads&
                                     std::vector<double>* gframe) {
   auto gv = detail::transform_backward(kernels, geometry, vp.view, vp.screen, fg);
   accumulate(ctx, precision, sums.vertices, gv.vertices);
-  if (gframe) accumulate_rows(ctx, precision, *gframe, gv.frame, size_t(packed.nv));
+  if (gframe) accumulate_row_sum(kernels, *gframe, gv.frame, size_t(packed.nv));
   if (glights) {
     accumulate(ctx, precision, sums.albedo, fg.albedo);
-    accumulate_rows(ctx, precision, *glights, fg.light, size_t(packed.nf));
+    accumulate_row_sum(kernels, *glights, fg.light, size_t(packed.nf));
   }
 }
 

@@ -24,7 +24,8 @@ void pack(const Scene& s, Packed& p, bool vertices_only);
 // faces, albedo and vertex counts, mesh by mesh.
 bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
 
-// What the backward pass sums on the host, over cameras and lights, before it becomes
+// What the backward pass sums on the host (the per-face and per-vertex rows in sum_rows's
+// parts), over cameras and lights, before it becomes
 // SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (3·nf × 4), the per-light terms of the
 // faces (6·nl + 1 vec4s), dL/dD_L, each light's dL/d(shadow map) and dL/d(penumbra map), and
 // dL/d(its frame) from its own pass.

@@ -229,6 +229,14 @@ ScreenGeometry transform_forward(Kernels& k, const DeviceGeometry& g, const View
 VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
                                const ScreenGeometry& sg, const FaceGrads& fg);
 
+// The sum of `rows` (≥ 1) rows of n reals of `in`, on the device (transform.cl's sum_rows):
+// `parts` partial rows whose sum in order is the whole, the same on every device.
+struct RowParts {
+  cl::Buffer partial;  // parts × n reals
+  size_t parts;
+};
+RowParts sum_rows(Kernels& k, const cl::Buffer& in, size_t rows, size_t n);
+
 // Sorts `n` items with pixel boxes `boxes` (int4 (x0, y0, x1, y1), empty when x0 > x1) into
 // tiles of `tile` pixels over a W × H grid; each tile's list is in item order.
 Bins bin_boxes(Kernels& k, const cl::Buffer& boxes, int n, int W, int H, int tile);
