@@ -6,7 +6,8 @@ from results import REF
 
 # The accuracy group (bench/accuracy.hpp): scenes in their order, and the targets for the
 # accurate model (bench/test_accuracy.cpp asserts the same).
-ACC_SCENES = ["sphere", "knot_h0", "knot_h0.3", "knot_h1", "grazing", "among", "among_frustum"]
+ACC_SCENES = ["sphere", "knot_h0", "knot_h0.3", "knot_h1", "grazing", "among", "among_frustum",
+              "sphere_100k", "sphere_100k_512"]
 ACC_SCENE_WORDS = {
     "sphere": "the bundled unit sphere resting on the ground",
     "knot_h0": "a torus knot (3840 faces) lying on the ground",
@@ -15,9 +16,13 @@ ACC_SCENE_WORDS = {
     "grazing": "a sphere of radius 0.5 under a light at 18° elevation",
     "among": "a light among four spheres on four sides (its shadow map a cube)",
     "among_frustum": "the same light held to one 120° frustum: what the cube gives, and costs",
+    "sphere_100k": "the bundled scene with a sphere of 100,820 faces (beside Mitsuba, "
+                   "bench/mitsuba_side_by_side.py)",
+    "sphere_100k_512": "that scene at 512²",
 }
-# Scenes beside the others but outside the targets: what a default avoids.
-ACC_CONTRASTS = ["among_frustum"]
+# Scenes beside the others but outside the targets: what a default avoids, and the scenes of
+# the comparison with Mitsuba.
+ACC_CONTRASTS = ["among_frustum", "sphere_100k", "sphere_100k_512"]
 ACC_TARGETS = {"area": 0.05, "lit": 0.02, "rmse": 0.05, "leak": 0.0, "time": 1.5}
 
 # Targets: this 2-core machine, PoCL, the turnaround scene, 256² image, 256² map, forward.
