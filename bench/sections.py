@@ -116,14 +116,15 @@ def target_rows(res, peak, exp_rate):
 
 
 def miss_reasons(missed):
-    """Why each missed target is missed: the template's `why: <label start>` blocks."""
-    exact_backward = text("exact-backward")
+    """Why each missed target is missed: the template's `why: <label start>` blocks (each one
+    paragraph there, a blank line apart)."""
+    exact_backward = text("exact-backward").strip()
     reasons = []
     for start, _ in named("why: "):
         hits = [m for m in missed if m.startswith(start)]
         if hits:
             reasons.append(f"- *{'; '.join(hits)}*: "
-                           + text("why: " + start, exact_backward=exact_backward))
+                           + text("why: " + start, exact_backward=exact_backward).strip())
     return reasons
 
 
