@@ -24,14 +24,8 @@ std::vector<int> parse_counts(const std::string& text) {
   std::stringstream in(text);
   std::string item;
   while (std::getline(in, item, ',')) {
-    std::size_t used = 0;
     int n = 0;
-    try {
-      n = std::stoi(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != item.size() || n < 1 || n > 64)
+    if (!parse_int(item, 1, 64, &n))
       throw std::invalid_argument("--build-floor wants kernel counts 1-64, comma-separated: '" +
                                   text + "'");
     counts.push_back(n);

@@ -84,6 +84,19 @@ int icosphere_frequency_for(int faces) {
   return n;
 }
 
+bool parse_int(const std::string& text, int lo, int hi, int* out) {
+  std::size_t used = 0;
+  int n = 0;
+  try {
+    n = std::stoi(text, &used);
+  } catch (const std::exception&) {
+    return false;
+  }
+  if (used == 0 || used != text.size() || n < lo || n > hi) return false;
+  *out = n;
+  return true;
+}
+
 // ---- scenes ----------------------------------------------------------------------------------
 
 const char* word(Shadows s) {

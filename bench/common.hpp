@@ -23,6 +23,8 @@ Mesh icosphere(int frequency, glm::dvec3 center = {0, 0, 0}, double radius = 1.0
                glm::dvec3 albedo = {0.85, 0.35, 0.3});
 // The smallest frequency whose icosphere has at least `faces` faces.
 int icosphere_frequency_for(int faces);
+// Whether `text` is a whole decimal integer in [lo, hi]; if so it is written to `out`.
+bool parse_int(const std::string& text, int lo, int hi, int* out);
 
 // ---- scenes --------------------------------------------------------------------------------
 

@@ -5,7 +5,8 @@
 // cases of the face and image sweeps (to 1M faces and 2048² images). To run every large case
 // too, pass --benchmark_filter=. (everything) or --benchmark_filter=large/ (only them).
 // --build-floor N,N,... builds programs of trivial kernels and runs no benchmark
-// (bench_build_floor.cpp).
+// (bench_build_floor.cpp); --host-stages [N] times the host's stages of a render at 1k, 100k
+// and 1M faces and runs no benchmark (bench_host_stages.cpp).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -48,6 +49,8 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--build-floor") == 0)
       return penumbra::bench::run_build_floor(i + 1 < argc ? argv[i + 1] : "");
+    if (std::strcmp(argv[i], "--host-stages") == 0)
+      return penumbra::bench::run_host_stages(i + 1 < argc ? argv[i + 1] : "");
     if (std::strcmp(argv[i], "--scaling") == 0) {
       scaling = true;
       continue;

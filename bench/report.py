@@ -64,9 +64,11 @@ def write_report(context, records, machine, doc_path, image_dir, accuracy_images
     plots = make_plots(plt, res, image_dir) if plt else {}
     L += sections.sweeps(res, plots, rel_images) + sections.turnaround(res)
     L += accuracy_section(res, plots.get("tradeoff"), rel_images, accuracy_images, image_dir)
-    # The side-by-side with Mitsuba comes from its own script, run apart: the page keeps it.
-    side_by_side = docfile.section_lines(doc_path, sections.SIDE_BY_SIDE)
-    L += (first_call or []) + side_by_side + sections.large_and_failed(res)
+    # The host's stage times and the side-by-side with Mitsuba come from runs of their own,
+    # apart: the page keeps them.
+    kept = [line for heading in (sections.HOST_STAGES, sections.SIDE_BY_SIDE)
+            for line in docfile.section_lines(doc_path, heading)]
+    L += (first_call or []) + kept + sections.large_and_failed(res)
     L += sections.files_section()
     docfile.write_text(doc_path, "\n".join(L))
     print(f"report: wrote {doc_path}" + (f" and plots in {image_dir}" if plt else ""))

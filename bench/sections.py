@@ -7,6 +7,8 @@ from page_template import block, named, table, text
 
 # The section bench/mitsuba_side_by_side.py writes (report.py keeps it when it rewrites the page).
 SIDE_BY_SIDE = "## Beside a ray tracer: Mitsuba 3"
+# The section of `penumbra_bench --host-stages`'s table, written by hand (report.py keeps it).
+HOST_STAGES = "## Host work per render"
 # The sweeps' sections: key, title, the x axis's name, the plot.
 SWEEPS = (("img", "Image size", "image", "res"), ("map", "Shadow-map size", "map", "map"),
           ("faces", "Face count", "faces", "faces"), ("sigma_s", "σ_s", "σ_s", "sigma_s"),

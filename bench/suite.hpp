@@ -11,6 +11,9 @@ void register_accuracy_benchmarks();    // bench_accuracy.cpp: error against ray
 // --build-floor N,N,...: builds programs of N trivial kernels instead of benchmarking
 // (bench_build_floor.cpp); returns the exit status.
 int run_build_floor(const std::string& counts);
+// --host-stages [N]: the host's stage times per render at 1k, 100k and 1M faces instead of
+// benchmarking (bench_host_stages.cpp); returns the exit status.
+int run_host_stages(const std::string& calls);
 // After the run: the turnaround ratios beside the paper's (no-op if they did not run).
 void print_turnaround_summary();
 

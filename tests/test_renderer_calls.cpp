@@ -1,6 +1,7 @@
 // The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, an
 // abandoned call leaves it usable, gradients must be finite, a collapsed face renders as if it
-// were absent, and a given frustum that leaves out casters warns once.
+// were absent, a given frustum that leaves out casters warns once, and each call checks what
+// changed since the last.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -127,4 +128,38 @@ TEST(RendererCalls, AGivenFrustumThatLeavesOutCastersWarnsOnce) {
   EXPECT_EQ(err.find("penumbra: warning: the shadow-map frustum given for light 0 leaves out"), 0u)
       << err;
   EXPECT_EQ(err.find("penumbra: warning:", 1), std::string::npos) << err;
+}
+
+// A call whose faces and albedo are the last call's checks its vertices alone; any other
+// change to the meshes is checked whole.
+TEST(RendererCalls, EachCallChecksWhatChanged) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = sphere_over_ground();
+  Renderer renderer(*ctx);
+  renderer.render(scene);
+  auto refused = [&](const Scene& s, const std::string& words) {
+    try {
+      renderer.render(s);
+    } catch (const Error& e) {
+      return std::string(e.what()).find(words) != std::string::npos ? std::string()
+                                                                    : std::string(e.what());
+    }
+    return std::string("not refused");
+  };
+  Scene moved = scene;
+  moved.meshes[0].vertices[3].y = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(refused(moved, "mesh 0 'occluder': vertex 3 has a non-finite coordinate"), "");
+  moved.meshes[0].vertices[3].y = 1e101;
+  EXPECT_EQ(refused(moved,
+                    "mesh 0 'occluder': vertex 3 (0.262865556, 1e+101, 0) has a coordinate beyond"),
+            "");
+  Scene reindexed = scene;
+  reindexed.meshes[1].faces[2].z = int(reindexed.meshes[1].vertices.size());
+  EXPECT_EQ(
+      refused(reindexed, "mesh 1 'ground': face 2 (1, 6, 25) has vertex index 25 out of range"),
+      "");
+  Scene recoloured = scene;
+  recoloured.meshes[1].albedo[0].x = -1;
+  EXPECT_EQ(refused(recoloured, "mesh 1 'ground': albedo 0 is negative"), "");
+  EXPECT_NO_THROW(renderer.render(scene));
 }

@@ -23,6 +23,9 @@ void pack(const Scene& s, Packed& p, bool vertices_only);
 // Whether pack() writes the same faces and albedo for meshes `a` as for meshes `b`: the same
 // faces, albedo and vertex counts, mesh by mesh.
 bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
+// validate(scene, DegenerateFaces::Allow) for a scene whose faces and albedo passed it before,
+// unchanged since (same_faces_and_albedo): all but those (scene.cpp).
+void validate_moved(const Scene& scene);
 
 // What the backward pass sums on the host (the per-face and per-vertex rows in sum_rows's
 // parts), over cameras and lights, before it becomes

@@ -234,6 +234,11 @@ void profile_stage(Context& ctx, const char* call, const char* name) {
   since = now;
 }
 
+Rows profile_stages() {
+  std::lock_guard<std::mutex> lock(profile().mutex);
+  return profile().stages;
+}
+
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) {
   size_t g[3] = {1, 1, 1};
   for (cl_uint d = 0; d < global.dimensions(); ++d) {

@@ -3,6 +3,7 @@
 // the host), launches with padded global sizes.
 #include <CL/opencl.hpp>
 #include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -121,6 +122,9 @@ void profile_launch(const std::string& name, const cl::Event& event);
 // last mark to the row of the stage it then began, and begins "`call`: `name`" (none if `name`
 // is null). Wall time holds the stage's kernels, copies and host work.
 void profile_stage(Context& ctx, const char* call, const char* name);
+// With PENUMBRA_PROFILE set: the stage rows so far, "`call`: `name`" → (wall ms, calls), for a
+// tool that compares two moments (penumbra_bench --host-stages).
+std::map<std::string, std::pair<double, int>> profile_stages();
 inline void launch_1d(Context& ctx, cl::Kernel& k, size_t n, size_t local = 64) {
   launch(ctx, k, cl::NDRange(n), cl::NDRange(local));
 }
