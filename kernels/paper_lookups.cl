@@ -257,7 +257,7 @@ FORWARD_KERNEL void exact_weights(__global const real* P, int r0, int n, int lig
   real2 sy = axis_weights8(x.y, Hm, ss, looked_up, Gy + (size_t)k * Hm,
                            with_derivative ? Gyd + (size_t)k * Hm : 0, &ny);
   norm[k] = (real4)(sx.x, sy.x, looked_up, 0);
-  support[k] = (int4)(nx, ny);
+  support[k] = (int4)(nx.x, nx.y, ny.x, ny.y);  // scalar parts, for Oclgrind (docs/faults.md)
   if (with_derivative) dsum[k] = (real2)(sx.y, sy.y);
 }
 

@@ -7,9 +7,9 @@
 #   asan  the library, the tool and the whole test suite built with ASan+UBSan (preset `asan`,
 #         build-asan/), every test run under the sanitizers;
 #   fuzz  the libFuzzer targets of the file loaders, 25 s each (scripts/fuzz.sh, build-fuzz/);
-#   oclgrind  every kernel on Oclgrind, a second OpenCL implementation, with its memory, race
-#         and API checks, and double-precision gradient checks there (scripts/oclgrind.sh,
-#         build/'s tool; 28 cases of a 12² random scene);
+#   oclgrind  every kernel on Oclgrind, a second OpenCL implementation, with its memory, race,
+#         API and uninitialised-read checks, and double-precision gradient checks there
+#         (scripts/oclgrind.sh, build/'s tool; 44 cases of a 12² random scene);
 #   lint  clang-format's check, clang-tidy and the size rules over the C++ (scripts/lint.sh,
 #         README, "Code style and lint"), with build/'s compilation database.
 # Usage: scripts/test.sh [suite|asan|fuzz|oclgrind|lint|all]   (no argument: the suite, plus the rest in CI)
