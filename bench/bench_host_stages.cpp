@@ -64,7 +64,8 @@ int run_host_stages(const std::string& calls_text) {
         std::printf(" %.2f |", per_call(before, after, stage, calls));
       std::printf("\n");
     }
-    if (std::fflush(stdout) != 0) throw std::runtime_error("cannot write to standard output");
+    if (std::fflush(stdout) != 0 || std::ferror(stdout))
+      throw std::runtime_error("cannot write to standard output");
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra_bench: %s\n", e.what());

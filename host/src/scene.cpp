@@ -79,8 +79,8 @@ bool within_coordinates(const glm::dvec3& v) {
          std::abs(v.z) <= kMaxCoordinate;
 }
 
-// The vertices of a mesh, its messages built only for a vertex that fails (at 100k vertices,
-// a label built for each had been a third of the checks' time).
+// The vertices of a mesh, checked on every render: a message is built only for a vertex that
+// fails, not a label for each.
 void validate_vertices(const Mesh& mesh, const std::string& label) {
   if (mesh.vertices.empty()) fail(label + " has no vertices");
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
@@ -350,23 +350,21 @@ const std::vector<std::pair<ShadowModel, std::string>>& enum_words<ShadowModel>(
   return words;
 }
 
-void validate(const Mesh& mesh, DegenerateFaces degenerate) {
-  const std::string label = mesh_label(mesh);
+namespace {
+// A mesh; with `faces_known`, one whose faces and albedo passed before: its vertices alone.
+void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces degenerate,
+                   bool faces_known) {
   if (mesh.faces.empty()) fail(label + " has no faces");
   validate_vertices(mesh, label);
-  validate_faces_and_albedo(mesh, label, degenerate);
+  if (!faces_known) validate_faces_and_albedo(mesh, label, degenerate);
 }
 
-namespace {
 void validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces_known) {
   if (scene.meshes.empty()) fail("scene has no meshes");
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& m = scene.meshes[i];
-    const std::string label =
-        "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'");
-    if (m.faces.empty()) fail(label + " has no faces");
-    validate_vertices(m, label);
-    if (!faces_known) validate_faces_and_albedo(m, label, degenerate);
+    validate_mesh(m, "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'"),
+                  degenerate, faces_known);
   }
   if (scene.cameras.empty()) fail("scene has no cameras");
   for (size_t i = 0; i < scene.cameras.size(); ++i)
@@ -379,6 +377,10 @@ void validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces_k
   validate_params(scene.params);
 }
 }  // namespace
+
+void validate(const Mesh& mesh, DegenerateFaces degenerate) {
+  validate_mesh(mesh, mesh_label(mesh), degenerate, false);
+}
 
 void validate(const Scene& scene, DegenerateFaces degenerate) {
   validate_scene(scene, degenerate, false);
