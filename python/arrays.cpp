@@ -185,48 +185,52 @@ Image image_in(nb::handle obj, const std::string& name) {
 }
 
 namespace {
-// `out`'s elements from `from` (as many), in out's dtype: float32 or float64.
-void write_reals(const OutArray& out, size_t offset, const std::vector<double>& from) {
-  if (is(out.dtype(), Code::Float, 32)) {
-    float* p = static_cast<float*>(out.data()) + offset;
-    for (size_t i = 0; i < from.size(); ++i) p[i] = float(from[i]);
-  } else {
-    std::memcpy(static_cast<double*>(out.data()) + offset, from.data(),
-                from.size() * sizeof(double));
-  }
-}
-
-// An output array: float32 or float64 like `like`, C-contiguous, of shape (C, H, W[, 3]).
+// An output array: float32 or float64 like `like`, C-contiguous, of shape (C, H, W[, channels]).
 void check_output(const OutArray& out, const char* name, nb::dlpack::dtype like, size_t cameras,
-                  const Image& first) {
+                  const Camera& first, size_t channels) {
   if (!is_real(out.dtype()) || out.dtype() != like)
     throw Error(std::string(name) + " must be float32 or float64 like colour, not " +
                 dtype_name(out.dtype()));
-  const size_t nd = first.channels == 1 ? 3 : 4;
+  const size_t nd = channels == 1 ? 3 : 4;
   const bool ok = out.ndim() == nd && out.shape(0) == cameras &&
                   out.shape(1) == size_t(first.height) && out.shape(2) == size_t(first.width) &&
-                  (nd == 3 || out.shape(3) == size_t(first.channels));
+                  (nd == 3 || out.shape(3) == channels);
   if (!ok || !c_contiguous(out))
     throw Error(std::string(name) + " has shape " + shape_of(out) + "; expected a C-contiguous (" +
                 std::to_string(cameras) + ", " + std::to_string(first.height) + ", " +
                 std::to_string(first.width) + (nd == 4 ? ", 3)" : ")"));
 }
+
+template <class Real>
+std::vector<OutputBuffers<Real>> buffers(size_t cameras, size_t pixels, const OutArray& colour,
+                                         const OutArray& silhouette, const OutArray& depth) {
+  std::vector<OutputBuffers<Real>> out;
+  for (size_t c = 0; c < cameras; ++c)
+    out.push_back({static_cast<Real*>(colour.data()) + 3 * c * pixels,
+                   static_cast<Real*>(silhouette.data()) + c * pixels,
+                   static_cast<Real*>(depth.data()) + c * pixels});
+  return out;
+}
 }  // namespace
 
-void outputs_into(std::vector<RenderOutput>&& views, const OutArray& colour,
-                  const OutArray& silhouette, const OutArray& depth) {
-  const size_t n = views.size();
-  for (const RenderOutput& v : views)
-    if (v.color.width != views[0].color.width || v.color.height != views[0].color.height)
+OutputArrays output_arrays(const Scene& scene, const OutArray& colour, const OutArray& silhouette,
+                           const OutArray& depth) {
+  const std::vector<Camera>& cams = scene.cameras;
+  if (cams.empty()) throw Error("scene has no cameras");
+  for (const Camera& c : cams)
+    if (c.width != cams[0].width || c.height != cams[0].height)
       throw Error("every camera must have the same image size to fill one array");
-  check_output(colour, "colour", colour.dtype(), n, views[0].color);
-  check_output(silhouette, "silhouette", colour.dtype(), n, views[0].silhouette);
-  check_output(depth, "depth", colour.dtype(), n, views[0].depth);
-  for (size_t c = 0; c < n; ++c) {
-    write_reals(colour, c * views[c].color.size(), views[c].color.data);
-    write_reals(silhouette, c * views[c].silhouette.size(), views[c].silhouette.data);
-    write_reals(depth, c * views[c].depth.size(), views[c].depth.data);
-  }
+  check_output(colour, "colour", colour.dtype(), cams.size(), cams[0], 3);
+  check_output(silhouette, "silhouette", colour.dtype(), cams.size(), cams[0], 1);
+  check_output(depth, "depth", colour.dtype(), cams.size(), cams[0], 1);
+  const size_t pixels = size_t(std::max(cams[0].width, 0)) * size_t(std::max(cams[0].height, 0));
+  OutputArrays out;
+  out.single = is(colour.dtype(), Code::Float, 32);
+  if (out.single)
+    out.f32 = buffers<float>(cams.size(), pixels, colour, silhouette, depth);
+  else
+    out.f64 = buffers<double>(cams.size(), pixels, colour, silhouette, depth);
+  return out;
 }
 
 std::vector<OutputGrads> grads_from(nb::handle colour, nb::handle silhouette, nb::handle depth) {

@@ -61,11 +61,17 @@ Owned<double> image_out(Image&& image);
 // An (H, W) or (H, W, C) float32 or float64 array as an image (a copy).
 Image image_in(nb::handle obj, const std::string& name);
 
-// Every camera's outputs written into (C, H, W, 3) colour and (C, H, W) silhouette and depth
-// arrays of one dtype, float32 or float64 (C-contiguous, writable).
-void outputs_into(std::vector<RenderOutput>&& views, const OutArray& colour,
-                  const OutArray& silhouette, const OutArray& depth);
-// dL/d(outputs) per camera from (C, H, W, 3) and (C, H, W) arrays shaped as outputs_into's.
+// Where Renderer::render_into writes every camera's outputs: in (C, H, W, 3) colour and
+// (C, H, W) silhouette and depth arrays of one dtype, float32 (`single`: f32) or float64 (f64),
+// C-contiguous and writable, checked against the scene's cameras (one image size).
+struct OutputArrays {
+  bool single = true;
+  std::vector<OutputBuffers<float>> f32;
+  std::vector<OutputBuffers<double>> f64;
+};
+OutputArrays output_arrays(const Scene& scene, const OutArray& colour, const OutArray& silhouette,
+                           const OutArray& depth);
+// dL/d(outputs) per camera from (C, H, W, 3) and (C, H, W) arrays shaped as output_arrays'.
 std::vector<OutputGrads> grads_from(nb::handle colour, nb::handle silhouette, nb::handle depth);
 // Gradients laid out as Scene.parameters(): float64 vertices (V, 3), albedo (A, 3), lights
 // (L, 7) and ambient (3,).

@@ -135,7 +135,13 @@ void bind_renderer(nb::module_& m) {
           "render_into",
           [](Renderer& self, const Scene& s, const OutArray& colour, const OutArray& silhouette,
              const OutArray& depth) {
-            outputs_into(released([&] { return self.render(s); }), colour, silhouette, depth);
+            const OutputArrays out = output_arrays(s, colour, silhouette, depth);
+            released([&] {
+              if (out.single)
+                self.render_into(s, out.f32);
+              else
+                self.render_into(s, out.f64);
+            });
           },
           "scene"_a, "colour"_a, "silhouette"_a, "depth"_a,
           "Renders every camera into (C, H, W, 3) and (C, H, W) float32 or float64 arrays.")

@@ -1,7 +1,7 @@
 // The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, an
 // abandoned call leaves it usable, gradients must be finite, a collapsed face renders as if it
-// were absent, a given frustum that leaves out casters warns once, and each call checks what
-// changed since the last.
+// were absent, a given frustum that leaves out casters warns once, each call checks what
+// changed since the last, and render_into writes what render() returns into the caller's memory.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -162,4 +162,54 @@ TEST(RendererCalls, EachCallChecksWhatChanged) {
   recoloured.meshes[1].albedo[0].x = -1;
   EXPECT_EQ(refused(recoloured, "mesh 1 'ground': albedo 0 is negative"), "");
   EXPECT_NO_THROW(renderer.render(scene));
+}
+
+// render_into gives render()'s values in the caller's precision (float: render()'s doubles
+// rounded to float), refuses buffers that do not fit the cameras before it renders, and leaves
+// the render for backward() as render() does.
+TEST(RendererCalls, RenderIntoWritesWhatRenderReturns) {
+  REQUIRE_CONTEXT(ctx);
+  Scene scene = sphere_over_ground();
+  Camera side = front_camera(false);
+  side.eye = {2.5, 1.5, 1.0};
+  side.width = 24;
+  scene.cameras.push_back(side);
+  for (Precision precision : {Precision::Float, Precision::Double}) {
+    Renderer renderer(*ctx, precision);
+    const std::vector<RenderOutput> views = renderer.render(scene);
+    std::vector<OutputGrads> dL(views.size());
+    dL[1].silhouette = Image(side.width, side.height, 1, 1.0);
+    const SceneGrads after_render = renderer.backward(scene, dL);
+    std::vector<std::vector<float>> f(3 * scene.cameras.size());
+    std::vector<std::vector<double>> d(3 * scene.cameras.size());
+    std::vector<OutputBuffers<float>> into_f;
+    std::vector<OutputBuffers<double>> into_d;
+    for (size_t c = 0; c < views.size(); ++c) {
+      const Image* images[3] = {&views[c].color, &views[c].silhouette, &views[c].depth};
+      for (int k = 0; k < 3; ++k)
+        f[3 * c + k].assign(images[k]->size(), NAN), d[3 * c + k].assign(images[k]->size(), NAN);
+      into_f.push_back({f[3 * c].data(), f[3 * c + 1].data(), f[3 * c + 2].data()});
+      into_d.push_back({d[3 * c].data(), d[3 * c + 1].data(), d[3 * c + 2].data()});
+    }
+    renderer.render_into(scene, into_f);
+    EXPECT_EQ(renderer.backward(scene, dL).vertices, after_render.vertices);
+    renderer.render_into(scene, into_d);
+    for (size_t c = 0; c < views.size(); ++c) {
+      const Image* images[3] = {&views[c].color, &views[c].silhouette, &views[c].depth};
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(d[3 * c + k], images[k]->data) << c << " " << k;
+        const std::vector<float> rounded(images[k]->data.begin(), images[k]->data.end());
+        EXPECT_EQ(f[3 * c + k], rounded) << c << " " << k;
+      }
+    }
+    into_f.pop_back();
+    EXPECT_THROW(renderer.render_into(scene, into_f), Error);
+    into_d[1].depth = nullptr;
+    try {
+      renderer.render_into(scene, into_d);
+      ADD_FAILURE() << "a null buffer was taken";
+    } catch (const Error& e) {
+      EXPECT_STREQ(e.what(), "render_into: an output buffer of camera 1 is null");
+    }
+  }
 }

@@ -236,7 +236,7 @@ void Renderer::Impl::shadow_map_pass(int light, detail::Fragments spare) {
 }
 
 // transform → raster → the shadow lookups of every light → resolve.
-RenderOutput Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
+void Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
   const Camera& cam = scene.cameras[camera];
   ViewPass& cp = camera_passes[camera];
   stage("raster");
@@ -250,8 +250,6 @@ RenderOutput Renderer::Impl::camera_pass(int camera, detail::Fragments spare) {
   }
   stage("resolve");
   cp.resolved = detail::raster_resolve(kernels, cp.view, cp.fragments);
-  mark("outputs");
-  return download(cp);
 }
 
 // The view with parameters P, then transform → raster passes 1–2: its kept fragments.
@@ -262,23 +260,29 @@ void Renderer::Impl::rasterise(ViewPass& vp, int W, int H, int nlights,
   vp.fragments = detail::raster_fragments(kernels, geometry, vp.view, vp.screen, std::move(spare));
 }
 
-// The outputs read in place from the mapped buffers, each image allocated once: a copy of the
+// The outputs read in place from the mapped buffers into the caller's memory: a copy of the
 // RGBA buffer and a second depth image, most of their cost page faults of fresh memory, had made
 // this function 9.9 % of a 256² no-shadow benchmark's samples (perf), 3.8 % since.
-RenderOutput Renderer::Impl::download(const ViewPass& cp) {
-  const int W = cp.view.W, H = cp.view.H;
-  const size_t npix = size_t(W) * H;
-  RenderOutput o{Image(W, H, 3), Image(W, H, 1), Image(W, H, 1)};
+template <class Real>
+void Renderer::Impl::write_outputs(const ViewPass& cp, const OutputBuffers<Real>& out) {
+  const size_t npix = size_t(cp.view.W) * cp.view.H;
   detail::read_reals(ctx, precision, cp.resolved.image, npix * 4, [&](const auto* rgba) {
     for (size_t i = 0; i < npix; ++i) {
-      for (int c = 0; c < 3; ++c) o.color.data[3 * i + c] = rgba[4 * i + c];
-      o.silhouette.data[i] = rgba[4 * i + 3];
+      for (int c = 0; c < 3; ++c) out.color[3 * i + c] = Real(rgba[4 * i + c]);
+      out.silhouette[i] = Real(rgba[4 * i + 3]);
     }
   });
   const double scale = norm.scale;  // (z / 1 is z)
   detail::read_reals(ctx, precision, cp.resolved.depth, npix, [&](const auto* z) {
-    for (size_t i = 0; i < npix; ++i) o.depth.data[i] = z[i] / scale;
+    for (size_t i = 0; i < npix; ++i) out.depth[i] = Real(z[i] / scale);
   });
+}
+
+RenderOutput Renderer::Impl::download(const ViewPass& cp) {
+  const int W = cp.view.W, H = cp.view.H;
+  RenderOutput o{Image(W, H, 3), Image(W, H, 1), Image(W, H, 1)};
+  write_outputs(cp, OutputBuffers<double>{o.color.data.data(), o.silhouette.data.data(),
+                                          o.depth.data.data()});
   return o;
 }
 
@@ -355,7 +359,30 @@ void Renderer::Impl::abandon() {
 }
 
 std::vector<RenderOutput> Renderer::render(const Scene& scene) {
-  return impl_->exclusive([&] { return impl_->render(scene); });
+  return impl_->exclusive([&] {
+    std::vector<RenderOutput> out;
+    impl_->render(scene, [&](int, const ViewPass& cp) { out.push_back(impl_->download(cp)); });
+    return out;
+  });
+}
+
+template <class Real>
+void Renderer::Impl::render_into(const Scene& scene, const std::vector<OutputBuffers<Real>>& out) {
+  if (out.size() != scene.cameras.size())
+    throw Error("render_into: " + std::to_string(out.size()) + " output buffers for " +
+                std::to_string(scene.cameras.size()) + " cameras");
+  for (size_t c = 0; c < out.size(); ++c)
+    if (!out[c].color || !out[c].silhouette || !out[c].depth)
+      throw Error("render_into: an output buffer of camera " + std::to_string(c) + " is null");
+  exclusive([&] { render(scene, [&](int c, const ViewPass& cp) { write_outputs(cp, out[c]); }); });
+}
+
+void Renderer::render_into(const Scene& scene, const std::vector<OutputBuffers<float>>& out) {
+  impl_->render_into(scene, out);
+}
+
+void Renderer::render_into(const Scene& scene, const std::vector<OutputBuffers<double>>& out) {
+  impl_->render_into(scene, out);
 }
 
 SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
@@ -368,7 +395,7 @@ void Renderer::set_interrupt_check(std::function<void()> check) {
 }
 
 // Every light's shadow map first (when shadows are on), then every camera's image.
-std::vector<RenderOutput> Renderer::Impl::render(const Scene& scene) {
+void Renderer::Impl::render(const Scene& scene, const Deliver& deliver) {
   Impl& m = *this;
   const Impl::CallProfile profile(m, "render", "prepare");
   const size_t estimate = m.prepare(scene);
@@ -394,12 +421,12 @@ std::vector<RenderOutput> Renderer::Impl::render(const Scene& scene) {
   spare_lights.clear();  // those no light pass took, before the cameras need memory
   m.camera_passes.assign(nc, ViewPass{});
   m.view_P.clear();
-  std::vector<RenderOutput> out;
   for (int c = 0; c < nc; ++c) {
     m.begin_pass("render", "view", c, nc, lights + c, passes);
-    out.push_back(m.camera_pass(c, take_spare(spare_cameras, c)));
+    m.camera_pass(c, take_spare(spare_cameras, c));
+    m.mark("outputs");
+    deliver(c, m.camera_passes[size_t(c)]);
   }
-  return out;
 }
 
 namespace {

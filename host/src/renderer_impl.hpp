@@ -1,6 +1,7 @@
 #pragma once
 // The renderer's state between render() and backward(), and the stages of both pipelines:
 // renderer.cpp runs the forward pipeline, backward.cpp its mirror.
+#include <functional>
 #include <mutex>
 #include <vector>
 
@@ -135,18 +136,24 @@ struct Renderer::Impl {
     CallProfile& operator=(const CallProfile&) = delete;
   };
 
-  // Forward (renderer.cpp), in order.
-  std::vector<RenderOutput> render(const Scene& scene);
+  // Forward (renderer.cpp), in order: `deliver(c, pass)` reads camera c's outputs from its pass.
+  using Deliver = std::function<void(int camera, const ViewPass& pass)>;
+  void render(const Scene& scene, const Deliver& deliver);
   // Checked, frusta fitted, normalised, tuned, packed; returns its device memory estimate.
   size_t prepare(const Scene& scene);
   void upload_geometry();
   // Each pass is given its view's fragments from the last render (`spare`), whose buffers its
   // raster reuses where they fit (reuse_or_alloc).
   void shadow_map_pass(int light, detail::Fragments spare);  // the shadow map (and penumbra map)
-  RenderOutput camera_pass(int camera, detail::Fragments spare);  // the image, shadows looked up
+  void camera_pass(int camera, detail::Fragments spare);  // the image, shadows looked up
   void rasterise(ViewPass& vp, int W, int H, int nlights, const std::vector<double>& P,
                  detail::Fragments spare);
   RenderOutput download(const ViewPass& cp);
+  template <class Real>
+  void write_outputs(const ViewPass& cp, const OutputBuffers<Real>& out);
+  // Renderer::render_into: `out` checked, then render() writing each camera's outputs there.
+  template <class Real>
+  void render_into(const Scene& scene, const std::vector<OutputBuffers<Real>>& out);
 
   // Backward (backward.cpp), in order.
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);

@@ -27,4 +27,13 @@ struct RenderOutput {
 // dL/d(outputs) of one view; an empty image means zero gradient for that output.
 using OutputGrads = RenderOutput;
 
+// The outputs of one view in the caller's memory, laid out as RenderOutput's images: W·H·3
+// colour values, W·H silhouette and W·H depth values, row 0 at the top (Renderer::render_into).
+template <class Real>
+struct OutputBuffers {
+  Real* color = nullptr;
+  Real* silhouette = nullptr;
+  Real* depth = nullptr;
+};
+
 }  // namespace penumbra

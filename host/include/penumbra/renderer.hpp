@@ -109,6 +109,11 @@ class Renderer {
   // out some of the faces that cast its shadows gets one warning line on stderr, once per
   // renderer: those shadows are cut off at the frustum's edge.
   std::vector<RenderOutput> render(const Scene& scene);
+  // render(), camera c's outputs written into out[c] (one per camera, each of its camera's
+  // size) in the caller's precision, straight from the device: no double Image is made. A
+  // count that differs from the cameras' or a null pointer is refused before anything runs.
+  void render_into(const Scene& scene, const std::vector<OutputBuffers<float>>& out);
+  void render_into(const Scene& scene, const std::vector<OutputBuffers<double>>& out);
 
   // Gradients of a scalar loss given dL/d(outputs) for every camera, by the exact derivative of
   // the most recent render(), which must have been of this same scene (same sizes and values).
