@@ -87,27 +87,61 @@ def load_mesh(path, dtype=torch.float32, refuse_degenerate=False):
             torch.from_numpy(np.array(mesh.faces)).long())
 
 
+class _Source:
+    """What a call renders besides its parameters: a template scene whose meshes give the faces,
+    and the cameras, lights and settings (a tuple, as `setup` below gives them)."""
+
+    def __init__(self, template, setup):
+        self.template, self.setup = template, setup
+
+    @classmethod
+    def of(cls, scene):
+        """`scene` itself if a _Source, else a copy of the penumbra.Scene as one."""
+        if isinstance(scene, cls):
+            return scene
+        return cls(penumbra.Scene(scene), (scene.cameras, scene.lights, scene.params))
+
+
+class _Shape:
+    """One shape of a call: its source and its parameters as arrays laid out as
+    Scene.parameters()."""
+
+    def __init__(self, source, arrays):
+        self.template, self.setup, self.arrays = source.template, source.setup, arrays
+
+
 class _Slot:
-    """A Renderer and the scene it rendered last, for one element of a batch: backward
-    differentiates the most recent render, so it renders its own scene again first when
-    another render came in between (from torch running several forwards, or another thread)."""
+    """A Renderer, its own copy of the template scene it renders (made again only when the
+    faces change, so that a call copies no faces), and the shape it rendered last, for one
+    element of a batch: backward differentiates the most recent render, so it renders its own
+    shape again first when another render came in between (from torch running several
+    forwards, or another thread)."""
 
     def __init__(self, context, precision):
         self.renderer = penumbra.Renderer(context, precision)
         self.lock = threading.Lock()
-        self.last = None
+        self.last = self.template = self.scene = None
 
-    def render_into(self, scene, colour, silhouette, depth):
-        with self.lock:
-            self.renderer.render_into(scene, colour, silhouette, depth)
-            self.last = scene
+    def _load(self, shape):
+        self.last = None  # until the shape's render has succeeded
+        if self.template is not shape.template:
+            self.scene, self.template = penumbra.Scene(shape.template), shape.template
+        self.scene.cameras, self.scene.lights, self.scene.params = shape.setup
+        self.scene.set_parameters(*shape.arrays)
 
-    def backward(self, scene, colour, silhouette, depth):
+    def render_into(self, shape, colour, silhouette, depth):
         with self.lock:
-            if self.last is not scene:
-                self.renderer.render(scene)
-                self.last = scene
-            return self.renderer.backward_parameters(scene, colour, silhouette, depth)
+            self._load(shape)
+            self.renderer.render_into(self.scene, colour, silhouette, depth)
+            self.last = shape
+
+    def backward(self, shape, colour, silhouette, depth):
+        with self.lock:
+            if self.last is not shape:
+                self._load(shape)
+                self.renderer.render(self.scene)
+                self.last = shape
+            return self.renderer.backward_parameters(self.scene, colour, silhouette, depth)
 
 
 class _Slots:
@@ -163,40 +197,36 @@ def _array(t):
     return t.detach().contiguous().numpy()
 
 
-def _scenes(scene, vertices, albedo, lights, ambient):
-    """A copy of `scene` per shape of the batch, its parameters from the tensors."""
-    scenes = []
-    for b in range(vertices.shape[0]):
-        s = penumbra.Scene(scene)
-        s.set_parameters(_array(vertices[b]), _array(albedo[b] if albedo.dim() == 3 else albedo),
-                         _array(lights), _array(ambient))
-        scenes.append(s)
-    return scenes
+def _shapes(source, vertices, albedo, lights, ambient):
+    """The shapes of a batch: `source`'s, their parameters from the tensors."""
+    shared = (_array(lights), _array(ambient))
+    return [_Shape(source, (_array(vertices[b]),
+                            _array(albedo[b] if albedo.dim() == 3 else albedo), *shared))
+            for b in range(vertices.shape[0])]
 
 
-def _output_size(scene, batch):
-    """(B, C, H, W) of a render of `scene`'s cameras, which must share one image size."""
-    cameras = scene.cameras
+def _output_size(cameras, batch):
+    """(B, C, H, W) of a render of `cameras`, which must share one image size."""
     if len({(c.width, c.height) for c in cameras}) != 1:
         raise penumbra.Error("every camera must have the same image size (got "
                              f"{sorted({(c.width, c.height) for c in cameras})})")
     return (batch, len(cameras), cameras[0].height, cameras[0].width)
 
 
-def _render(scene, slots, scenes, dtype):
-    """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `scenes`, one per slot."""
-    size = _output_size(scene, len(scenes))
+def _render(slots, shapes, dtype):
+    """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `shapes`, one per slot."""
+    size = _output_size(shapes[0].setup[0], len(shapes))
     colour = torch.empty(size + (3,), dtype=dtype)
     silhouette, depth = torch.empty(size, dtype=dtype), torch.empty(size, dtype=dtype)
-    for b, s in enumerate(scenes):
+    for b, s in enumerate(shapes):
         slots[b].render_into(s, colour[b].numpy(), silhouette[b].numpy(), depth[b].numpy())
     return colour, silhouette, depth
 
 
-def _backward(slots, scenes, batched_albedo, dtypes, d_colour, d_silhouette, d_depth):
-    """(d vertices, d albedo, d lights, d ambient) of the renders of `scenes`."""
+def _backward(slots, shapes, batched_albedo, dtypes, d_colour, d_silhouette, d_depth):
+    """(d vertices, d albedo, d lights, d ambient) of the renders of `shapes`."""
     grads = [slots[b].backward(s, _array(d_colour[b]), _array(d_silhouette[b]),
-                               _array(d_depth[b])) for b, s in enumerate(scenes)]
+                               _array(d_depth[b])) for b, s in enumerate(shapes)]
     stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
     d_albedo = stack("albedo") if batched_albedo else stack("albedo").sum(0)
     out = [stack("vertices"), d_albedo, stack("lights").sum(0), stack("ambient").sum(0)]
@@ -210,16 +240,20 @@ class Render(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, scene, slots, vertices, albedo, lights, ambient):
-        scenes = _scenes(scene, vertices, albedo, lights, ambient)
-        out = _render(scene, slots, scenes, vertices.dtype)
-        ctx.slots, ctx.scenes, ctx.batched_albedo = slots, scenes, albedo.dim() == 3
+        shapes = _shapes(_Source.of(scene), vertices, albedo, lights, ambient)
+        out = _render(slots, shapes, vertices.dtype)
+        ctx.slots, ctx.shapes, ctx.batched_albedo = slots, shapes, albedo.dim() == 3
         ctx.dtypes = [t.dtype for t in (vertices, albedo, lights, ambient)]
+        # The shapes' arrays share the tensors' memory: saved, torch refuses a backward after
+        # one of them was changed in place.
+        ctx.save_for_backward(vertices, albedo, lights, ambient)
         return out
 
     @staticmethod
     @torch.autograd.function.once_differentiable
     def backward(ctx, d_colour, d_silhouette, d_depth):
-        return (None, None, *_backward(ctx.slots, ctx.scenes, ctx.batched_albedo, ctx.dtypes,
+        ctx.saved_tensors  # noqa: B018 (torch's check of in-place changes)
+        return (None, None, *_backward(ctx.slots, ctx.shapes, ctx.batched_albedo, ctx.dtypes,
                                        d_colour, d_silhouette, d_depth))
 
 
@@ -255,14 +289,35 @@ def _as_list(x):
     return list(x) if isinstance(x, (list, tuple)) else [x]
 
 
-def _scene(faces, counts, cameras, lights, params):
+_templates = {}  # (id, version) of each face tensor, vertex counts -> (face tensors, Scene)
+_templates_lock = threading.Lock()
+_TEMPLATES_KEPT = 8
+
+
+def _template(faces, counts):
+    """A scene of meshes with these faces (their vertices 0), made once for face tensors that
+    are the same objects, unchanged since (their versions count changes in place): a call then
+    neither converts nor copies its faces."""
+    faces = [torch.as_tensor(f) for f in faces]
+    key = (tuple((id(f), f._version) for f in faces), tuple(counts))
+    with _templates_lock:
+        hit = _templates.get(key)
+    if hit is not None and all(a is b for a, b in zip(hit[0], faces)):
+        return hit[1]
     scene = penumbra.Scene()
-    scene.meshes = [penumbra.Mesh(vertices=np.zeros((n, 3)), faces=_array(torch.as_tensor(f)))
+    scene.meshes = [penumbra.Mesh(vertices=np.zeros((n, 3)), faces=_array(f))
                     for n, f in zip(counts, faces)]
-    scene.cameras = cameras
-    scene.lights = [light.template() for light in lights]
-    scene.params = params
+    with _templates_lock:  # the tensors are kept, so that no other tensor takes their id
+        while len(_templates) >= _TEMPLATES_KEPT:
+            _templates.pop(next(iter(_templates)))
+        _templates[key] = (faces, scene)
     return scene
+
+
+def _source(faces, counts, cameras, lights, params):
+    setup = penumbra.Scene()  # checks and copies the cameras, lights and settings
+    setup.cameras, setup.lights, setup.params = cameras, [l.template() for l in lights], params
+    return _Source(_template(faces, counts), (setup.cameras, setup.lights, setup.params))
 
 
 def render(vertices, faces, cameras, lights, *, albedo=None, ambient=0.2, params=None,
@@ -284,11 +339,11 @@ def render(vertices, faces, cameras, lights, *, albedo=None, ambient=0.2, params
     if params is None:
         params = penumbra.RenderParams()
         params.shadows = penumbra.Shadows.hard
-    scene = _scene(faces, counts, _as_list(cameras), lights, params)
+    source = _source(faces, counts, _as_list(cameras), lights, params)
     rows = torch.stack([l.row(dtype) for l in lights]) if lights else torch.zeros((0, 7), dtype=dtype)
     ambient = _real(ambient, "ambient", dtype).expand(3)
     slots = _default_slots(context).get(precision, vertices.shape[0])
-    out = Render.apply(scene, slots, vertices, _albedo(albedo, vertices), rows, ambient)
+    out = Render.apply(source, slots, vertices, _albedo(albedo, vertices), rows, ambient)
     return out if batched else tuple(o[0] for o in out)
 
 
@@ -311,17 +366,23 @@ class SceneRenderer:
     """
 
     def __init__(self, scene, context=None, device=""):
-        self.scene = penumbra.Scene(scene)
-        penumbra.refit_light_frusta(self.scene)
+        self._scene = penumbra.Scene(scene)
+        penumbra.refit_light_frusta(self._scene)
+        self._source = _Source.of(self._scene)
         self.context = context if context is not None else penumbra.Context(device)
         self._slots = _Slots(self.context)
         self._lock, self._last = threading.Lock(), None
         self._key = f"scene_renderer_{next(_keys)}"
         _registered[self._key] = self
 
+    @property
+    def scene(self):
+        """A copy of the scene it renders (changing the copy changes nothing here)."""
+        return penumbra.Scene(self._scene)
+
     def parameters(self, dtype=torch.float64):
         """The scene's parameters as tensors: a dict of vertices, albedo, lights, ambient."""
-        return {k: torch.from_numpy(v).to(dtype) for k, v in self.scene.parameters().items()}
+        return {k: torch.from_numpy(v).to(dtype) for k, v in self._scene.parameters().items()}
 
     def __call__(self, vertices, albedo, lights, ambient):
         """(colour (C, H, W, 3), silhouette (C, H, W), depth (C, H, W)); differentiable."""
@@ -329,30 +390,31 @@ class SceneRenderer:
             out = _operator(self._key, vertices[None], albedo, lights, ambient)
         else:
             slots = self._slots.get(_precision(vertices.dtype), 1)
-            out = Render.apply(self.scene, slots, vertices[None], albedo, lights, ambient)
+            out = Render.apply(self._source, slots, vertices[None], albedo, lights, ambient)
         return tuple(o[0] for o in out)
 
     def _render(self, vertices, albedo, lights, ambient):
         """The operator's forward: the render, and its scenes kept for the backward."""
         slots = self._slots.get(_precision(vertices.dtype), vertices.shape[0])
-        scenes = _scenes(self.scene, vertices, albedo, lights, ambient)
-        out = _render(self.scene, slots, scenes, vertices.dtype)
+        inputs = [t.detach().clone() for t in (vertices, albedo, lights, ambient)]
+        shapes = _shapes(self._source, *inputs)
+        out = _render(slots, shapes, vertices.dtype)
         with self._lock:
-            self._last = ([t.detach().clone() for t in (vertices, albedo, lights, ambient)], scenes)
+            self._last = (inputs, shapes)
         return out
 
     def _backward(self, inputs, d_outputs):
-        """The operator's backward: the scenes of the last render where its inputs were these
+        """The operator's backward: the shapes of the last render where its inputs were these
         (the slots' renders of them stand), else new ones (which the slots render again)."""
         with self._lock:
             last = self._last
         if last is not None and all(torch.equal(a, b) for a, b in zip(last[0], inputs)):
-            scenes = last[1]
+            shapes = last[1]
         else:
-            scenes = _scenes(self.scene, *inputs)
+            shapes = _shapes(self._source, *[t.detach().clone() for t in inputs])
         vertices, albedo = inputs[0], inputs[1]
         slots = self._slots.get(_precision(vertices.dtype), vertices.shape[0])
-        return _backward(slots, scenes, albedo.dim() == 3, [t.dtype for t in inputs], *d_outputs)
+        return _backward(slots, shapes, albedo.dim() == 3, [t.dtype for t in inputs], *d_outputs)
 
 
 # torch.compile: where torch has torch.library.custom_op (2.4 and later), a SceneRenderer's call
@@ -380,7 +442,7 @@ def _register_operator():
 
     @scene_render.register_fake
     def _(key, vertices, albedo, lights, ambient):
-        size = _output_size(_registered[key].scene, vertices.shape[0])
+        size = _output_size(_registered[key]._scene.cameras, vertices.shape[0])
         return vertices.new_empty(size + (3,)), vertices.new_empty(size), vertices.new_empty(size)
 
     @scene_render_backward.register_fake
@@ -393,7 +455,7 @@ def _register_operator():
 
     def backward(ctx, d_colour, d_silhouette, d_depth):
         vertices = ctx.saved_tensors[0]
-        size = _output_size(_registered[ctx.key].scene, vertices.shape[0])
+        size = _output_size(_registered[ctx.key]._scene.cameras, vertices.shape[0])
         d = [torch.zeros(size + extra, dtype=vertices.dtype) if g is None else g  # unused outputs
              for g, extra in zip((d_colour, d_silhouette, d_depth), ((3,), (), ()))]
         return (None, *scene_render_backward(ctx.key, *ctx.saved_tensors, *d))

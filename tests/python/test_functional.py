@@ -72,6 +72,36 @@ def test_batch_equals_separate_calls_and_lists_equal_one_mesh(context):
     assert batch[0].dtype == torch.float32
 
 
+def test_each_call_renders_its_own_faces_and_differentiates_its_own_shape(context):
+    """Faces are converted once per face tensor, yet a tensor changed in place renders anew; a
+    backward after another call's render (other faces) differentiates its own call."""
+    vertices, faces, cameras, light, albedo, ambient, params = inputs(dtype=torch.float32, size=24)
+    v = torch.cat(vertices)
+    f = torch.cat([faces[0], faces[1] + len(vertices[0])])
+    render = lambda v, f: pt.render(v, f, cameras, light, params=params, context=context)  # noqa: E731
+    before = render(v, f)[1]
+    f[: len(faces[0])] = f[: len(faces[0])].roll(1, 0)[:, [0, 2, 1]]  # the ball's faces mixed
+    after = render(v, f)[1]
+    assert not torch.equal(before, after)
+    assert torch.equal(after, render(v, f.clone())[1])
+
+    a = v.clone().requires_grad_()
+    render(a, f)[0].sum().backward()
+    alone = a.grad.clone()
+    a.grad = None
+    colour = render(a, f)[0]
+    render(v * 1.2, faces[1])  # the ground alone: the same slot renders other faces between
+    colour.sum().backward()
+    assert torch.equal(a.grad, alone)
+
+    moved = a * 1  # the vertices changed in place after the render: torch refuses the backward
+    colour = render(moved, f)[0]
+    with torch.no_grad():
+        moved.add_(0.1)
+    with pytest.raises(RuntimeError, match="modified by an inplace operation"):
+        colour.sum().backward()
+
+
 def dark(colour):
     return int((colour[0].sum(-1) < 0.5).sum())
 
