@@ -34,6 +34,17 @@ def test_float_inputs_render_in_float(context):
     assert np.array_equal(colour[0].numpy(), expected["color"].astype(np.float32))
 
 
+def test_its_scene_is_a_copy(context):
+    render = pt.SceneRenderer(small_scene("hard", 16), context)
+    p = render.parameters(torch.float32)
+    before = render(p["vertices"], p["albedo"], p["lights"], p["ambient"])[0]
+    scene = render.scene
+    scene.meshes = scene.meshes[:1]
+    scene.cameras[0].width = 8
+    assert len(render.scene.meshes) == 2 and render.scene.cameras[0].width == 16
+    assert torch.equal(render(p["vertices"], p["albedo"], p["lights"], p["ambient"])[0], before)
+
+
 def test_backward_after_other_renders(context):
     """backward re-renders its own scene when other renders came in between."""
     render = pt.SceneRenderer(small_scene("hard"), context)
