@@ -2,7 +2,8 @@
 // bundled scene with icospheres of about 1k, 100k and 1M faces (no shadows, 256²), a renderer
 // renders the scene twice (the first call packs and uploads the faces, the second only the
 // vertices), then N more times (default 10), each call passing the same scene as an
-// optimisation passes its moved vertices; prints, as a Markdown table, the wall ms per call of
+// optimisation passes its moved vertices and taking its outputs into float buffers
+// (render_into, as penumbra.torch does); prints, as a Markdown table, the wall ms per call of
 // each stage of those N calls (PENUMBRA_PROFILE's stage timing, which it turns on).
 #include <cstdio>
 #include <cstdlib>
@@ -18,6 +19,17 @@ namespace penumbra::bench {
 namespace {
 
 using Stages = std::map<std::string, std::pair<double, int>>;
+
+// Float buffers for every camera's outputs (`store` holds them).
+std::vector<OutputBuffers<float>> float_buffers(const Scene& s, std::vector<std::vector<float>>& store) {
+  store.clear();
+  for (const Camera& c : s.cameras)
+    for (int channels : {3, 1, 1}) store.emplace_back(size_t(c.width) * c.height * channels);
+  std::vector<OutputBuffers<float>> out;
+  for (size_t c = 0; c < s.cameras.size(); ++c)
+    out.push_back({store[3 * c].data(), store[3 * c + 1].data(), store[3 * c + 2].data()});
+  return out;
+}
 
 // ms per call of `stage` between two snapshots of the stage rows.
 double per_call(const Stages& before, const Stages& after, const std::string& stage, int calls) {
@@ -46,10 +58,12 @@ int run_host_stages(const std::string& calls_text) {
       c.frequency = icosphere_frequency_for(faces);
       const Scene s = make_scene(c);
       Renderer& r = fresh_renderer(s);
-      r.render(s);
-      r.render(s);
+      std::vector<std::vector<float>> store;
+      const std::vector<OutputBuffers<float>> out = float_buffers(s, store);
+      r.render_into(s, out);
+      r.render_into(s, out);
       const Stages before = detail::profile_stages();
-      for (int i = 0; i < calls; ++i) r.render(s);
+      for (int i = 0; i < calls; ++i) r.render_into(s, out);
       const Stages after = detail::profile_stages();
       size_t nv = 0;
       for (const Mesh& m : s.meshes) nv += m.vertices.size();

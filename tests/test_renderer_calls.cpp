@@ -213,3 +213,25 @@ TEST(RendererCalls, RenderIntoWritesWhatRenderReturns) {
     }
   }
 }
+
+// Without shadows no frustum is fitted (none is used): a light straight above the origin, where
+// an unfitted frustum looks along its up vector, renders and differentiates as with one given.
+TEST(RendererCalls, WithoutShadowsNoFrustumIsNeeded) {
+  REQUIRE_CONTEXT(ctx);
+  Scene scene = sphere_over_ground();
+  scene.params.shadows = Shadows::None;
+  scene.lights[0].position = {0, 4, 0};
+  Scene given = scene;
+  Scene fitted = scene;
+  fitted.params.shadows = Shadows::Hard;
+  fit_light_frusta(fitted);
+  given.lights = fitted.lights;
+  Renderer renderer(*ctx, Precision::Double);
+  const RenderOutput without = renderer.render(scene)[0];
+  std::vector<OutputGrads> dL(1);
+  dL[0].color = Image(without.color.width, without.color.height, 3, 1.0);
+  const SceneGrads g = renderer.backward(scene, dL);
+  EXPECT_EQ(without.color.data, renderer.render(given)[0].color.data);
+  EXPECT_EQ(g.vertices, renderer.backward(given, dL).vertices);
+  EXPECT_EQ(g.light_position, renderer.backward(given, dL).light_position);
+}

@@ -15,12 +15,15 @@ namespace penumbra {
 
 namespace {
 
-// The vertices of the faces that can cast a shadow onto the scene: a face shadows only points
-// beyond its plane as seen from the light, so a face with the whole bounding box on the light's
-// side (a ground under everything) casts none. Empty when no face can.
+// The vertices of the faces that can cast a shadow onto the scene, each once (a frustum fitted
+// to them depends on the set alone): a face shadows only points beyond its plane as seen from
+// the light, so a face with the whole bounding box on the light's side (a ground under
+// everything) casts none. Empty when no face can.
 std::vector<glm::dvec3> occluder_vertices(const Scene& scene, const Light& light, const Bounds& b) {
   std::vector<glm::dvec3> out;
-  for (const Mesh& m : scene.meshes)
+  std::vector<char> casts;
+  for (const Mesh& m : scene.meshes) {
+    casts.assign(m.vertices.size(), 0);
     for (const glm::ivec3& F : m.faces) {
       const glm::dvec3 V0 = m.vertices[F.x],
                        n = glm::cross(m.vertices[F.y] - V0, m.vertices[F.z] - V0);
@@ -35,20 +38,25 @@ std::vector<glm::dvec3> occluder_vertices(const Scene& scene, const Light& light
         beyond = side > 0 ? at < -tol : side < 0 ? at > tol : false;
       }
       if (beyond)
-        for (int k = 0; k < 3; ++k) out.push_back(m.vertices[F[k]]);
+        for (int k = 0; k < 3; ++k) casts[size_t(F[k])] = 1;
     }
+    for (size_t v = 0; v < m.vertices.size(); ++v)
+      if (casts[v]) out.push_back(m.vertices[v]);
+  }
   return out;
 }
 
 // Fits one light's frustum: it looks at the centre of `aim`'s bounds and holds `aim` (plus
 // `halo`, a lateral margin in world units per unit of depth for a point light, in world units
-// for a directional one) in its field of view, and every vertex of the scene in its depth range.
-void fit_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& aim, double halo) {
+// for a directional one) in its field of view, and every vertex of the scene (bounds b) in its
+// depth range.
+void fit_frustum(const Scene& scene, const Bounds& b, Light& l, const std::vector<glm::dvec3>& aim,
+                 double halo) {
   Bounds ab{glm::dvec3(std::numeric_limits<double>::infinity()),
             glm::dvec3(-std::numeric_limits<double>::infinity())};
   for (const glm::dvec3& v : aim) ab.lo = glm::min(ab.lo, v), ab.hi = glm::max(ab.hi, v);
   const glm::dvec3 c = ab.center();
-  const double r = std::max(bounds(scene).radius(), 1e-9);
+  const double r = std::max(b.radius(), 1e-9);
   const double margin = 1.02;  // a little room around the outermost vertex
   LightFrustum& f = l.frustum;
   const glm::dvec3 eye =
@@ -115,15 +123,16 @@ double search_sigma_from(const RenderParams& p, const Light& light, double zmin)
   return shadow_sigma_s(p) + w * w / 16;
 }
 
-void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ);
+void fit_occluder_frustum(const Scene& scene, const Bounds& b, Light& l,
+                          const std::vector<glm::dvec3>& occ);
 
 // The accurate model's frustum: tight around what can cast a shadow, widened by the penumbra
 // a light of diameter D_L casts around it and by the filter window (math.md §4.1, §7.4;
 // docs/shadows.md); every vertex when nothing can cast a shadow.
 void fit_tight_frustum(const Scene& scene, Light& l, const Bounds& b) {
   std::vector<glm::dvec3> occ = occluder_vertices(scene, l, b);
-  if (occ.empty()) return fit_frustum(scene, l, scene_vertices(scene), 0.0);
-  fit_occluder_frustum(scene, l, occ);
+  if (occ.empty()) return fit_frustum(scene, b, l, scene_vertices(scene), 0.0);
+  fit_occluder_frustum(scene, b, l, occ);
   if (scene.params.shadows != Shadows::Soft || !(l.size > 0)) return;
   // The blocker search reaches as far as the penumbra of the nearest occluder can.
   const LightFrustum& f = l.frustum;
@@ -136,25 +145,26 @@ void fit_tight_frustum(const Scene& scene, Light& l, const Bounds& b) {
 }
 
 // The tight frustum around the occluders' vertices `occ`.
-void fit_occluder_frustum(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ) {
+void fit_occluder_frustum(const Scene& scene, const Bounds& b, Light& l,
+                          const std::vector<glm::dvec3>& occ) {
   const RenderParams& p = scene.params;
   const double soft = p.shadows == Shadows::Soft ? l.size : 0.0;
   const double texels = window_share(p);
   if (l.type == LightType::Point) {
     double zocc = std::numeric_limits<double>::infinity();
     for (const glm::dvec3& v : occ) zocc = std::min(zocc, glm::length(v - l.position));
-    fit_frustum(scene, l, occ, 0.0);
+    fit_frustum(scene, b, l, occ, 0.0);
     const double t = std::tan(l.frustum.fov_deg * 3.14159265358979323846 / 360);
     const double halo = 0.5 * soft / std::max(zocc, 1e-12);
     l.frustum.fitted = false;
     if (l.frustum.fov_deg < kWidestFit)
-      return fit_frustum(scene, l, occ, (t + halo) / (1 - texels) - t);
-    return fit_frustum(scene, l, scene_vertices(scene), 0.0);
+      return fit_frustum(scene, b, l, occ, (t + halo) / (1 - texels) - t);
+    return fit_frustum(scene, b, l, scene_vertices(scene), 0.0);
   }
-  fit_frustum(scene, l, occ, 0.0);
+  fit_frustum(scene, b, l, occ, 0.0);
   const double h = l.frustum.half_size, depth = l.frustum.far - l.frustum.near;
   l.frustum.fitted = false;
-  fit_frustum(scene, l, occ, (h + 0.5 * soft * depth) / (1 - texels) - h);
+  fit_frustum(scene, b, l, occ, (h + 0.5 * soft * depth) / (1 - texels) - h);
 }
 
 // |v|∞: a point's depth in the cube face that lights it.
@@ -165,14 +175,15 @@ double cube_depth(glm::dvec3 v) { return std::max({std::abs(v.x), std::abs(v.y),
 // nearest of `occ` (the casters) and by the filter window, so that the windows (and penumbrae)
 // of the points in that band lie in its map; depths hold every vertex, and the accurate
 // model's blocker search reaches the penumbra of the nearest caster.
-void fit_cube(const Scene& scene, Light& l, const std::vector<glm::dvec3>& occ) {
+void fit_cube(const Scene& scene, const Bounds& b, Light& l, const std::vector<glm::dvec3>& occ) {
   const RenderParams& p = scene.params;
-  const double r = std::max(bounds(scene).radius(), 1e-9), margin = 1.02;
+  const double r = std::max(b.radius(), 1e-9), margin = 1.02;
   double zmin = std::numeric_limits<double>::infinity(), zmax = 0, zocc = zmin;
-  for (const glm::dvec3& v : scene_vertices(scene)) {
-    zmin = std::min(zmin, cube_depth(v - l.position));
-    zmax = std::max(zmax, cube_depth(v - l.position));
-  }
+  for (const Mesh& m : scene.meshes)
+    for (const glm::dvec3& v : m.vertices) {
+      zmin = std::min(zmin, cube_depth(v - l.position));
+      zmax = std::max(zmax, cube_depth(v - l.position));
+    }
   for (const glm::dvec3& v : occ) zocc = std::min(zocc, cube_depth(v - l.position));
   LightFrustum& f = l.frustum;
   f.near = std::max(zmin / (2 * margin), 1e-3 * r);
@@ -235,9 +246,9 @@ void fit_light_frusta(Scene& scene) {
     if (tight)
       fit_tight_frustum(scene, l, b);
     else
-      fit_frustum(scene, l, scene_vertices(scene), 0.0);
+      fit_frustum(scene, b, l, scene_vertices(scene), 0.0);
     if (wants_cube(l))
-      fit_cube(scene, l, tight ? occluder_vertices(scene, l, b) : scene_vertices(scene));
+      fit_cube(scene, b, l, tight ? occluder_vertices(scene, l, b) : scene_vertices(scene));
   }
 }
 

@@ -140,7 +140,9 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   else
     scene = given;
   meshes_normalised = false;
-  fit_light_frusta(scene);  // frusta not given are fitted to this scene and then fixed
+  // Frusta not given are fitted to this scene and then fixed; without shadows none is used (at
+  // 200k faces the fit took 4-5 ms a call).
+  if (scene.params.shadows != Shadows::None) fit_light_frusta(scene);
   check_frusta(given, scene);
   frusta.clear();
   for (const Light& l : scene.lights) frusta.push_back(l.frustum);

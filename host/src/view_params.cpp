@@ -135,7 +135,8 @@ std::vector<double> view_params(const Scene& s, const Camera& c) {
     P[at + L_POINT] = L.type == LightType::Point ? 1 : 0;
     put3(P, at + L_COLOR, L.color);
     P[at + L_SIZE] = L.size;
-    put_frame(P, at + L_FRAME, light_frame(L));
+    if (s.params.shadows != Shadows::None)  // (no frustum is fitted for a view without)
+      put_frame(P, at + L_FRAME, light_frame(L));
     P[at + L_MAP_W] = P[at + L_MAP_H] = shadow_map_side(s.params);
     P[at + L_SEARCH_SIGMA] = blocker_search_sigma(s.params, L);
     P[at + L_SEARCH_STRIDE] = blocker_search_stride(P[at + L_SEARCH_SIGMA]);
