@@ -63,6 +63,14 @@ class Light:
 
     def row(self, dtype):
         """The light as its parameters row (7,): vector, colour, size."""
+        values = (self.vector, self.color, self.size)
+        if not any(isinstance(x, (torch.Tensor, np.ndarray)) for x in values):
+            try:  # numbers: one tensor made
+                flat = [float(v) for v in (*self.vector, *self.color, self.size)]
+            except (TypeError, ValueError):  # checked and named below
+                flat = []
+            if len(flat) == 7:
+                return torch.tensor(flat, dtype=dtype)
         parts = [_real(x, name, dtype).reshape(-1) for x, name in
                  ((self.vector, "a light's position or direction"), (self.color, "a light's colour"),
                   (self.size, "a light's size"))]
@@ -194,7 +202,7 @@ def _real(x, name, dtype):
 
 def _array(t):
     """A tensor's values as a NumPy array without a copy where it is contiguous."""
-    return t.detach().contiguous().numpy()
+    return (t.detach() if t.requires_grad else t).contiguous().numpy()
 
 
 def _shapes(source, vertices, albedo, lights, ambient):
@@ -216,11 +224,11 @@ def _output_size(cameras, batch):
 def _render(slots, shapes, dtype):
     """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `shapes`, one per slot."""
     size = _output_size(shapes[0].setup[0], len(shapes))
-    colour = torch.empty(size + (3,), dtype=dtype)
-    silhouette, depth = torch.empty(size, dtype=dtype), torch.empty(size, dtype=dtype)
-    for b, s in enumerate(shapes):
-        slots[b].render_into(s, colour[b].numpy(), silhouette[b].numpy(), depth[b].numpy())
-    return colour, silhouette, depth
+    real = np.float32 if dtype == torch.float32 else np.float64
+    out = np.empty(size + (3,), real), np.empty(size, real), np.empty(size, real)
+    for b, s in enumerate(shapes):  # (NumPy's views: fewer torch calls, which cost per call)
+        slots[b].render_into(s, *(o[b] for o in out))
+    return tuple(torch.from_numpy(o) for o in out)
 
 
 def _backward(slots, shapes, batched_albedo, dtypes, d_colour, d_silhouette, d_depth):
