@@ -21,7 +21,8 @@ namespace {
 using Stages = std::map<std::string, std::pair<double, int>>;
 
 // Float buffers for every camera's outputs (`store` holds them).
-std::vector<OutputBuffers<float>> float_buffers(const Scene& s, std::vector<std::vector<float>>& store) {
+std::vector<OutputBuffers<float>> float_buffers(const Scene& s,
+                                                std::vector<std::vector<float>>& store) {
   store.clear();
   for (const Camera& c : s.cameras)
     for (int channels : {3, 1, 1}) store.emplace_back(size_t(c.width) * c.height * channels);

@@ -233,30 +233,48 @@ OutputArrays output_arrays(const Scene& scene, const OutArray& colour, const Out
   return out;
 }
 
-std::vector<OutputGrads> grads_from(nb::handle colour, nb::handle silhouette, nb::handle depth) {
-  std::vector<OutputGrads> grads;
-  const auto split = [&](nb::handle obj, const char* name, Image OutputGrads::*image) {
-    if (obj.is_none()) return;
-    const AnyArray a = any_array(obj, std::string("the gradient of ") + name);
-    check_real(a, name);
-    const size_t nd = std::string(name) == "colour" ? 4 : 3;
-    if (a.ndim() != nd || (nd == 4 && a.shape(3) != 3))
-      throw Error(std::string("the gradient of ") + name + " has shape " + shape_text(a) +
-                  "; expected (C, H, W" + (nd == 4 ? ", 3)" : ")"));
-    const std::vector<double> all = flatten(a);
-    const int H = int(a.shape(1)), W = int(a.shape(2)), C = nd == 4 ? 3 : 1;
-    if (grads.size() < a.shape(0)) grads.resize(a.shape(0));
-    const size_t per = all.size() / std::max<size_t>(a.shape(0), 1);
-    for (size_t c = 0; c < a.shape(0); ++c) {
-      Image& g = grads[c].*image;
-      g = Image(W, H, C);
-      std::copy(all.begin() + long(c * per), all.begin() + long((c + 1) * per), g.data.begin());
-    }
-  };
-  split(colour, "colour", &OutputGrads::color);
-  split(silhouette, "silhouette", &OutputGrads::silhouette);
-  split(depth, "depth", &OutputGrads::depth);
-  return grads;
+GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhouette,
+                       nb::handle depth) {
+  const std::vector<Camera>& cams = scene.cameras;
+  for (const Camera& c : cams)
+    if (c.width != cams[0].width || c.height != cams[0].height)
+      throw Error("every camera must have the same image size to take one gradient array");
+  GradArrays g;
+  const nb::handle given[3] = {colour, silhouette, depth};
+  const char* names[3] = {"colour", "silhouette", "depth"};
+  for (int k = 0; k < 3; ++k) {
+    if (given[k].is_none()) continue;
+    g.arrays[k] = any_array(given[k], std::string("the gradient of ") + names[k]);
+    const AnyArray& a = *g.arrays[k];
+    check_real(a, names[k]);
+    const size_t nd = k == 0 ? 4 : 3;
+    const bool fits = a.ndim() == nd && a.shape(0) == cams.size() && !cams.empty() &&
+                      a.shape(1) == size_t(cams[0].height) && a.shape(2) == size_t(cams[0].width) &&
+                      (nd == 3 || a.shape(3) == 3);
+    if (!fits)
+      throw Error(std::string("the gradient of ") + names[k] + " has shape " + shape_text(a) +
+                  "; expected (" + std::to_string(cams.size()) + ", " +
+                  std::to_string(cams.empty() ? 0 : cams[0].height) + ", " +
+                  std::to_string(cams.empty() ? 0 : cams[0].width) + (nd == 4 ? ", 3)" : ")"));
+    g.single = g.single && is(a.dtype(), Code::Float, 32) && c_contiguous(a);
+  }
+  // float32 C-contiguous arrays are read in place; anything else as doubles (a copy).
+  const double* copies[3] = {};
+  for (int k = 0; k < 3 && !g.single; ++k)
+    if (g.arrays[k]) g.copies[k] = flatten(*g.arrays[k]), copies[k] = g.copies[k].data();
+  const size_t pixels = cams.empty() ? 0 : size_t(cams[0].width) * size_t(cams[0].height);
+  const size_t per[3] = {3 * pixels, pixels, pixels};
+  for (size_t c = 0; c < cams.size(); ++c) {
+    const auto at = [&](int k) -> const float* {
+      return g.arrays[k] ? static_cast<const float*>(g.arrays[k]->data()) + c * per[k] : nullptr;
+    };
+    const auto copy = [&](int k) { return copies[k] ? copies[k] + c * per[k] : nullptr; };
+    if (g.single)
+      g.f32.push_back({at(0), at(1), at(2)});
+    else
+      g.f64.push_back({copy(0), copy(1), copy(2)});
+  }
+  return g;
 }
 
 nb::dict parameter_grads(SceneGrads&& g) {

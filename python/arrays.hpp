@@ -7,6 +7,7 @@
 #include <nanobind/stl/string.h>
 
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -71,8 +72,18 @@ struct OutputArrays {
 };
 OutputArrays output_arrays(const Scene& scene, const OutArray& colour, const OutArray& silhouette,
                            const OutArray& depth);
-// dL/d(outputs) per camera from (C, H, W, 3) and (C, H, W) arrays shaped as output_arrays'.
-std::vector<OutputGrads> grads_from(nb::handle colour, nb::handle silhouette, nb::handle depth);
+// dL/d(outputs) for Renderer::backward from (C, H, W, 3) colour and (C, H, W) silhouette and
+// depth arrays (None: zero), checked against the scene's cameras (one image size): read in
+// place where all are float32 and C-contiguous (`single`: f32), else as doubles (f64, copies).
+struct GradArrays {
+  bool single = true;
+  std::optional<AnyArray> arrays[3];  // colour, silhouette, depth (kept alive for f32)
+  std::vector<double> copies[3];
+  std::vector<GradBuffers<float>> f32;
+  std::vector<GradBuffers<double>> f64;
+};
+GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhouette,
+                       nb::handle depth);
 // Gradients laid out as Scene.parameters(): float64 vertices (V, 3), albedo (A, 3), lights
 // (L, 7) and ambient (3,).
 nb::dict parameter_grads(SceneGrads&& g);

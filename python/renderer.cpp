@@ -160,9 +160,9 @@ void bind_renderer(nb::module_& m) {
           "backward_parameters",
           [](Renderer& self, const Scene& s, nb::handle colour, nb::handle silhouette,
              nb::handle depth) {
-            std::vector<OutputGrads> dL = grads_from(colour, silhouette, depth);
-            if (dL.empty()) dL.resize(s.cameras.size());  // no gradient at all: zero
-            return parameter_grads(released([&] { return self.backward(s, dL); }));
+            const GradArrays g = grad_arrays(s, colour, silhouette, depth);
+            return parameter_grads(released(
+                [&] { return g.single ? self.backward(s, g.f32) : self.backward(s, g.f64); }));
           },
           "scene"_a, "colour"_a.none(), "silhouette"_a.none(), "depth"_a.none(),
           "backward() given (C, H, W, 3) and (C, H, W) gradient arrays (None: zero), its "

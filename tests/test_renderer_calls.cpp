@@ -1,7 +1,8 @@
 // The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, an
 // abandoned call leaves it usable, gradients must be finite, a collapsed face renders as if it
 // were absent, a given frustum that leaves out casters warns once, each call checks what
-// changed since the last, and render_into writes what render() returns into the caller's memory.
+// changed since the last, render_into writes what render() returns into the caller's memory,
+// and backward takes its gradients from there as from images.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -234,4 +235,39 @@ TEST(RendererCalls, WithoutShadowsNoFrustumIsNeeded) {
   EXPECT_EQ(without.color.data, renderer.render(given)[0].color.data);
   EXPECT_EQ(g.vertices, renderer.backward(given, dL).vertices);
   EXPECT_EQ(g.light_position, renderer.backward(given, dL).light_position);
+}
+
+// backward() from the caller's float or double buffers gives what it gives from images of the
+// same values (here exact in float), and refuses a non-finite value there too.
+TEST(RendererCalls, BackwardFromBuffersEqualsBackwardFromImages) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = sphere_over_ground();
+  Renderer renderer(*ctx);
+  const RenderOutput view = renderer.render(scene)[0];
+  std::vector<OutputGrads> dL(1);
+  dL[0].color = Image(view.color.width, view.color.height, 3);
+  dL[0].depth = Image(view.depth.width, view.depth.height, 1);
+  for (size_t i = 0; i < dL[0].color.size(); ++i) dL[0].color.data[i] = double(i % 7) / 8 - 0.25;
+  for (size_t i = 0; i < dL[0].depth.size(); ++i) dL[0].depth.data[i] = double(i % 5) / 16;
+  const SceneGrads from_images = renderer.backward(scene, dL);
+  const std::vector<float> color(dL[0].color.data.begin(), dL[0].color.data.end()),
+      depth(dL[0].depth.data.begin(), dL[0].depth.data.end());
+  const SceneGrads from_floats = renderer.backward(
+      scene, std::vector<GradBuffers<float>>{{color.data(), nullptr, depth.data()}});
+  const SceneGrads from_doubles =
+      renderer.backward(scene, std::vector<GradBuffers<double>>{
+                                   {dL[0].color.data.data(), nullptr, dL[0].depth.data.data()}});
+  EXPECT_GT(glm::length(from_images.vertices[0][0]) + glm::length(from_images.vertices[0][5]), 0.0);
+  EXPECT_EQ(from_floats.vertices, from_images.vertices);
+  EXPECT_EQ(from_doubles.vertices, from_images.vertices);
+  EXPECT_EQ(from_floats.light_position, from_images.light_position);
+  std::vector<float> bad = depth;
+  bad[3 * size_t(view.depth.width) + 2] = std::numeric_limits<float>::quiet_NaN();
+  try {
+    renderer.backward(scene, std::vector<GradBuffers<float>>{{nullptr, nullptr, bad.data()}});
+    ADD_FAILURE() << "a NaN gradient was taken";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(),
+                 "gradient of depth for camera 0 is NaN at pixel (2, 3); gradients must be finite");
+  }
 }

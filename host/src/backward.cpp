@@ -13,6 +13,7 @@ namespace penumbra {
 
 namespace {
 
+// An image gradient's size (an empty one is zero).
 void check_grad_image(const Image& g, int W, int H, int C, const char* what, size_t view) {
   if (g.data.empty()) return;
   if (g.width != W || g.height != H || g.channels != C || g.data.size() != size_t(W) * H * C)
@@ -20,12 +21,16 @@ void check_grad_image(const Image& g, int W, int H, int C, const char* what, siz
                 " is " + std::to_string(g.width) + "x" + std::to_string(g.height) + "x" +
                 std::to_string(g.channels) + ", expected " + std::to_string(W) + "x" +
                 std::to_string(H) + "x" + std::to_string(C));
-  // A NaN or infinite value would turn every gradient it reaches into NaN.
-  for (size_t i = 0; i < g.data.size(); ++i) {
-    if (std::isfinite(g.data[i])) continue;
+}
+
+// A NaN or infinite value would turn every gradient it reaches into NaN.
+template <class Real>
+void check_finite(const Real* g, int W, int H, int C, const char* what, size_t view) {
+  for (size_t i = 0; g && i < size_t(W) * H * C; ++i) {
+    if (std::isfinite(g[i])) continue;
     const size_t pixel = i / size_t(C);
     throw Error("gradient of " + std::string(what) + " for camera " + std::to_string(view) +
-                " is " + (std::isnan(g.data[i]) ? "NaN" : "infinite") + " at pixel (" +
+                " is " + (std::isnan(g[i]) ? "NaN" : "infinite") + " at pixel (" +
                 std::to_string(pixel % size_t(W)) + ", " + std::to_string(pixel / size_t(W)) +
                 "); gradients must be finite");
   }
@@ -76,7 +81,9 @@ bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
 
 }  // namespace
 
-void Renderer::Impl::check_backward(const Scene& given, const std::vector<OutputGrads>& grads) {
+template <class Real>
+void Renderer::Impl::check_backward(const Scene& given,
+                                    const std::vector<GradBuffers<Real>>& grads) {
   // The meshes as given (packing them again cost 3.9 ms per call at 100k faces); the rest as
   // render() fitted and normalised it, copied without the meshes. The binding names every
   // member of Scene: one added to Scene stops the build here until it is copied too.
@@ -101,9 +108,9 @@ void Renderer::Impl::check_backward(const Scene& given, const std::vector<Output
                 " camera(s), the scene has " + std::to_string(given.cameras.size()));
   for (size_t c = 0; c < grads.size(); ++c) {
     const int W = camera_passes[c].view.W, H = camera_passes[c].view.H;
-    check_grad_image(grads[c].color, W, H, 3, "color", c);
-    check_grad_image(grads[c].silhouette, W, H, 1, "silhouette", c);
-    check_grad_image(grads[c].depth, W, H, 1, "depth", c);
+    check_finite(grads[c].color, W, H, 3, "color", c);
+    check_finite(grads[c].silhouette, W, H, 1, "silhouette", c);
+    check_finite(grads[c].depth, W, H, 1, "depth", c);
   }
 }
 
@@ -138,22 +145,24 @@ void Renderer::Impl::build_adjacency() {
   geometry.adj = detail::upload_ints(ctx, adj);
 }
 
-void Renderer::Impl::camera_backward(int camera, const OutputGrads& g, BackwardSums& sums) {
+template <class Real>
+void Renderer::Impl::camera_backward(int camera, const GradBuffers<Real>& g, BackwardSums& sums) {
   ViewPass& cp = camera_passes[camera];  // its fragments keep the exact lookups' weights
   const int W = cp.view.W, H = cp.view.H;
   stage("resolve");
   const size_t npix = size_t(W) * H;
-  std::vector<double> gimage(npix * 4, 0.0);
-  for (size_t i = 0; i < npix; ++i) {
-    for (int k = 0; k < 3 && !g.color.data.empty(); ++k)
-      gimage[i * 4 + k] = g.color.data[i * 3 + k];
-    if (!g.silhouette.data.empty()) gimage[i * 4 + 3] = g.silhouette.data[i];
-  }
-  auto gimage_buf = detail::upload_reals(ctx, precision, gimage);
-  std::vector<double> gdepth = g.depth.data.empty() ? std::vector<double>(npix, 0.0) : g.depth.data;
-  if (norm.scale != 1)  // dL/d(device depth) = dL/d(depth) / scale
-    for (double& x : gdepth) x /= norm.scale;
-  auto gdepth_buf = detail::upload_reals(ctx, precision, gdepth);
+  cl::Buffer gimage_buf = detail::alloc_reals(ctx, precision, npix * 4);
+  detail::fill_reals(ctx, precision, gimage_buf, npix * 4, [&](auto* at) {
+    for (size_t i = 0; i < npix; ++i) {
+      for (int k = 0; k < 3; ++k) at[i * 4 + k] = g.color ? g.color[i * 3 + k] : 0;
+      at[i * 4 + 3] = g.silhouette ? g.silhouette[i] : 0;
+    }
+  });
+  cl::Buffer gdepth_buf = detail::alloc_reals(ctx, precision, npix);
+  const double unit = 1 / norm.scale;  // dL/d(device depth) = dL/d(depth) / scale
+  detail::fill_reals(ctx, precision, gdepth_buf, npix, [&](auto* at) {
+    for (size_t i = 0; i < npix; ++i) at[i] = g.depth ? g.depth[i] * unit : 0;
+  });
   auto fgr = detail::raster_resolve_backward(kernels, cp.view, cp.fragments, cp.resolved,
                                              gimage_buf, gdepth_buf);
   const detail::ShadowModelPasses& model = detail::shadow_model_passes(scene.params.shadow_model);
@@ -265,8 +274,25 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
   return out;
 }
 
-// Every camera's pass backwards, then every light's.
 SceneGrads Renderer::Impl::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
+  std::vector<GradBuffers<double>> buffers;
+  for (size_t c = 0; c < grads.size() && c < camera_passes.size(); ++c) {
+    const int W = camera_passes[c].view.W, H = camera_passes[c].view.H;
+    const OutputGrads& g = grads[c];
+    check_grad_image(g.color, W, H, 3, "color", c);
+    check_grad_image(g.silhouette, W, H, 1, "silhouette", c);
+    check_grad_image(g.depth, W, H, 1, "depth", c);
+    const auto at = [](const Image& i) { return i.data.empty() ? nullptr : i.data.data(); };
+    buffers.push_back({at(g.color), at(g.silhouette), at(g.depth)});
+  }
+  buffers.resize(grads.size());  // (more than the cameras: refused by check_backward)
+  return backward(scene, buffers);
+}
+
+// Every camera's pass backwards, then every light's.
+template <class Real>
+SceneGrads Renderer::Impl::backward(const Scene& scene,
+                                    const std::vector<GradBuffers<Real>>& grads) {
   Impl& m = *this;
   const Impl::CallProfile profile(m, "backward", "check");
   m.check_backward(scene, grads);
@@ -277,7 +303,7 @@ SceneGrads Renderer::Impl::backward(const Scene& scene, const std::vector<Output
   const int passes = nc + lights;
   for (int c = 0; c < nc; ++c) {
     m.begin_pass("backward", "view", c, nc, c, passes);
-    m.camera_backward(c, grads[c], sums);
+    m.camera_backward(c, grads[size_t(c)], sums);
   }
   for (int l = 0; l < lights; ++l) {
     m.begin_pass("backward", "light", l, int(m.scene.lights.size()), nc + l, passes);
@@ -285,6 +311,18 @@ SceneGrads Renderer::Impl::backward(const Scene& scene, const std::vector<Output
   }
   m.mark("gradients");
   return m.scene_grads(sums);
+}
+
+SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
+  return impl_->exclusive([&] { return impl_->backward(scene, grads); });
+}
+
+SceneGrads Renderer::backward(const Scene& scene, const std::vector<GradBuffers<float>>& grads) {
+  return impl_->exclusive([&] { return impl_->backward(scene, grads); });
+}
+
+SceneGrads Renderer::backward(const Scene& scene, const std::vector<GradBuffers<double>>& grads) {
+  return impl_->exclusive([&] { return impl_->backward(scene, grads); });
 }
 
 }  // namespace penumbra

@@ -387,10 +387,6 @@ void Renderer::render_into(const Scene& scene, const std::vector<OutputBuffers<d
   impl_->render_into(scene, out);
 }
 
-SceneGrads Renderer::backward(const Scene& scene, const std::vector<OutputGrads>& grads) {
-  return impl_->exclusive([&] { return impl_->backward(scene, grads); });
-}
-
 void Renderer::set_interrupt_check(std::function<void()> check) {
   const std::lock_guard<std::mutex> lock(impl_->busy);
   impl_->interrupt_check = std::move(check);

@@ -145,7 +145,7 @@ struct Renderer::Impl {
   // Each pass is given its view's fragments from the last render (`spare`), whose buffers its
   // raster reuses where they fit (reuse_or_alloc).
   void shadow_map_pass(int light, detail::Fragments spare);  // the shadow map (and penumbra map)
-  void camera_pass(int camera, detail::Fragments spare);  // the image, shadows looked up
+  void camera_pass(int camera, detail::Fragments spare);     // the image, shadows looked up
   void rasterise(ViewPass& vp, int W, int H, int nlights, const std::vector<double>& P,
                  detail::Fragments spare);
   RenderOutput download(const ViewPass& cp);
@@ -157,13 +157,18 @@ struct Renderer::Impl {
 
   // Backward (backward.cpp), in order.
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
-  void check_backward(const Scene& scene, const std::vector<OutputGrads>& grads);
+  template <class Real>
+  SceneGrads backward(const Scene& scene, const std::vector<GradBuffers<Real>>& grads);
+  // The scene is the last render's, and there is a gradient per camera, each finite.
+  template <class Real>
+  void check_backward(const Scene& scene, const std::vector<GradBuffers<Real>>& grads);
   // Zero sums, in the last backward's storage (fresh host memory faults its pages in: 12 MB
   // at 100k faces); the vertex adjacency on the device.
   BackwardSums& start_backward();
   BackwardSums backward_sums;
   void build_adjacency();
-  void camera_backward(int camera, const OutputGrads& grads, BackwardSums& sums);
+  template <class Real>
+  void camera_backward(int camera, const GradBuffers<Real>& grads, BackwardSums& sums);
   void light_backward(int light, BackwardSums& sums);
   SceneGrads scene_grads(const BackwardSums& sums) const;
   void sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg, BackwardSums& sums,

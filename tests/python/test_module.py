@@ -197,6 +197,26 @@ def test_backward_input_errors(context):
     assert not g["vertices"][0].any() and not g["ambient"].any()
 
 
+def test_backward_parameters_reads_float32_in_place_and_equals_the_dict_backward(context):
+    renderer = penumbra.Renderer(context)
+    scene = bundled("hard", 16)
+    renderer.render(scene)
+    rng = np.random.default_rng(3)
+    colour = (rng.integers(-8, 8, (1, 16, 16, 3)) / 8).astype(np.float32)
+    depth = (rng.integers(0, 8, (1, 16, 16)) / 16).astype(np.float32)
+    by_dict = renderer.backward(scene, [{"color": colour[0], "depth": depth[0]}])
+    for c, d in [(colour, depth), (colour.astype(np.float64), depth),
+                 (np.asfortranarray(colour), depth)]:
+        g = renderer.backward_parameters(scene, c, None, d)
+        assert np.array_equal(g["vertices"], np.concatenate(by_dict["vertices"]))
+    with pytest.raises(penumbra.Error,
+                       match=r"the gradient of depth has shape \(1, 8, 16\); expected \(1, 16, 16\)"):
+        renderer.backward_parameters(scene, None, None, depth[:, :8])
+    depth[0, 3, 2] = np.inf
+    with pytest.raises(penumbra.Error, match=r"depth for camera 0 is infinite at pixel \(2, 3\)"):
+        renderer.backward_parameters(scene, None, None, depth)
+
+
 def test_version_is_the_projects():
     import re
     from conftest import ROOT

@@ -35,5 +35,13 @@ struct OutputBuffers {
   Real* silhouette = nullptr;
   Real* depth = nullptr;
 };
+// dL/d(outputs) of one view in the caller's memory, laid out as OutputBuffers; null: a zero
+// gradient for that output (Renderer::backward).
+template <class Real>
+struct GradBuffers {
+  const Real* color = nullptr;
+  const Real* silhouette = nullptr;
+  const Real* depth = nullptr;
+};
 
 }  // namespace penumbra

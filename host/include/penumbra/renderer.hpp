@@ -119,6 +119,11 @@ class Renderer {
   // the most recent render(), which must have been of this same scene (same sizes and values).
   // Every gradient value must be finite.
   SceneGrads backward(const Scene& scene, const std::vector<OutputGrads>& grads);
+  // backward() given dL/d(outputs) in the caller's memory, one GradBuffers per camera, each
+  // buffer of its camera's size (W·H·3 colour, W·H silhouette and depth values), read once
+  // into the device's precision: no Image is made.
+  SceneGrads backward(const Scene& scene, const std::vector<GradBuffers<float>>& grads);
+  SceneGrads backward(const Scene& scene, const std::vector<GradBuffers<double>>& grads);
 
   // The shadow map S of every light (math.md §4.2) from the most recent render() with shadows on
   // (empty otherwise), W_s × H_s, light-view depth; a light mapped on a cube has six, its faces

@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "penumbra/error.hpp"
@@ -73,15 +74,11 @@ cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& va
   return buf;
 }
 
-namespace {
-// This thread's staging memory for copied transfers (Context::copy_transfers: read_reals,
-// write_reals), at least `bytes`: it only grows, so that its pages stay faulted in.
 void* staging(size_t bytes) {
   thread_local std::vector<double> memory;
   if (memory.size() * sizeof(double) < bytes) memory.resize((bytes + 7) / 8);
   return memory.data();
 }
-}  // namespace
 
 const void* staged_read(Context& ctx, const cl::Buffer& buf, size_t bytes) {
   void* at = staging(bytes);
@@ -89,24 +86,11 @@ const void* staged_read(Context& ctx, const cl::Buffer& buf, size_t bytes) {
   return at;
 }
 
-// Converts into the buffer mapped for writing (no host copy of the converted values), or with
-// Context::copy_transfers into staging memory that is then written (read_reals).
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values) {
-  if (values.empty()) return;
-  const size_t bytes = values.size() * real_size(p);
-  const bool map = !ctx.copy_transfers();
-  void* at =
-      map ? ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, bytes)
-          : staging(bytes);
-  if (p == Precision::Double)
-    std::copy(values.begin(), values.end(), static_cast<double*>(at));
-  else
-    std::transform(values.begin(), values.end(), static_cast<float*>(at),
-                   [](double v) { return float(v); });
-  if (map)
-    ctx.queue().enqueueUnmapMemObject(buf, at);
-  else
-    ctx.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, bytes, at);
+  fill_reals(ctx, p, buf, values.size(), [&](auto* at) {
+    using Real = std::remove_pointer_t<decltype(at)>;
+    std::transform(values.begin(), values.end(), at, [](double v) { return Real(v); });
+  });
 }
 
 std::vector<double> download_reals(Context& ctx, Precision p, const cl::Buffer& buf, size_t count) {

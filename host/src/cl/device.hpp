@@ -51,6 +51,34 @@ inline std::string precision_options(Precision p) {
   return p == Precision::Double ? "-DPENUMBRA_DOUBLE" : "-cl-denorms-are-zero";
 }
 
+// This thread's staging memory for copied transfers (Context::copy_transfers), at least
+// `bytes`: it only grows, so that its pages stay faulted in.
+void* staging(size_t bytes);
+// Calls fill(float*) or fill(double*), as the precision, to write the first `count` reals of
+// `buf`: into the buffer mapped for writing (no host copy), or with Context::copy_transfers into
+// staging memory that is then written. `fill` must not call read_reals or write_reals.
+template <class Fill>
+void fill_reals(Context& ctx, Precision p, cl::Buffer& buf, size_t count, Fill fill) {
+  if (count == 0) return;
+  const size_t bytes = count * real_size(p);
+  const bool map = !ctx.copy_transfers();
+  void* at =
+      map ? ctx.queue().enqueueMapBuffer(buf, CL_TRUE, CL_MAP_WRITE_INVALIDATE_REGION, 0, bytes)
+          : staging(bytes);
+  try {
+    if (p == Precision::Double)
+      fill(static_cast<double*>(at));
+    else
+      fill(static_cast<float*>(at));
+  } catch (...) {
+    if (map) clEnqueueUnmapMemObject(ctx.queue()(), buf(), at, 0, nullptr, nullptr);
+    throw;
+  }
+  if (map)
+    ctx.queue().enqueueUnmapMemObject(buf, at);
+  else
+    ctx.queue().enqueueWriteBuffer(buf, CL_TRUE, 0, bytes, at);
+}
 // Device buffer holding `values` converted to the precision's real type.
 cl::Buffer upload_reals(Context& ctx, Precision p, const std::vector<double>& values);
 void write_reals(Context& ctx, Precision p, cl::Buffer& buf, const std::vector<double>& values);
