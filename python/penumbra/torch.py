@@ -297,28 +297,30 @@ def _as_list(x):
     return list(x) if isinstance(x, (list, tuple)) else [x]
 
 
-_templates = {}  # (id, version) of each face tensor, vertex counts -> (face tensors, Scene)
+_templates = {}  # (id, version) of each face tensor, vertex counts -> (weak references, Scene)
 _templates_lock = threading.Lock()
-_TEMPLATES_KEPT = 8
+_TEMPLATES_KEPT = 4
 
 
 def _template(faces, counts):
     """A scene of meshes with these faces (their vertices 0), made once for face tensors that
     are the same objects, unchanged since (their versions count changes in place): a call then
-    neither converts nor copies its faces."""
+    neither converts nor copies its faces. The tensors are referenced weakly: one that is gone
+    matches nothing, so no later tensor that takes its id can match."""
     faces = [torch.as_tensor(f) for f in faces]
     key = (tuple((id(f), f._version) for f in faces), tuple(counts))
     with _templates_lock:
         hit = _templates.get(key)
-    if hit is not None and all(a is b for a, b in zip(hit[0], faces)):
+    if hit is not None and all(ref() is f for ref, f in zip(hit[0], faces)):
         return hit[1]
     scene = penumbra.Scene()
     scene.meshes = [penumbra.Mesh(vertices=np.zeros((n, 3)), faces=_array(f))
                     for n, f in zip(counts, faces)]
-    with _templates_lock:  # the tensors are kept, so that no other tensor takes their id
+    with _templates_lock:
+        _templates.pop(key, None)
         while len(_templates) >= _TEMPLATES_KEPT:
             _templates.pop(next(iter(_templates)))
-        _templates[key] = (faces, scene)
+        _templates[key] = ([weakref.ref(f) for f in faces], scene)
     return scene
 
 
