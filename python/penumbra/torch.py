@@ -206,11 +206,10 @@ def _array(t):
 
 
 def _shapes(source, vertices, albedo, lights, ambient):
-    """The shapes of a batch: `source`'s, their parameters from the tensors."""
-    shared = (_array(lights), _array(ambient))
-    return [_Shape(source, (_array(vertices[b]),
-                            _array(albedo[b] if albedo.dim() == 3 else albedo), *shared))
-            for b in range(vertices.shape[0])]
+    """The shapes of a batch: `source`'s, their parameters from the tensors (each converted
+    once for the whole batch: torch calls cost per call)."""
+    v, a, shared = _array(vertices), _array(albedo), (_array(lights), _array(ambient))
+    return [_Shape(source, (v[b], a[b] if a.ndim == 3 else a, *shared)) for b in range(len(v))]
 
 
 def _output_size(cameras, batch):
