@@ -185,60 +185,70 @@ Image image_in(nb::handle obj, const std::string& name) {
 }
 
 namespace {
-// An output array: float32 or float64 like `like`, C-contiguous, of shape (C, H, W[, channels]).
-void check_output(const OutArray& out, const char* name, nb::dlpack::dtype like, size_t cameras,
-                  const Camera& first, size_t channels) {
-  if (!is_real(out.dtype()) || out.dtype() != like)
-    throw Error(std::string(name) + " must be float32 or float64 like colour, not " +
-                dtype_name(out.dtype()));
-  const size_t nd = channels == 1 ? 3 : 4;
-  const bool ok = out.ndim() == nd && out.shape(0) == cameras &&
-                  out.shape(1) == size_t(first.height) && out.shape(2) == size_t(first.width) &&
-                  (nd == 3 || out.shape(3) == channels);
-  if (!ok || !c_contiguous(out))
-    throw Error(std::string(name) + " has shape " + shape_of(out) + "; expected a C-contiguous (" +
-                std::to_string(cameras) + ", " + std::to_string(first.height) + ", " +
-                std::to_string(first.width) + (nd == 4 ? ", 3)" : ")"));
+// The one image size of the scene's cameras (`what`: what needs it, for the error).
+const Camera& one_image_size(const Scene& scene, const char* what) {
+  const std::vector<Camera>& cams = scene.cameras;
+  if (cams.empty()) throw Error("scene has no cameras");
+  for (const Camera& c : cams)
+    if (c.width != cams[0].width || c.height != cams[0].height)
+      throw Error(std::string("every camera must have the same image size to ") + what);
+  return cams[0];
 }
 
+// An array of shape (C, H, W[, 3]) for the scene's C cameras of `size` (`ordered`: and
+// C-contiguous), else an error naming it.
+template <class Array>
+void check_shape(const Array& a, const std::string& name, size_t cameras, const Camera& size,
+                 size_t channels, bool ordered) {
+  const size_t nd = channels == 1 ? 3 : 4;
+  const bool ok = a.ndim() == nd && a.shape(0) == cameras && a.shape(1) == size_t(size.height) &&
+                  a.shape(2) == size_t(size.width) && (nd == 3 || a.shape(3) == channels);
+  if (!ok || (ordered && !c_contiguous(a)))
+    throw Error(name + " has shape " + shape_of(a) + "; expected " +
+                (ordered ? "a C-contiguous (" : "(") + std::to_string(cameras) + ", " +
+                std::to_string(size.height) + ", " + std::to_string(size.width) +
+                (nd == 4 ? ", 3)" : ")"));
+}
+
+constexpr size_t kChannels[3] = {3, 1, 1};  // colour, silhouette, depth
+
+// Each camera's place in the colour, silhouette and depth arrays (of Real, C-contiguous).
 template <class Real>
-std::vector<OutputBuffers<Real>> buffers(size_t cameras, size_t pixels, const OutArray& colour,
-                                         const OutArray& silhouette, const OutArray& depth) {
+std::vector<OutputBuffers<Real>> views(const OutArray* const (&arrays)[3], size_t cameras,
+                                       size_t pixels) {
   std::vector<OutputBuffers<Real>> out;
-  for (size_t c = 0; c < cameras; ++c)
-    out.push_back({static_cast<Real*>(colour.data()) + 3 * c * pixels,
-                   static_cast<Real*>(silhouette.data()) + c * pixels,
-                   static_cast<Real*>(depth.data()) + c * pixels});
+  const auto at = [&](int k, size_t c) {
+    return static_cast<Real*>(arrays[k]->data()) + c * kChannels[k] * pixels;
+  };
+  for (size_t c = 0; c < cameras; ++c) out.push_back({at(0, c), at(1, c), at(2, c)});
   return out;
 }
 }  // namespace
 
 OutputArrays output_arrays(const Scene& scene, const OutArray& colour, const OutArray& silhouette,
                            const OutArray& depth) {
-  const std::vector<Camera>& cams = scene.cameras;
-  if (cams.empty()) throw Error("scene has no cameras");
-  for (const Camera& c : cams)
-    if (c.width != cams[0].width || c.height != cams[0].height)
-      throw Error("every camera must have the same image size to fill one array");
-  check_output(colour, "colour", colour.dtype(), cams.size(), cams[0], 3);
-  check_output(silhouette, "silhouette", colour.dtype(), cams.size(), cams[0], 1);
-  check_output(depth, "depth", colour.dtype(), cams.size(), cams[0], 1);
-  const size_t pixels = size_t(std::max(cams[0].width, 0)) * size_t(std::max(cams[0].height, 0));
+  const Camera& size = one_image_size(scene, "fill one array");
+  const OutArray* arrays[3] = {&colour, &silhouette, &depth};
+  const char* names[3] = {"colour", "silhouette", "depth"};
+  for (int k = 0; k < 3; ++k) {
+    if (!is_real(arrays[k]->dtype()) || arrays[k]->dtype() != colour.dtype())
+      throw Error(std::string(names[k]) + " must be float32 or float64 like colour, not " +
+                  dtype_name(arrays[k]->dtype()));
+    check_shape(*arrays[k], names[k], scene.cameras.size(), size, kChannels[k], true);
+  }
   OutputArrays out;
   out.single = is(colour.dtype(), Code::Float, 32);
+  const size_t pixels = size_t(size.width) * size_t(size.height);
   if (out.single)
-    out.f32 = buffers<float>(cams.size(), pixels, colour, silhouette, depth);
+    out.f32 = views<float>(arrays, scene.cameras.size(), pixels);
   else
-    out.f64 = buffers<double>(cams.size(), pixels, colour, silhouette, depth);
+    out.f64 = views<double>(arrays, scene.cameras.size(), pixels);
   return out;
 }
 
 GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhouette,
                        nb::handle depth) {
-  const std::vector<Camera>& cams = scene.cameras;
-  for (const Camera& c : cams)
-    if (c.width != cams[0].width || c.height != cams[0].height)
-      throw Error("every camera must have the same image size to take one gradient array");
+  const Camera& size = one_image_size(scene, "take one gradient array");
   GradArrays g;
   const nb::handle given[3] = {colour, silhouette, depth};
   const char* names[3] = {"colour", "silhouette", "depth"};
@@ -247,28 +257,23 @@ GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhoue
     g.arrays[k] = any_array(given[k], std::string("the gradient of ") + names[k]);
     const AnyArray& a = *g.arrays[k];
     check_real(a, names[k]);
-    const size_t nd = k == 0 ? 4 : 3;
-    const bool fits = a.ndim() == nd && a.shape(0) == cams.size() && !cams.empty() &&
-                      a.shape(1) == size_t(cams[0].height) && a.shape(2) == size_t(cams[0].width) &&
-                      (nd == 3 || a.shape(3) == 3);
-    if (!fits)
-      throw Error(std::string("the gradient of ") + names[k] + " has shape " + shape_text(a) +
-                  "; expected (" + std::to_string(cams.size()) + ", " +
-                  std::to_string(cams.empty() ? 0 : cams[0].height) + ", " +
-                  std::to_string(cams.empty() ? 0 : cams[0].width) + (nd == 4 ? ", 3)" : ")"));
+    check_shape(a, std::string("the gradient of ") + names[k], scene.cameras.size(), size,
+                kChannels[k], false);
     g.single = g.single && is(a.dtype(), Code::Float, 32) && c_contiguous(a);
   }
   // float32 C-contiguous arrays are read in place; anything else as doubles (a copy).
-  const double* copies[3] = {};
   for (int k = 0; k < 3 && !g.single; ++k)
-    if (g.arrays[k]) g.copies[k] = flatten(*g.arrays[k]), copies[k] = g.copies[k].data();
-  const size_t pixels = cams.empty() ? 0 : size_t(cams[0].width) * size_t(cams[0].height);
-  const size_t per[3] = {3 * pixels, pixels, pixels};
-  for (size_t c = 0; c < cams.size(); ++c) {
+    if (g.arrays[k]) g.copies[k] = flatten(*g.arrays[k]);
+  const size_t pixels = size_t(size.width) * size_t(size.height);
+  for (size_t c = 0; c < scene.cameras.size(); ++c) {
     const auto at = [&](int k) -> const float* {
-      return g.arrays[k] ? static_cast<const float*>(g.arrays[k]->data()) + c * per[k] : nullptr;
+      return g.arrays[k]
+                 ? static_cast<const float*>(g.arrays[k]->data()) + c * kChannels[k] * pixels
+                 : nullptr;
     };
-    const auto copy = [&](int k) { return copies[k] ? copies[k] + c * per[k] : nullptr; };
+    const auto copy = [&](int k) -> const double* {
+      return g.arrays[k] ? g.copies[k].data() + c * kChannels[k] * pixels : nullptr;
+    };
     if (g.single)
       g.f32.push_back({at(0), at(1), at(2)});
     else

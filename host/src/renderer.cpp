@@ -140,8 +140,7 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   else
     scene = given;
   meshes_normalised = false;
-  // Frusta not given are fitted to this scene and then fixed; without shadows none is used (at
-  // 200k faces the fit took 4-5 ms a call).
+  // Frusta not given are fitted to this scene and then fixed; without shadows none is used.
   if (scene.params.shadows != Shadows::None) fit_light_frusta(scene);
   check_frusta(given, scene);
   frusta.clear();

@@ -115,7 +115,7 @@ class _Shape:
     Scene.parameters()."""
 
     def __init__(self, source, arrays):
-        self.template, self.setup, self.arrays = source.template, source.setup, arrays
+        self.source, self.arrays = source, arrays
 
 
 class _Slot:
@@ -132,9 +132,10 @@ class _Slot:
 
     def _load(self, shape):
         self.last = None  # until the shape's render has succeeded
-        if self.template is not shape.template:
-            self.scene, self.template = penumbra.Scene(shape.template), shape.template
-        self.scene.cameras, self.scene.lights, self.scene.params = shape.setup
+        template = shape.source.template
+        if self.template is not template:
+            self.scene, self.template = penumbra.Scene(template), template
+        self.scene.cameras, self.scene.lights, self.scene.params = shape.source.setup
         self.scene.set_parameters(*shape.arrays)
 
     def render_into(self, shape, colour, silhouette, depth):
@@ -202,7 +203,7 @@ def _real(x, name, dtype):
 
 def _array(t):
     """A tensor's values as a NumPy array without a copy where it is contiguous."""
-    return (t.detach() if t.requires_grad else t).contiguous().numpy()
+    return t.detach().contiguous().numpy()
 
 
 def _shapes(source, vertices, albedo, lights, ambient):
@@ -222,7 +223,7 @@ def _output_size(cameras, batch):
 
 def _render(slots, shapes, dtype):
     """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `shapes`, one per slot."""
-    size = _output_size(shapes[0].setup[0], len(shapes))
+    size = _output_size(shapes[0].source.setup[0], len(shapes))
     real = np.float32 if dtype == torch.float32 else np.float64
     out = np.empty(size + (3,), real), np.empty(size, real), np.empty(size, real)
     for b, s in enumerate(shapes):  # (NumPy's views: fewer torch calls, which cost per call)
