@@ -89,10 +89,37 @@ std::vector<double> reals(const AnyArray& a, const std::string& name, long rows,
   return flatten(a);
 }
 
-std::vector<glm::dvec3> to_rows(const std::vector<double>& flat) {
-  std::vector<glm::dvec3> v(flat.size() / 3);
-  for (size_t i = 0; i < v.size(); ++i) v[i] = {flat[3 * i], flat[3 * i + 1], flat[3 * i + 2]};
-  return v;
+// Checks that `a` holds (N, 3) float32 or float64 rows, N = `rows` unless it is negative.
+void check_rows(const AnyArray& a, const std::string& name, long rows) {
+  check_real(a, name);
+  check_dims(a, name, 2, rows, 3);
+}
+
+// put(i, row) for rows first .. first + count − 1 of checked rows `a` (any strides), read as
+// doubles in one pass, the dtype dispatched once: no temporary array, as set_parameters runs
+// every call of an optimisation.
+template <class Put>
+void each_row(const AnyArray& a, size_t first, size_t count, Put&& put) {
+  const auto read = [&](const auto* p) {
+    const int64_t s0 = a.stride(0), s1 = a.stride(1);
+    p += int64_t(first) * s0;
+    for (size_t i = 0; i < count; ++i, p += s0) put(i, glm::dvec3(p[0], p[s1], p[2 * s1]));
+  };
+  if (is(a.dtype(), Code::Float, 32))
+    read(static_cast<const float*>(a.data()));
+  else
+    read(static_cast<const double*>(a.data()));
+}
+
+// The rows of checked rows `a`, in order, over the meshes' `member` rows (as many in all).
+void write_rows(const AnyArray& a, std::vector<Mesh>& meshes,
+                std::vector<glm::dvec3> Mesh::*member) {
+  size_t first = 0;
+  for (Mesh& mesh : meshes) {
+    std::vector<glm::dvec3>& rows = mesh.*member;
+    each_row(a, first, rows.size(), [&](size_t i, glm::dvec3 x) { rows[i] = x; });
+    first += rows.size();
+  }
 }
 
 size_t total_rows(const Scene& scene, bool albedo) {
@@ -127,7 +154,10 @@ AnyArray any_array(nb::handle obj, const std::string& name) {
 }
 
 std::vector<glm::dvec3> real_rows(const AnyArray& a, const std::string& name, long rows) {
-  return to_rows(reals(a, name, rows, 3));
+  check_rows(a, name, rows);
+  std::vector<glm::dvec3> v(a.shape(0));
+  each_row(a, 0, v.size(), [&](size_t i, glm::dvec3 x) { v[i] = x; });
+  return v;
 }
 
 std::vector<glm::ivec3> index_rows(const AnyArray& a, const std::string& name) {
@@ -148,16 +178,14 @@ std::vector<glm::ivec3> index_rows(const AnyArray& a, const std::string& name) {
 
 void set_parameters(Scene& scene, nb::handle vertices, nb::handle albedo, nb::handle lights,
                     nb::handle ambient) {
-  const auto v =
-      real_rows(any_array(vertices, "vertices"), "vertices", long(total_rows(scene, false)));
-  const auto a = real_rows(any_array(albedo, "albedo"), "albedo", long(total_rows(scene, true)));
+  const AnyArray v = any_array(vertices, "vertices"), a = any_array(albedo, "albedo");
+  check_rows(v, "vertices", long(total_rows(scene, false)));
+  check_rows(a, "albedo", long(total_rows(scene, true)));
   const auto l = reals(any_array(lights, "lights"), "lights", long(scene.lights.size()), 7);
   const auto amb = reals(any_array(ambient, "ambient"), "ambient", 3, 0);
-  size_t vi = 0, ai = 0;
-  for (Mesh& mesh : scene.meshes) {
-    for (glm::dvec3& x : mesh.vertices) x = v[vi++];
-    for (glm::dvec3& x : mesh.albedo) x = a[ai++];
-  }
+  // Every array checked: only now is the scene changed.
+  write_rows(v, scene.meshes, &Mesh::vertices);
+  write_rows(a, scene.meshes, &Mesh::albedo);
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     Light& light = scene.lights[i];
     const double* r = &l[7 * i];

@@ -202,8 +202,8 @@ def _real(x, name, dtype):
 
 
 def _array(t):
-    """A tensor's values as a NumPy array without a copy where it is contiguous."""
-    return t.detach().contiguous().numpy()
+    """A tensor's values as a NumPy array, without a copy (the module reads any strides)."""
+    return t.detach().numpy()
 
 
 def _shapes(source, vertices, albedo, lights, ambient):
@@ -283,8 +283,8 @@ def _meshes(vertices, faces):
 
 def _albedo(albedo, vertices):
     """Albedo rows per vertex: (A, 3) or (B, A, 3); None is 0.8 grey, a (3,) is every vertex's."""
-    if albedo is None:
-        return torch.full((vertices.shape[1], 3), 0.8, dtype=vertices.dtype)
+    if albedo is None:  # (one row seen as V: no array of V rows to make and read)
+        return torch.full((3,), 0.8, dtype=vertices.dtype).expand(vertices.shape[1], 3)
     if isinstance(albedo, (list, tuple)) and isinstance(albedo[0], torch.Tensor):
         albedo = torch.cat([_real(a, "albedo", vertices.dtype) for a in albedo], dim=-2)
     albedo = _real(albedo, "albedo", vertices.dtype)

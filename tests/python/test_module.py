@@ -152,8 +152,18 @@ def test_parameters_round_trip_and_shape_errors():
         scene.set_parameters(moved, p["albedo"], p["lights"][:, :3], p["ambient"])
     with pytest.raises(penumbra.Error, match="albedo must be float32 or float64, not float16"):
         scene.set_parameters(moved, p["albedo"].astype(np.float16), p["lights"], p["ambient"])
+    with pytest.raises(penumbra.Error, match=r"ambient has shape"):  # checked before any is set
+        scene.set_parameters(moved - 1, p["albedo"] / 2, p["lights"], p["ambient"][:2])
+    assert np.array_equal(scene.parameters()["vertices"], moved)
+    assert np.array_equal(scene.parameters()["albedo"], p["albedo"])
     scene.set_parameters(moved.astype(np.float32), p["albedo"], p["lights"], p["ambient"])
     assert np.array_equal(scene.parameters()["vertices"], moved.astype(np.float32))
+    # Any strides, read as the values they show: a transposed copy's view, one row broadcast.
+    columns = np.asfortranarray(moved)
+    grey = np.broadcast_to(np.float32([0.1, 0.2, 0.3]), p["albedo"].shape)
+    scene.set_parameters(columns, grey, p["lights"], p["ambient"])
+    assert np.array_equal(scene.parameters()["vertices"], moved)
+    assert np.array_equal(scene.parameters()["albedo"], np.broadcast_to(grey, grey.shape))
 
 
 def test_model_defaults_read_and_take_none():
