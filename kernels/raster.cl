@@ -21,7 +21,8 @@
 //   rec_face K × int; rec_frag K × real2 (D·e^{(z̃−m)/γ}, z)
 //   rec_shade K·(1+nl) × real4 (ambient term, 0), then per light (direct term, 1 where the
 //                    fragment faces the light, n·l > 0; else 0, its direct term 0 too, and
-//                    pcf_sample looks nothing up for it)
+//                    pcf_sample looks nothing up for it); without shadows (every s is 1) K ×
+//                    real4: the fragment's colour, their sum, alone (less to write and read)
 //   rec_light K·nl × real4 (μx, μy, d, s): light-map coordinates, light depth, shadow term
 //   rec_light2 K·nl × real4 (∇_μ d, 0, 0): receiver-plane depth gradient (soft shadows)
 //                    Both only for a view with shadows (P_SHADOWS): without, s is 1 and
@@ -115,11 +116,18 @@ inline void write_record(int r, int j, int f, real weight, real z, const Fragmen
                          __global real4* rec_light2) {
   rec_face[r] = f;
   rec_frag[r] = (real2)(weight, z);
-  rec_shade[r * (1 + nl)] = (real4)(t->ambient[0][j], t->ambient[1][j], t->ambient[2][j], 0);
+  real3 c = (real3)(t->ambient[0][j], t->ambient[1][j], t->ambient[2][j]);
+  if (!shadowed) {  // fragment_colour's sum with every s 1, in its order
+    for (int l = 0; l < nl; ++l)
+      c += (real3)(t->direct[l][0][j], t->direct[l][1][j], t->direct[l][2][j]);
+    rec_shade[r] = (real4)(c, 0);
+    return;
+  }
+  rec_shade[r * (1 + nl)] = (real4)(c, 0);
   for (int l = 0; l < nl; ++l)
     rec_shade[r * (1 + nl) + 1 + l] =
         (real4)(t->direct[l][0][j], t->direct[l][1][j], t->direct[l][2][j], t->facing[l][j]);
-  for (int l = 0; shadowed && l < nl; ++l) {
+  for (int l = 0; l < nl; ++l) {
     rec_light[r * nl + l] = (real4)(t->mu[l][0][j], t->mu[l][1][j], t->mu[l][2][j], 1);
     rec_light2[r * nl + l] = (real4)(t->slope[l][0][j], t->slope[l][1][j], 0, 0);
   }
@@ -212,6 +220,7 @@ inline real shadow_term(int r, int l, int nl, __global const real* P,
 
 inline real3 fragment_colour(int r, int nl, __global const real* P,
                              __global const real4* rec_shade, __global const real4* rec_light) {
+  if (P[P_SHADOWS] <= 0) return rec_shade[r].xyz;  // the sum itself (write_record)
   real3 c = rec_shade[r * (1 + nl)].xyz;
   for (int l = 0; l < nl; ++l)
     c += shadow_term(r, l, nl, P, rec_light) * rec_shade[r * (1 + nl) + 1 + l].xyz;

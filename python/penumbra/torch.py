@@ -313,7 +313,7 @@ def _template(faces, counts):
     are the same objects, unchanged since (their versions count changes in place): a call then
     neither converts nor copies its faces. The tensors are referenced weakly: one that is gone
     matches nothing, so no later tensor that takes its id can match."""
-    faces = [torch.as_tensor(f) for f in faces]
+    faces = [f if isinstance(f, torch.Tensor) else torch.as_tensor(f) for f in faces]
     key = (tuple((id(f), f._version) for f in faces), tuple(counts))
     with _templates_lock:
         hit = _templates.get(key)

@@ -153,6 +153,9 @@ struct View {
   // Lights with per-fragment shadow records (rec_light, rec_light2 and their gradients): none
   // without shadows, where every s is 1.
   int shadow_lights() const { return shadows ? nlights : 0; }
+  // real4s of rec_shade per fragment: the ambient term and each light's direct term, to be
+  // weighted by its shadow term; without shadows, where every s is 1, their sum alone.
+  int shade_terms() const { return shadows ? 1 + nlights : 1; }
 };
 
 // transform: the vertices on the view's screen, each face's pixel box and normal.

@@ -131,7 +131,7 @@ std::vector<int> fragment_offsets(Kernels& k, const View& v, const cl::Buffer& p
   // (4 per term), light terms (4 × 4 per shadowed light), weight gradients (2).
   const size_t per_fragment =
       sizeof(int) + real_size(k.precision()) *
-                        (2 + 4 * (1 + size_t(v.nlights)) + 16 * size_t(v.shadow_lights()) + 2);
+                        (2 + 4 * size_t(v.shade_terms()) + 16 * size_t(v.shadow_lights()) + 2);
   check_memory(k.ctx(), total * per_fragment + npix * 13 * real_size(k.precision()),
                "a " + std::to_string(v.W) + "x" + std::to_string(v.H) + " view keeping " +
                    std::to_string(total) + " fragments");
@@ -160,7 +160,8 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   f.pix_n = reuse_or_alloc(ctx, std::move(spare.pix_n), npix, i);
   f.rec_face = reuse_or_alloc(ctx, std::move(spare.rec_face), f.nrec, i);
   f.rec_frag = reuse_or_alloc(ctx, std::move(spare.rec_frag), f.nrec * 2, rs);
-  f.rec_shade = reuse_or_alloc(ctx, std::move(spare.rec_shade), f.nrec * 4 * (1 + v.nlights), rs);
+  f.rec_shade =
+      reuse_or_alloc(ctx, std::move(spare.rec_shade), f.nrec * 4 * size_t(v.shade_terms()), rs);
   const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
   f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), light_reals, rs);
   f.rec_light2 = reuse_or_alloc(ctx, std::move(spare.rec_light2), light_reals, rs);
