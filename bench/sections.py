@@ -138,7 +138,7 @@ def targets(res, peak, exp_rate):
         L += block("targets-steps")
     reasons = miss_reasons([row[0] for row in rows if row[2] == "**missed**"])
     if reasons:
-        L += block("targets-missed") + ["\n".join(reasons), ""]
+        L += block("targets-missed") + ["\n\n".join(reasons), ""]  # each reason a paragraph
     return L
 
 
