@@ -214,29 +214,27 @@ def _shapes(source, vertices, albedo, lights, ambient):
 
 
 def _output_size(cameras, batch):
-    """(B, C, H, W) of a render of `cameras`, which must share one image size; (C, H, W) where
-    `batch` is None."""
+    """(B, C, H, W) of a render of `cameras`, which must share one image size."""
     if len({(c.width, c.height) for c in cameras}) != 1:
         raise penumbra.Error("every camera must have the same image size (got "
                              f"{sorted({(c.width, c.height) for c in cameras})})")
-    return (() if batch is None else (batch,)) + (len(cameras), cameras[0].height, cameras[0].width)
+    return (batch, len(cameras), cameras[0].height, cameras[0].width)
 
 
-def _render(slots, shapes, dtype, batched=True):
-    """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `shapes`, one per slot;
-    without B where not `batched` (one shape)."""
-    size = _output_size(shapes[0].source.setup[0], len(shapes) if batched else None)
-    out = tuple(torch.empty(size + extra, dtype=dtype) for extra in ((3,), (), ()))
-    views = [o.numpy() if batched else o.numpy()[None] for o in out]
+def _render(slots, shapes, dtype):
+    """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `shapes`, one per slot."""
+    size = _output_size(shapes[0].source.setup[0], len(shapes))
+    real = np.float32 if dtype == torch.float32 else np.float64
+    out = np.empty(size + (3,), real), np.empty(size, real), np.empty(size, real)
     for b, s in enumerate(shapes):  # (NumPy's views: fewer torch calls, which cost per call)
-        slots[b].render_into(s, *(v[b] for v in views))
-    return out
+        slots[b].render_into(s, *(o[b] for o in out))
+    return tuple(torch.from_numpy(o) for o in out)
 
 
-def _backward(slots, shapes, batched_albedo, dtypes, d_outputs, batched=True):
+def _backward(slots, shapes, batched_albedo, dtypes, d_outputs):
     """(d vertices, d albedo, d lights, d ambient) of the renders of `shapes` from the
-    gradients of their outputs (without B where not `batched`)."""
-    d = [_array(g) if batched else _array(g)[None] for g in d_outputs]
+    gradients of their outputs (each read once for the whole batch)."""
+    d = [_array(g) for g in d_outputs]
     grads = [slots[b].backward(s, *(g[b] for g in d)) for b, s in enumerate(shapes)]
     stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
     d_albedo = stack("albedo") if batched_albedo else stack("albedo").sum(0)
@@ -245,17 +243,15 @@ def _backward(slots, shapes, batched_albedo, dtypes, d_outputs, batched=True):
 
 
 class Render(torch.autograd.Function):
-    """(scene, slots, batched, vertices (B, V, 3), albedo ((B,) A, 3), lights (L, 7), ambient
-    (3,)) -> colour (B, C, H, W, 3), silhouette and depth (B, C, H, W), without B where not
-    `batched` (B is 1): scene's cameras, faces and settings, with its parameters from the tensors
-    (laid out as Scene.parameters())."""
+    """(scene, slots, vertices (B, V, 3), albedo ((B,) A, 3), lights (L, 7), ambient (3,))
+    -> colour (B, C, H, W, 3), silhouette and depth (B, C, H, W): scene's cameras, faces and
+    settings, with its parameters from the tensors (laid out as Scene.parameters())."""
 
     @staticmethod
-    def forward(ctx, scene, slots, batched, vertices, albedo, lights, ambient):
+    def forward(ctx, scene, slots, vertices, albedo, lights, ambient):
         shapes = _shapes(_Source.of(scene), vertices, albedo, lights, ambient)
-        out = _render(slots, shapes, vertices.dtype, batched)
-        ctx.slots, ctx.shapes, ctx.batched = slots, shapes, batched
-        ctx.batched_albedo = albedo.dim() == 3
+        out = _render(slots, shapes, vertices.dtype)
+        ctx.slots, ctx.shapes, ctx.batched_albedo = slots, shapes, albedo.dim() == 3
         ctx.dtypes = [t.dtype for t in (vertices, albedo, lights, ambient)]
         # The shapes' arrays share the tensors' memory: saved, torch refuses a backward after
         # one of them was changed in place.
@@ -266,9 +262,8 @@ class Render(torch.autograd.Function):
     @torch.autograd.function.once_differentiable
     def backward(ctx, d_colour, d_silhouette, d_depth):
         ctx.saved_tensors  # noqa: B018 (torch's check of in-place changes)
-        return (None, None, None, *_backward(ctx.slots, ctx.shapes, ctx.batched_albedo,
-                                             ctx.dtypes, (d_colour, d_silhouette, d_depth),
-                                             ctx.batched))
+        return (None, None, *_backward(ctx.slots, ctx.shapes, ctx.batched_albedo, ctx.dtypes,
+                                       (d_colour, d_silhouette, d_depth)))
 
 
 def _meshes(vertices, faces):
@@ -359,7 +354,8 @@ def render(vertices, faces, cameras, lights, *, albedo=None, ambient=0.2, params
     rows = torch.stack([l.row(dtype) for l in lights]) if lights else torch.zeros((0, 7), dtype=dtype)
     ambient = _real(ambient, "ambient", dtype).expand(3)
     slots = _default_slots(context).get(precision, vertices.shape[0])
-    return Render.apply(source, slots, batched, vertices, _albedo(albedo, vertices), rows, ambient)
+    out = Render.apply(source, slots, vertices, _albedo(albedo, vertices), rows, ambient)
+    return out if batched else tuple(o[0] for o in out)
 
 
 def _torch_light(light):
@@ -402,9 +398,11 @@ class SceneRenderer:
     def __call__(self, vertices, albedo, lights, ambient):
         """(colour (C, H, W, 3), silhouette (C, H, W), depth (C, H, W)); differentiable."""
         if _operator is not None:
-            return tuple(o[0] for o in _operator(self._key, vertices[None], albedo, lights, ambient))
-        slots = self._slots.get(_precision(vertices.dtype), 1)
-        return Render.apply(self._source, slots, False, vertices[None], albedo, lights, ambient)
+            out = _operator(self._key, vertices[None], albedo, lights, ambient)
+        else:
+            slots = self._slots.get(_precision(vertices.dtype), 1)
+            out = Render.apply(self._source, slots, vertices[None], albedo, lights, ambient)
+        return tuple(o[0] for o in out)
 
     def _render(self, vertices, albedo, lights, ambient):
         """The operator's forward: the render, and its scenes kept for the backward."""
