@@ -68,7 +68,8 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
                   __global real4* aux, __global int* pix_count, __global ulong* block_hits) {
   int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
   if (py0 >= H || px0 >= W) return;
-  const real gamma = P[P_GAMMA], weight_log = P[P_WEIGHT_LOG];
+  const real weight_log = P[P_WEIGHT_LOG];
+  VIEW_RECIPROCALS(P)
   realP qy;
   maskP valid;
   const realP qx = block_lanes(px0, py0, W, H, &qy, &valid);
@@ -85,9 +86,9 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
       slog += covered ? -(fmax(u, R(0)) + log1p_e) : (realP)0;
       if (!ANY(in_range)) continue;
       maskP higher = in_range && zt > m;
-      M = higher ? M - (zt - m) / gamma : M;
+      M = higher ? M - (zt - m) * inv_gamma : M;
       m = higher ? zt : m;
-      realP lw = log_D + (zt - m) / gamma;
+      realP lw = log_D + (zt - m) * inv_gamma;
       M = in_range ? fmax(M, lw) : M;
       // The running maxima never exceed the final ones, so this counts a superset of the
       // fragments raster_fragments keeps (one e-fold of margin absorbs rounding).
@@ -161,7 +162,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global real4* rec_light2) {
   int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
   if (py0 >= H || px0 >= W) return;
-  const real gamma = P[P_GAMMA];
+  VIEW_RECIPROCALS(P)
   const int nl = (int)P[P_NLIGHTS], shadowed = P[P_SHADOWS] > 0;
   realP qy;
   maskP valid;
@@ -184,7 +185,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
        i = next_hit(hits, i, list_count)) {
     int f = FACE_AT(i);
     LANES_OF_FACE(f)
-    realP lw = log_D + (zt - m) / gamma;
+    realP lw = log_D + (zt - m) * inv_gamma;
     const uint kept = mask_bits(in_range && lw >= keep);  // lane j's bit: a kept fragment
     if (kept == 0) continue;
     real lws[PPW], zs[PPW], weights[PPW];
