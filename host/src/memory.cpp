@@ -39,9 +39,8 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
   // lists and are checked against the device when allocated (raster.cpp); aux, image, depth,
   // cover
   const size_t per_pixel_bytes = 4 * sizeof(int) + z.rs * (4 + 4 + 1 + 1);
-  // face, weight and depth (2 reals), shading (View::shade_terms real4s: 1 + lights with
-  // shadows, else 1), two light records (shadowed)
-  const size_t shade_terms = shadowed > 0 ? 1 + lights : 1;
+  // face, weight and depth (2 reals), shading (shade_terms real4s), two light records (shadowed)
+  const size_t shade_terms = size_t(detail::shade_terms(shadowed > 0, int(lights)));
   size_t per_fragment = sizeof(int) + z.rs * (2 + 4 * shade_terms + 8 * shadowed);
   size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
   if (backward) {

@@ -143,6 +143,10 @@ cl::Buffer gather_chunks(Kernels& k, int nrec,
 // transform → raster fragments → [shadow lookups] → resolve; each stage returns its own
 // struct and takes the structs it reads.
 
+// real4s of rec_shade per fragment: the ambient term and each light's direct term, to be
+// weighted by its shadow term; without shadows, where every s is 1, their sum alone.
+inline int shade_terms(bool shadows, int nlights) { return shadows ? 1 + nlights : 1; }
+
 // A view: its size, the lights it shades (0 for a light's own view), whether shadow lookups
 // fill its fragments' shadow terms (a camera's, with shadows on: P_SHADOWS) and its parameter
 // block P (kernels/common/layout.h).
@@ -153,9 +157,7 @@ struct View {
   // Lights with per-fragment shadow records (rec_light, rec_light2 and their gradients): none
   // without shadows, where every s is 1.
   int shadow_lights() const { return shadows ? nlights : 0; }
-  // real4s of rec_shade per fragment: the ambient term and each light's direct term, to be
-  // weighted by its shadow term; without shadows, where every s is 1, their sum alone.
-  int shade_terms() const { return shadows ? 1 + nlights : 1; }
+  int shade_terms() const { return detail::shade_terms(shadows, nlights); }
 };
 
 // transform: the vertices on the view's screen, each face's pixel box and normal.
