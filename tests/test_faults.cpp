@@ -687,7 +687,11 @@ void wait_for_deferred_frees() {
 // render() + backward(), no shadows, and hard and soft shadows in the accurate and the paper
 // model with truncated and exact sampling, the bundled scene at 64² and 512² pixels (exact at
 // 512²: the paper model's hard shadows only). The estimate, with the tuning the renderer used, must
-// cover the peak and stay within 25 % above it. Prints one line per configuration.
+// cover the peak and stay within 25 % above it. The peak is the largest of kMemoryRuns renders
+// by new renderers: the device frees a call's temporaries once the kernels that read them have
+// run, so a render whose device keeps up with the host (a first render building its programs,
+// under load) peaks lower. Prints one line per configuration.
+constexpr int kMemoryRuns = 3;
 TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
   penumbra::Scene base =
       penumbra::load_scene(std::string(PENUMBRA_DATA_DIR) + "/scenes/turnaround.json");
@@ -712,8 +716,9 @@ TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
             scene.params.shadows = shadows;
             scene.params.sampling = sampling;
             size_t estimate = 0, used = 0;
-            {
+            for (int run = 0; run < kMemoryRuns; ++run) {
               penumbra::Renderer renderer(context());
+              wait_for_deferred_frees();
               penumbra::reset_device_memory_peak();
               renderer.render(scene);
               if (backward) {
@@ -721,7 +726,7 @@ TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
                 renderer.backward(scene, penumbra::random_loss_weights(scene, 3));
               }
               context().queue().finish();
-              used = penumbra::device_memory_use().peak;
+              used = std::max(used, penumbra::device_memory_use().peak);
               estimate = penumbra::estimate_device_memory(scene, penumbra::Precision::Float,
                                                           backward, &renderer.tuning());
             }
