@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <set>
 
 #include "penumbra/error.hpp"
@@ -56,6 +57,14 @@ void expect_identical(const std::vector<RenderOutput>& a, const std::vector<Rend
     EXPECT_EQ(a[v].silhouette.data, b[v].silhouette.data) << what;
     EXPECT_EQ(a[v].depth.data, b[v].depth.data) << what;
   }
+}
+
+// What `call` prints on stderr.
+template <class Call>
+std::string warnings_of(Call call) {
+  ::testing::internal::CaptureStderr();
+  call();
+  return ::testing::internal::GetCapturedStderr();
 }
 
 }  // namespace
@@ -170,6 +179,35 @@ TEST(Tuning, EveryRasterCandidateIsBitIdenticalWithShadows) {
                          "tile " + std::to_string(tile) + ", ppw " + std::to_string(ppw));
       }
   }
+}
+
+// The automatic tuning, chosen for the faces, first camera and cut-off (the heuristic reads every
+// face), is kept while only vertices move, with the bits of the tile a new renderer picks; a new
+// camera size chooses again. This device's own entry, made illegal, warns at each choice.
+TEST(Tuning, AutomaticTuningIsKeptWhileOnlyVerticesMove) {
+  const std::string path = ::testing::TempDir() + "/illegal_entry.json";
+  std::ofstream(path) << R"({"entries": {")" << context().info().name
+                      << R"(": {"raster": {"pixels_per_item": 3}}}})";
+  setenv("PENUMBRA_TUNING", path.c_str(), 1);
+  Scene s = small_scene(Shadows::Hard, Sampling::Truncated);
+  s.cameras[0].width = s.cameras[0].height = 256;
+  Scene moved = scale_scene(s, 4);  // every length 4 times, the camera kept: larger faces
+  moved.cameras = s.cameras;
+  Renderer renderer(context()), fresh(context());
+  std::vector<RenderOutput> out, fresh_out;
+  const std::string first = warnings_of([&] { renderer.render(s); });
+  const int tile = renderer.tuning().raster.tile;
+  EXPECT_EQ(warnings_of([&] { out = renderer.render(moved); }), "");
+  EXPECT_EQ(renderer.tuning().raster.tile, tile);
+  warnings_of([&] { fresh_out = fresh.render(moved); });
+  for (Camera& c : moved.cameras) c.width = c.height = 255;
+  const std::string again = warnings_of([&] { renderer.render(moved); });
+  unsetenv("PENUMBRA_TUNING");
+  EXPECT_NE(first.find("ignoring tuned entry"), std::string::npos) << first;
+  ASSERT_NE(fresh.tuning().raster.tile, tile) << "the moved scene should get another tile";
+  EXPECT_EQ(renderer.tuning().raster.tile, fresh.tuning().raster.tile);
+  expect_identical(out, fresh_out, "the moved scene, kept and chosen tile");
+  EXPECT_NE(again.find("ignoring tuned entry"), std::string::npos) << again;
 }
 
 TEST(Tuning, EveryPenumbraTileIsBitIdentical) {
@@ -374,15 +412,10 @@ TEST(Tuning, IllegalValuesAreRejectedWithAClearMessage) {
 }
 
 TEST(Tuning, CorruptOrMissingDatabaseFallsBackWithAWarning) {
-  const std::string bad = ::testing::TempDir() + "/tuning_corrupt.json";
-  {
-    std::ofstream out(bad);
-    out << "{ this is not json";
-  }
-  ::testing::internal::CaptureStderr();
-  const TuningDatabase db =
-      TuningDatabase::load({bad, ::testing::TempDir() + "/no_such_file.json"});
-  const std::string err = ::testing::internal::GetCapturedStderr();
+  const std::string bad = ::testing::TempDir() + "/tuning_corrupt.json", none = bad + ".none";
+  std::ofstream(bad) << "{ this is not json";
+  TuningDatabase db;
+  const std::string err = warnings_of([&] { db = TuningDatabase::load({bad, none}); });
   EXPECT_EQ(db.size(), 0u);
   EXPECT_NE(err.find("penumbra: warning: ignoring tuning database"), std::string::npos) << err;
   EXPECT_NE(err.find("not found"), std::string::npos) << err;
@@ -393,13 +426,10 @@ TEST(Tuning, CorruptOrMissingDatabaseFallsBackWithAWarning) {
   const std::string expected =
       TuningDatabase::load_default().lookup(context().info(), workload_stats(scene)).source;
   setenv("PENUMBRA_TUNING", bad.c_str(), 1);
-  ::testing::internal::CaptureStderr();
-  Renderer r(context());
-  const auto out = r.render(scene);
-  const std::string warned = ::testing::internal::GetCapturedStderr();
+  std::optional<Renderer> r;
+  const std::string warned = warnings_of([&] { r.emplace(context()).render(scene); });
   unsetenv("PENUMBRA_TUNING");
-  EXPECT_EQ(out.size(), 1u);
-  EXPECT_EQ(r.tuning().source, expected);
+  EXPECT_EQ(r->tuning().source, expected);
   EXPECT_NE(warned.find("ignoring tuning database"), std::string::npos) << warned;
 }
 

@@ -89,6 +89,17 @@ bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& 
   return true;
 }
 
+Renderer::Impl::TunedFor Renderer::Impl::TunedFor::of(const Scene& s) {
+  return {s.cameras.empty() ? Camera{} : s.cameras.front(), s.params.sigma, s.params.dist_eps};
+}
+bool Renderer::Impl::TunedFor::operator==(const TunedFor& o) const {
+  const Camera &a = camera, &b = o.camera;
+  return a.eye == b.eye && a.target == b.target && a.up == b.up && a.projection == b.projection &&
+         a.fov_deg == b.fov_deg && a.half_height == b.half_height && a.near == b.near &&
+         a.far == b.far && a.width == b.width && a.height == b.height && sigma == o.sigma &&
+         dist_eps == o.dist_eps;
+}
+
 Renderer::Impl::Impl(Context& c, Precision p, bool automatic_, const Tuning& t)
     : ctx(c), precision(p), automatic(automatic_), kernels(c, p, t) {
   if (automatic) database = TuningDatabase::load_default();
@@ -158,8 +169,10 @@ size_t Renderer::Impl::prepare(const Scene& given) {
     scene = detail::normalised(scene, norm);
     meshes_normalised = true;
   }
-  if (automatic)
+  if (automatic && !(vertices_only && tuned_for == TunedFor::of(given))) {
     kernels.set_tuning(database.lookup(ctx.info(), [&] { return workload_stats(given); }));
+    tuned_for = TunedFor::of(given);
+  }
   pack(scene, packed, vertices_only);
   const size_t estimate = estimate_device_memory(scene, precision, false, &kernels.tuning());
   detail::check_memory(ctx, estimate,

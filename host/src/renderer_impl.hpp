@@ -3,6 +3,7 @@
 // renderer.cpp runs the forward pipeline, backward.cpp its mirror.
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include "ops/ops.hpp"
@@ -58,8 +59,19 @@ struct LightPass : ViewPass {
 struct Renderer::Impl {
   Context& ctx;
   Precision precision;
-  bool automatic;  // choose the tuning per render from the database
+  bool automatic;  // choose the tuning from the database (TunedFor: when)
   TuningDatabase database;
+  // What the automatic tuning was chosen for: the heuristic reads the faces as the first camera
+  // sees them, with the coverage cut-off (workload_stats, a pass over every face). It is chosen
+  // again when the faces, that camera or the cut-off change, not when only vertices move (every
+  // tile gives the same bits).
+  struct TunedFor {
+    Camera camera;
+    double sigma = 0, dist_eps = 0;
+    static TunedFor of(const Scene& s);
+    bool operator==(const TunedFor& o) const;
+  };
+  std::optional<TunedFor> tuned_for;
   detail::Kernels kernels;
   // State of the most recent render(), kept for backward().
   // As rendered: light frusta fitted, the lights as drawn (drawn_lights), then normalised
