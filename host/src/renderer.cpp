@@ -22,7 +22,6 @@ namespace penumbra {
 void pack(const Scene& s, Packed& p, bool vertices_only) {
   p.nv = p.nf = 0;
   for (auto& m : s.meshes) p.nv += int(m.vertices.size()), p.nf += int(m.faces.size());
-  p.vworld.resize(size_t(p.nv) * 4);
   p.faces.resize(size_t(p.nf) * 4);
   p.albedo.resize(size_t(p.nf) * 12);
   p.vertex_offset.clear();
@@ -31,10 +30,6 @@ void pack(const Scene& s, Packed& p, bool vertices_only) {
   for (auto& m : s.meshes) {
     p.vertex_offset.push_back(v0);
     p.face_offset.push_back(f0);
-    for (size_t v = 0; v < m.vertices.size(); ++v) {
-      double* at = &p.vworld[(v0 + v) * 4];
-      at[0] = m.vertices[v].x, at[1] = m.vertices[v].y, at[2] = m.vertices[v].z, at[3] = 0;
-    }
     for (size_t f = 0; !vertices_only && f < m.faces.size(); ++f) {
       const glm::ivec3 F = m.faces[f];
       int* face = &p.faces[(f0 + f) * 4];
@@ -49,6 +44,18 @@ void pack(const Scene& s, Packed& p, bool vertices_only) {
     v0 += m.vertices.size();
     f0 += m.faces.size();
   }
+}
+
+void write_vertices(Context& ctx, Precision p, cl::Buffer& buffer, const std::vector<Mesh>& meshes,
+                    size_t nv) {
+  detail::fill_reals(ctx, p, buffer, nv * 4, [&](auto* at) {
+    using Real = std::remove_pointer_t<decltype(at)>;
+    for (const Mesh& m : meshes)
+      for (const glm::dvec3& v : m.vertices) {
+        at[0] = Real(v.x), at[1] = Real(v.y), at[2] = Real(v.z), at[3] = 0;
+        at += 4;
+      }
+  });
 }
 
 namespace {
@@ -190,14 +197,13 @@ std::vector<Light> Renderer::Impl::drawn_lights(const Scene& s, std::vector<int>
 void Renderer::Impl::upload_geometry() {
   geometry.nv = packed.nv;
   geometry.nf = packed.nf;
-  if (vertices_only) {  // into the last render's buffer, of the same size
-    detail::write_reals(ctx, precision, geometry.vworld, packed.vworld);
-  } else {
-    geometry.vworld = detail::upload_reals(ctx, precision, packed.vworld);
+  if (!vertices_only) {  // else into the last render's buffers, of the same sizes
+    geometry.vworld = detail::alloc_reals(ctx, precision, size_t(packed.nv) * 4);
     geometry.faces = detail::upload_ints(ctx, packed.faces);
     geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
     geometry.adj_offsets = geometry.adj = cl::Buffer();  // backward() builds them for these faces
   }
+  write_vertices(ctx, precision, geometry.vworld, scene.meshes, size_t(packed.nv));
   geometry_current = true;
 }
 

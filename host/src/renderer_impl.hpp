@@ -12,16 +12,22 @@
 
 namespace penumbra {
 
-// The scene with all meshes concatenated, in the layouts the kernels read.
+// The scene's faces and albedo with all meshes concatenated, in the layouts the kernels read
+// (the vertices go to the device straight from the meshes: write_vertices).
 struct Packed {
   int nv = 0, nf = 0;
-  std::vector<double> vworld, albedo;  // nv × 4, 3·nf × 4
-  std::vector<int> faces;              // nf × 4
+  std::vector<double> albedo;  // 3·nf × 4
+  std::vector<int> faces;      // nf × 4
   std::vector<size_t> vertex_offset, face_offset;
 };
 // Fills `p` with the scene's meshes, reusing its storage; with `vertices_only`, `p` holds these
-// meshes' faces and albedo already (same_faces_and_albedo) and only their vertices are written.
+// meshes' faces and albedo already (same_faces_and_albedo) and only the counts and offsets are
+// written.
 void pack(const Scene& s, Packed& p, bool vertices_only);
+// The meshes' vertices, concatenated, as the device's reals (x, y, z, 0), written into `buffer`
+// (mapped where the device shares the host's memory): one pass, no host copy between.
+void write_vertices(Context& ctx, Precision p, cl::Buffer& buffer, const std::vector<Mesh>& meshes,
+                    size_t nv);
 // Whether pack() writes the same faces and albedo for meshes `a` as for meshes `b`: the same
 // faces, albedo and vertex counts, mesh by mesh.
 bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
