@@ -10,16 +10,18 @@
 render() takes vertices (V, 3), a batch (B, V, 3) of shapes sharing faces, or a list of meshes;
 it returns colour (C, H, W, 3), silhouette and depth (C, H, W) for the C cameras, with a leading
 B for a batch. It is differentiable in the vertices, albedo, light positions (directions),
-colours and sizes, and ambient light. float32 tensors render in float, float64 in double.
-Each light's shadow-map frustum, unless given, is fitted to the geometry of the call, and the
+colours and sizes, and ambient light. float32 tensors render in float, float64 in double. Each
+light's shadow-map frustum, unless given, is fitted to the geometry of the call, and the
 derivative treats it as a constant of the call. SceneRenderer renders a penumbra.Scene whose
 parameters come from tensors; with torch 2.4 or later its call is the operator
-penumbra::scene_render, which torch.compile holds in one graph. Tensors live on the CPU; penumbra's own device (any OpenCL device)
-is chosen by the Context. docs/api.md documents it all.
+penumbra::scene_render, which torch.compile holds in one graph. Tensors live on the CPU;
+penumbra's own device (any OpenCL device) is chosen by the Context. docs/api.md has it all.
 """
+import functools
 import itertools
 import threading
 import weakref
+from numbers import Real
 
 import numpy as np
 import torch
@@ -61,16 +63,17 @@ class Light:
         """A directional light travelling along `direction`."""
         return cls(penumbra.LightType.directional, direction, color, size, frustum)
 
+    def _numbers(self):
+        """The parameters row as a tuple of 7 numbers where all are plain numbers, else ()."""
+        try:
+            flat = (*self.vector, *self.color, self.size)
+        except TypeError:  # not sequences: checked and named by row()
+            return ()
+        plain = len(flat) == 7 and all(isinstance(v, Real) for v in flat)
+        return tuple(map(float, flat)) if plain else ()
+
     def row(self, dtype):
         """The light as its parameters row (7,): vector, colour, size."""
-        values = (self.vector, self.color, self.size)
-        if not any(isinstance(x, (torch.Tensor, np.ndarray)) for x in values):
-            try:  # numbers: one tensor made
-                flat = [float(v) for v in (*self.vector, *self.color, self.size)]
-            except (TypeError, ValueError):  # checked and named below
-                flat = []
-            if len(flat) == 7:
-                return torch.tensor(flat, dtype=dtype)
         parts = [_real(x, name, dtype).reshape(-1) for x, name in
                  ((self.vector, "a light's position or direction"), (self.color, "a light's colour"),
                   (self.size, "a light's size"))]
@@ -203,7 +206,14 @@ def _real(x, name, dtype):
 
 def _array(t):
     """A tensor's values as a NumPy array, without a copy (the module reads any strides)."""
-    return t.detach().numpy()
+    return t.detach().numpy() if t.requires_grad else t.numpy()
+
+
+@functools.lru_cache(maxsize=64)
+def _tensor_of(numbers, dtype):
+    """torch.tensor(numbers), made once for numbers given as such (and defaults): each torch
+    call costs tens of µs just after a render."""
+    return torch.tensor(numbers, dtype=dtype)
 
 
 def _shapes(source, vertices, albedo, lights, ambient):
@@ -221,20 +231,20 @@ def _output_size(cameras, batch):
     return (batch, len(cameras), cameras[0].height, cameras[0].width)
 
 
-def _render(slots, shapes, dtype):
+def _render(slots, shapes, dtype, batched=True):
     """colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) of `shapes`, one per slot."""
     size = _output_size(shapes[0].source.setup[0], len(shapes))
     real = np.float32 if dtype == torch.float32 else np.float64
     out = np.empty(size + (3,), real), np.empty(size, real), np.empty(size, real)
     for b, s in enumerate(shapes):  # (NumPy's views: fewer torch calls, which cost per call)
         slots[b].render_into(s, *(o[b] for o in out))
-    return tuple(torch.from_numpy(o) for o in out)
+    return tuple(torch.from_numpy(o if batched else o[0]) for o in out)
 
 
-def _backward(slots, shapes, batched_albedo, dtypes, d_outputs):
+def _backward(slots, shapes, batched_albedo, dtypes, d_outputs, batched=True):
     """(d vertices, d albedo, d lights, d ambient) of the renders of `shapes` from the
     gradients of their outputs (each read once for the whole batch)."""
-    d = [_array(g) for g in d_outputs]
+    d = [_array(g) if batched else _array(g)[None] for g in d_outputs]
     grads = [slots[b].backward(s, *(g[b] for g in d)) for b, s in enumerate(shapes)]
     stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
     d_albedo = stack("albedo") if batched_albedo else stack("albedo").sum(0)
@@ -243,15 +253,17 @@ def _backward(slots, shapes, batched_albedo, dtypes, d_outputs):
 
 
 class Render(torch.autograd.Function):
-    """(scene, slots, vertices (B, V, 3), albedo ((B,) A, 3), lights (L, 7), ambient (3,))
-    -> colour (B, C, H, W, 3), silhouette and depth (B, C, H, W): scene's cameras, faces and
-    settings, with its parameters from the tensors (laid out as Scene.parameters())."""
+    """(scene, slots, vertices (B, V, 3), albedo ((B,) A, 3), lights (L, 7), ambient (3,)
+    [, batched]) -> colour (B, C, H, W, 3), silhouette and depth (B, C, H, W) (batched False:
+    B = 1, left out): scene's cameras, faces and settings, with its parameters from the tensors
+    (laid out as Scene.parameters())."""
 
     @staticmethod
-    def forward(ctx, scene, slots, vertices, albedo, lights, ambient):
+    def forward(ctx, scene, slots, vertices, albedo, lights, ambient, batched=True):
         shapes = _shapes(_Source.of(scene), vertices, albedo, lights, ambient)
-        out = _render(slots, shapes, vertices.dtype)
+        out = _render(slots, shapes, vertices.dtype, batched)
         ctx.slots, ctx.shapes, ctx.batched_albedo = slots, shapes, albedo.dim() == 3
+        ctx.batched = batched
         ctx.dtypes = [t.dtype for t in (vertices, albedo, lights, ambient)]
         # The shapes' arrays share the tensors' memory: saved, torch refuses a backward after
         # one of them was changed in place.
@@ -263,7 +275,7 @@ class Render(torch.autograd.Function):
     def backward(ctx, d_colour, d_silhouette, d_depth):
         ctx.saved_tensors  # noqa: B018 (torch's check of in-place changes)
         return (None, None, *_backward(ctx.slots, ctx.shapes, ctx.batched_albedo, ctx.dtypes,
-                                       (d_colour, d_silhouette, d_depth)))
+                                       (d_colour, d_silhouette, d_depth), ctx.batched), None)
 
 
 def _meshes(vertices, faces):
@@ -279,13 +291,13 @@ def _meshes(vertices, faces):
         raise penumbra.Error(f"vertices must be a (V, 3) or (B, V, 3) tensor, not "
                              f"{tuple(getattr(vertices, 'shape', ())) or type(vertices).__name__}")
     batched = vertices.dim() == 3
-    return (vertices if batched else vertices[None]), faces, counts, batched
+    return (vertices if batched else vertices.unsqueeze(0)), faces, counts, batched
 
 
 def _albedo(albedo, vertices):
     """Albedo rows per vertex: (A, 3) or (B, A, 3); None is 0.8 grey, a (3,) is every vertex's."""
     if albedo is None:  # (one row seen as V: no array of V rows to make and read)
-        return torch.full((3,), 0.8, dtype=vertices.dtype).expand(vertices.shape[1], 3)
+        return _tensor_of((0.8,) * 3, vertices.dtype).expand(vertices.shape[1], 3)
     if isinstance(albedo, (list, tuple)) and isinstance(albedo[0], torch.Tensor):
         albedo = torch.cat([_real(a, "albedo", vertices.dtype) for a in albedo], dim=-2)
     albedo = _real(albedo, "albedo", vertices.dtype)
@@ -351,11 +363,20 @@ def render(vertices, faces, cameras, lights, *, albedo=None, ambient=0.2, params
         params = penumbra.RenderParams()
         params.shadows = penumbra.Shadows.hard
     source = _source(faces, counts, _as_list(cameras), lights, params)
-    rows = torch.stack([l.row(dtype) for l in lights]) if lights else torch.zeros((0, 7), dtype=dtype)
+    rows = _light_rows(lights, dtype)
+    if isinstance(ambient, (int, float)):
+        ambient = _tensor_of((float(ambient),) * 3, dtype)
     ambient = _real(ambient, "ambient", dtype).expand(3)
     slots = _default_slots(context).get(precision, vertices.shape[0])
-    out = Render.apply(source, slots, vertices, _albedo(albedo, vertices), rows, ambient)
-    return out if batched else tuple(o[0] for o in out)
+    return Render.apply(source, slots, vertices, _albedo(albedo, vertices), rows, ambient, batched)
+
+
+def _light_rows(lights, dtype):
+    """The lights' rows (L, 7); made once for lights given as numbers alone."""
+    numbers = tuple(light._numbers() for light in lights)
+    if lights and all(numbers):
+        return _tensor_of(numbers, dtype)
+    return torch.stack([l.row(dtype) for l in lights]) if lights else torch.zeros((0, 7), dtype=dtype)
 
 
 def _torch_light(light):

@@ -72,6 +72,23 @@ def test_batch_equals_separate_calls_and_lists_equal_one_mesh(context):
     assert batch[0].dtype == torch.float32
 
 
+def test_lights_and_ambient_given_as_numbers_render_as_tensors_of_them(context):
+    """Numbers are made into tensors once and reused: each call must still render its own."""
+    vertices, faces, cameras, light, _, _, params = inputs(dtype=torch.float32)
+    position, colours = light.vector.tolist(), []
+    for shift, ambient in ((0.0, 0.2), (0.5, 0.4), (0.0, 0.2)):
+        moved = [position[0] + shift, *position[1:]]
+        numbers = pt.Light.point(moved, size=0.1, frustum=light.frustum)
+        tensors = pt.Light.point(torch.tensor(moved), size=torch.tensor(0.1), frustum=light.frustum)
+        got = pt.render(vertices, faces, cameras, numbers, ambient=ambient, params=params,
+                        context=context)
+        want = pt.render(vertices, faces, cameras, tensors, ambient=torch.tensor(ambient),
+                         params=params, context=context)
+        assert all(torch.equal(a, b) for a, b in zip(got, want))
+        colours.append(got[0])
+    assert not torch.equal(colours[0], colours[1]) and torch.equal(colours[0], colours[2])
+
+
 def test_each_call_renders_its_own_faces_and_differentiates_its_own_shape(context):
     """Faces are converted once per face tensor, yet a tensor changed in place renders anew; a
     backward after another call's render (other faces) differentiates its own call."""
