@@ -43,8 +43,7 @@ class Light:
 
     def __init__(self, type, vector, color=(1.0, 1.0, 1.0), size=0.0, frustum=None,
                  shadow_map="auto"):
-        self.type, self.frustum = type, frustum
-        self.vector, self.color, self.size = vector, color, size
+        self.type, self.vector, self.color, self.size, self.frustum = type, vector, color, size, frustum
         if isinstance(shadow_map, str):
             if shadow_map not in penumbra.ShadowMapShape.__members__:
                 raise penumbra.Error(f"shadow_map '{shadow_map}' is none of "
@@ -196,7 +195,10 @@ def _precision(dtype):
 
 
 def _real(x, name, dtype):
-    """`x` as a tensor of `dtype`: a tensor must be float32 or float64, the rest is converted."""
+    """`x` as a tensor of `dtype`: a tensor must be float32 or float64, the rest is converted
+    (a sequence holding tensors joined, keeping their gradients)."""
+    if isinstance(x, (list, tuple)) and any(isinstance(e, torch.Tensor) for e in x):
+        return torch.cat([_real(e, name, dtype).reshape(-1) for e in x])
     if not isinstance(x, torch.Tensor):
         return torch.as_tensor(x, dtype=dtype)
     if x.dtype not in (torch.float32, torch.float64):
@@ -211,8 +213,7 @@ def _array(t):
 
 @functools.lru_cache(maxsize=64)
 def _tensor_of(numbers, dtype):
-    """torch.tensor(numbers), made once for numbers given as such (and defaults): each torch
-    call costs tens of µs just after a render."""
+    """torch.tensor(numbers), made once per value: torch calls cost tens of µs after a render."""
     return torch.tensor(numbers, dtype=dtype)
 
 

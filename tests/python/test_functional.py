@@ -89,6 +89,15 @@ def test_lights_and_ambient_given_as_numbers_render_as_tensors_of_them(context):
     assert not torch.equal(colours[0], colours[1]) and torch.equal(colours[0], colours[2])
 
 
+def test_a_light_position_listing_tensors_gets_their_gradients(context):
+    vertices, faces, cameras, light, _, _, params = inputs()
+    x, whole = light.vector[0].clone().requires_grad_(), light.vector.clone().requires_grad_()
+    for position in ([x, *light.vector[1:].tolist()], whole):
+        point = pt.Light.point(position, size=0.1, frustum=light.frustum)
+        pt.render(vertices, faces, cameras, point, params=params, context=context)[0].sum().backward()
+    assert x.grad is not None and torch.equal(x.grad, whole.grad[0]) and x.grad != 0
+
+
 def test_each_call_renders_its_own_faces_and_differentiates_its_own_shape(context):
     """Faces are converted once per face tensor, yet a tensor changed in place renders anew; a
     backward after another call's render (other faces) differentiates its own call."""
