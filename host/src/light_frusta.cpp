@@ -15,31 +15,39 @@ namespace penumbra {
 
 namespace {
 
-// The vertices of the faces that can cast a shadow onto the scene, each once (a frustum fitted
-// to them depends on the set alone): a face shadows only points beyond its plane as seen from
-// the light, so a face with the whole bounding box on the light's side (a ground under
-// everything) casts none. Empty when no face can.
+// Marks in `casts` the vertices of the faces of `m` that can cast a shadow onto the scene
+// (bounds b): a face shadows only points beyond its plane as seen from the light, so a face with
+// the whole bounding box on the light's side (a ground under everything) casts none. A face
+// whose corners are all marked already is not tested: it could add none.
+void mark_casters(const Mesh& m, const Light& light, const Bounds& b, std::vector<char>& casts) {
+  casts.assign(m.vertices.size(), 0);
+  const double diagonal = glm::length(b.hi - b.lo);
+  for (const glm::ivec3& F : m.faces) {
+    if (casts[size_t(F.x)] && casts[size_t(F.y)] && casts[size_t(F.z)]) continue;
+    const glm::dvec3 V0 = m.vertices[F.x],
+                     n = glm::cross(m.vertices[F.y] - V0, m.vertices[F.z] - V0);
+    const double side =
+        glm::dot(n, light.type == LightType::Point ? light.position - V0 : -light.direction);
+    const double tol = 1e-9 * glm::length(n) * diagonal;
+    bool beyond = false;
+    for (int c = 0; c < 8 && !beyond; ++c) {
+      const glm::dvec3 corner(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y,
+                              c & 4 ? b.hi.z : b.lo.z);
+      const double at = glm::dot(n, corner - V0);
+      beyond = side > 0 ? at < -tol : side < 0 ? at > tol : false;
+    }
+    if (beyond)
+      for (int k = 0; k < 3; ++k) casts[size_t(F[k])] = 1;
+  }
+}
+
+// The vertices of the faces that can cast a shadow onto the scene (mark_casters), each once (a
+// frustum fitted to them depends on the set alone). Empty when no face can.
 std::vector<glm::dvec3> occluder_vertices(const Scene& scene, const Light& light, const Bounds& b) {
   std::vector<glm::dvec3> out;
   std::vector<char> casts;
   for (const Mesh& m : scene.meshes) {
-    casts.assign(m.vertices.size(), 0);
-    for (const glm::ivec3& F : m.faces) {
-      const glm::dvec3 V0 = m.vertices[F.x],
-                       n = glm::cross(m.vertices[F.y] - V0, m.vertices[F.z] - V0);
-      const double side =
-          glm::dot(n, light.type == LightType::Point ? light.position - V0 : -light.direction);
-      const double tol = 1e-9 * glm::length(n) * glm::length(b.hi - b.lo);
-      bool beyond = false;
-      for (int c = 0; c < 8 && !beyond; ++c) {
-        const glm::dvec3 corner(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y,
-                                c & 4 ? b.hi.z : b.lo.z);
-        const double at = glm::dot(n, corner - V0);
-        beyond = side > 0 ? at < -tol : side < 0 ? at > tol : false;
-      }
-      if (beyond)
-        for (int k = 0; k < 3; ++k) casts[size_t(F[k])] = 1;
-    }
+    mark_casters(m, light, b, casts);
     for (size_t v = 0; v < m.vertices.size(); ++v)
       if (casts[v]) out.push_back(m.vertices[v]);
   }
@@ -270,12 +278,18 @@ bool frustum_holds_casters(const Scene& scene, const Light& light) {
   const glm::dvec3 fwd = glm::normalize(f.target - eye);
   const glm::dvec3 right = glm::normalize(glm::cross(fwd, f.up)), up = glm::cross(right, fwd);
   const double slack = 1 + 1e-6, tan_half = std::tan(f.fov_deg * 3.14159265358979323846 / 360);
-  for (const glm::dvec3& v : occluder_vertices(scene, light, bounds(scene))) {
-    const glm::dvec3 d = v - eye;
-    const double z = glm::dot(d, fwd),
-                 side = std::max(std::abs(glm::dot(d, right)), std::abs(glm::dot(d, up)));
-    const double half_width = point ? z * tan_half : f.half_size;
-    if (!(z * slack >= f.near && z <= f.far * slack && side <= half_width * slack)) return false;
+  const Bounds b = bounds(scene);
+  std::vector<char> casts;
+  for (const Mesh& m : scene.meshes) {  // the casters tested where marked, not gathered first
+    mark_casters(m, light, b, casts);
+    for (size_t v = 0; v < m.vertices.size(); ++v) {
+      if (!casts[v]) continue;
+      const glm::dvec3 d = m.vertices[v] - eye;
+      const double z = glm::dot(d, fwd),
+                   side = std::max(std::abs(glm::dot(d, right)), std::abs(glm::dot(d, up)));
+      const double half_width = point ? z * tan_half : f.half_size;
+      if (!(z * slack >= f.near && z <= f.far * slack && side <= half_width * slack)) return false;
+    }
   }
   return true;
 }
