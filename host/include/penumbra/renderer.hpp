@@ -95,8 +95,9 @@ using ProgressObserver = std::function<void(const RenderProgress&)>;
 // the one in progress (a backward() differentiates the most recent render() of any thread).
 class Renderer {
  public:
-  // Launch parameters chosen per render from the tuning database (TuningDatabase::load_default:
-  // a tuned entry for this device, else the heuristic for the scene).
+  // Launch parameters chosen from the tuning database (TuningDatabase::load_default: a tuned
+  // entry for this device, else the heuristic for the scene), at the first render and again when
+  // the faces, the first camera or the coverage cut-off change.
   explicit Renderer(Context& context, Precision precision = Precision::Float);
   // Fixed launch parameters (validated for the device).
   Renderer(Context& context, Precision precision, const Tuning& tuning);
