@@ -718,7 +718,6 @@ TEST(FaultsMemory, EstimateCoversWhatIsAllocated) {
             size_t estimate = 0, used = 0;
             for (int run = 0; run < kMemoryRuns; ++run) {
               penumbra::Renderer renderer(context());
-              wait_for_deferred_frees();
               penumbra::reset_device_memory_peak();
               renderer.render(scene);
               if (backward) {

@@ -365,7 +365,7 @@ def render(vertices, faces, cameras, lights, *, albedo=None, ambient=0.2, params
         params.shadows = penumbra.Shadows.hard
     source = _source(faces, counts, _as_list(cameras), lights, params)
     rows = _light_rows(lights, dtype)
-    if isinstance(ambient, (int, float)):
+    if isinstance(ambient, Real):
         ambient = _tensor_of((float(ambient),) * 3, dtype)
     ambient = _real(ambient, "ambient", dtype).expand(3)
     slots = _default_slots(context).get(precision, vertices.shape[0])
@@ -420,11 +420,9 @@ class SceneRenderer:
     def __call__(self, vertices, albedo, lights, ambient):
         """(colour (C, H, W, 3), silhouette (C, H, W), depth (C, H, W)); differentiable."""
         if _operator is not None:
-            out = _operator(self._key, vertices[None], albedo, lights, ambient)
-        else:
-            slots = self._slots.get(_precision(vertices.dtype), 1)
-            out = Render.apply(self._source, slots, vertices[None], albedo, lights, ambient)
-        return tuple(o[0] for o in out)
+            return tuple(o[0] for o in _operator(self._key, vertices[None], albedo, lights, ambient))
+        slots = self._slots.get(_precision(vertices.dtype), 1)
+        return Render.apply(self._source, slots, vertices[None], albedo, lights, ambient, False)
 
     def _render(self, vertices, albedo, lights, ambient):
         """The operator's forward: the render, and its scenes kept for the backward."""
