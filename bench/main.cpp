@@ -5,8 +5,9 @@
 // cases of the face and image sweeps (to 1M faces and 2048² images). To run every large case
 // too, pass --benchmark_filter=. (everything) or --benchmark_filter=large/ (only them).
 // --build-floor N,N,... builds programs of trivial kernels and runs no benchmark
-// (bench_build_floor.cpp); --host-stages [N] times the host's stages of a render at 1k, 100k
-// and 1M faces and runs no benchmark (bench_host_stages.cpp).
+// (bench_build_floor.cpp); --host-stages [N] times the host's stages of a render, and of a
+// render and its backward, at 1k, 100k and 1M faces and runs no benchmark
+// (bench_host_stages.cpp).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>

@@ -166,7 +166,7 @@ def ceilings(res):
 
 def stage_of(kernel):
     """Pipeline stage (kernels/<stage>.cl) of a kernel, by name; CLBlast's own kernels apart."""
-    if kernel in ("transform_fwd", "transform_bwd", "face_setup"):
+    if kernel in ("transform_fwd", "transform_bwd", "face_setup", "albedo_bwd", "sum_rows"):
         return "transform"
     if kernel == "clblast_gemm":
         return "CLBlast"

@@ -111,6 +111,19 @@ BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const 
   gframe[4 * v + 3] = (real4)(gf.up, 0);
 }
 
+// Backward: each albedo entry (a vertex's or a face's, as its mesh has them) gathers, in a fixed
+// order, the per-corner dL/d(albedo) of the corners that read it.
+//   offsets (A+1) × int, corners (Σ) × int: entries face*3 + corner, sorted
+//   gface_albedo  3F × real4;  galbedo  A × real4 (output)
+BACKWARD_KERNEL void albedo_bwd(int na, __global const int* offsets, __global const int* corners,
+                                __global const real4* gface_albedo, __global real4* galbedo) {
+  int a = get_global_id(0);
+  if (a >= na) return;
+  real4 g = 0;
+  for (int i = offsets[a]; i < offsets[a + 1]; ++i) g += gface_albedo[corners[i]];
+  galbedo[a] = g;
+}
+
 // Backward: the sum over `rows` rows of n reals (per-face light gradients, per-vertex frame
 // gradients), on the device: part p sums rows [p·run, (p + 1)·run) in row order into
 // partial[p·n + i], and the host adds the parts in order, so that the sum is the same on every

@@ -3,6 +3,8 @@
 // gradients of its shadow map (and penumbra map) summed over the cameras.
 #include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "penumbra/error.hpp"
 #include "renderer_impl.hpp"
@@ -72,6 +74,25 @@ glm::dvec3 vec3_at(const std::vector<double>& a, size_t at) {
   return glm::dvec3(a[at], a[at + 1], a[at + 2]);
 }
 
+// Rows [first, first + n) of rows of 4 reals, as vectors (written once: no zeros first).
+std::vector<glm::dvec3> vec3_rows(const std::vector<double>& a, size_t first, size_t n) {
+  std::vector<glm::dvec3> rows;
+  rows.reserve(n);
+  for (size_t i = first; i < first + n; ++i) rows.push_back(vec3_at(a, i * 4));
+  return rows;
+}
+
+// For targets 0..n-1: offsets (n + 1) into the indices i with target[i] == t, grouped by target
+// and ascending within each group (the fixed order of the device's gathers).
+std::pair<std::vector<int>, std::vector<int>> grouped(const std::vector<int>& target, int n) {
+  std::vector<int> offsets(size_t(n) + 1, 0), items(target.size());
+  for (int t : target) ++offsets[size_t(t) + 1];
+  for (int t = 0; t < n; ++t) offsets[size_t(t) + 1] += offsets[size_t(t)];
+  std::vector<int> cursor(offsets.begin(), offsets.end() - 1);
+  for (size_t i = 0; i < target.size(); ++i) items[size_t(cursor[size_t(target[i])]++)] = int(i);
+  return {std::move(offsets), std::move(items)};
+}
+
 bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
   if (!same_faces_and_albedo(a, b)) return false;
   for (size_t i = 0; i < a.size(); ++i)
@@ -119,7 +140,7 @@ BackwardSums& Renderer::Impl::start_backward() {
   BackwardSums& sums = backward_sums;
   const size_t nl = scene.lights.size(), maps = light_passes.size();
   sums.vertices.assign(size_t(p.nv) * 4, 0.0);
-  sums.albedo.assign(size_t(p.nf) * 12, 0.0);
+  sums.albedo.assign(size_t(p.na) * 4, 0.0);
   sums.lights.assign((6 * nl + 1) * 4, 0.0);
   sums.light_size.assign(nl, 0.0);
   sums.frames.resize(nl);
@@ -133,16 +154,27 @@ BackwardSums& Renderer::Impl::start_backward() {
   return sums;
 }
 
-// vertex → (face·3 + corner) adjacency, in face order, for the gather in transform_bwd.
+// Each face corner (face·3 + corner) grouped by its vertex, for the gather in transform_bwd, and
+// by its albedo entry, for albedo_bwd.
 void Renderer::Impl::build_adjacency() {
   const Packed& p = packed;
-  std::vector<int> count(p.nv + 1, 0), adj(size_t(p.nf) * 3);
-  for (int i = 0; i < p.nf * 3; ++i) ++count[p.faces[(i / 3) * 4 + i % 3] + 1];
-  for (int v = 0; v < p.nv; ++v) count[v + 1] += count[v];
-  std::vector<int> cursor(count.begin(), count.end() - 1);
-  for (int i = 0; i < p.nf * 3; ++i) adj[cursor[p.faces[(i / 3) * 4 + i % 3]]++] = i;
-  geometry.adj_offsets = detail::upload_ints(ctx, count);
-  geometry.adj = detail::upload_ints(ctx, adj);
+  std::vector<int> vertex(size_t(p.nf) * 3), entry(size_t(p.nf) * 3);
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    const Mesh& m = scene.meshes[mi];
+    for (size_t f = 0; f < m.faces.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const size_t i = (p.face_offset[mi] + f) * 3 + size_t(k);
+        vertex[i] = p.faces[i / 3 * 4 + size_t(k)];
+        entry[i] = int(p.albedo_offset[mi]) +
+                   (m.albedo_mode == AlbedoMode::PerFace ? int(f) : m.faces[f][k]);
+      }
+  }
+  const auto [vertex_offsets, by_vertex] = grouped(vertex, p.nv);
+  geometry.adj_offsets = detail::upload_ints(ctx, vertex_offsets);
+  geometry.adj = detail::upload_ints(ctx, by_vertex);
+  const auto [entry_offsets, by_entry] = grouped(entry, p.na);
+  geometry.albedo_offsets = detail::upload_ints(ctx, entry_offsets);
+  geometry.albedo_corners = detail::upload_ints(ctx, by_entry);
 }
 
 template <class Real>
@@ -221,7 +253,7 @@ void Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads&
   accumulate(ctx, precision, sums.vertices, gv.vertices);
   if (gframe) accumulate_row_sum(kernels, *gframe, gv.frame, size_t(packed.nv));
   if (glights) {
-    accumulate(ctx, precision, sums.albedo, fg.albedo);
+    accumulate(ctx, precision, sums.albedo, detail::albedo_backward(kernels, geometry, fg));
     accumulate_row_sum(kernels, *glights, fg.light, size_t(packed.nf));
   }
 }
@@ -232,16 +264,8 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
   SceneGrads out;
   for (size_t mi = 0; mi < s.meshes.size(); ++mi) {
     const Mesh& mesh = s.meshes[mi];
-    std::vector<glm::dvec3> gv(mesh.vertices.size()), ga(mesh.albedo.size(), glm::dvec3(0.0));
-    for (size_t i = 0; i < gv.size(); ++i)
-      gv[i] = vec3_at(sums.vertices, (p.vertex_offset[mi] + i) * 4);
-    for (size_t f = 0; f < mesh.faces.size(); ++f)
-      for (int k = 0; k < 3; ++k) {
-        size_t to = mesh.albedo_mode == AlbedoMode::PerFace ? f : size_t(mesh.faces[f][k]);
-        ga[to] += vec3_at(sums.albedo, ((p.face_offset[mi] + f) * 3 + k) * 4);
-      }
-    out.vertices.push_back(std::move(gv));
-    out.albedo.push_back(std::move(ga));
+    out.vertices.push_back(vec3_rows(sums.vertices, p.vertex_offset[mi], mesh.vertices.size()));
+    out.albedo.push_back(vec3_rows(sums.albedo, p.albedo_offset[mi], mesh.albedo.size()));
   }
   const std::vector<double>& gl = sums.lights;
   const int nl = int(s.lights.size());

@@ -16,8 +16,8 @@ namespace penumbra {
 namespace {
 
 struct Sizes {
-  size_t rs;  // bytes of a real
-  size_t nv = 0, nf = 0;
+  size_t rs;                      // bytes of a real
+  size_t nv = 0, nf = 0, na = 0;  // na: albedo entries
 };
 
 // Fragments per pixel of a camera's view and per texel of a light's map that the estimate
@@ -83,9 +83,11 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
                               const Tuning* tuning) {
   Sizes z;
   z.rs = precision == Precision::Double ? 8 : 4;
-  for (const Mesh& m : scene.meshes) z.nv += m.vertices.size(), z.nf += m.faces.size();
+  for (const Mesh& m : scene.meshes)
+    z.nv += m.vertices.size(), z.nf += m.faces.size(), z.na += m.albedo.size();
   size_t bytes = z.nv * 3 * 4 * z.rs + z.nf * (16 * z.rs + 48);  // geometry (renderer.cpp)
-  if (backward) bytes += z.nv * 20 * z.rs;                       // vertex and frame gradients
+  // vertex, frame and albedo gradients; the corners grouped by albedo entry (backward.cpp)
+  if (backward) bytes += z.nv * 20 * z.rs + z.na * (4 * z.rs + 4) + 4 + z.nf * 3 * 4;
   const RenderParams& p = scene.params;
   const size_t lights = scene.lights.size();
   const size_t shadowed = p.shadows == Shadows::None ? 0 : lights;

@@ -20,16 +20,20 @@ namespace penumbra {
 // Written in place over the previous call's storage: at 100k faces, fresh vectors filled by
 // insert() made this 2.5-6 ms of every render, most of it page faults.
 void pack(const Scene& s, Packed& p, bool vertices_only) {
-  p.nv = p.nf = 0;
-  for (auto& m : s.meshes) p.nv += int(m.vertices.size()), p.nf += int(m.faces.size());
-  p.faces.resize(size_t(p.nf) * 4);
-  p.albedo.resize(size_t(p.nf) * 12);
+  p.nv = p.nf = p.na = 0;
   p.vertex_offset.clear();
   p.face_offset.clear();
+  p.albedo_offset.clear();
+  for (auto& m : s.meshes) {
+    p.vertex_offset.push_back(size_t(p.nv));
+    p.face_offset.push_back(size_t(p.nf));
+    p.albedo_offset.push_back(size_t(p.na));
+    p.nv += int(m.vertices.size()), p.nf += int(m.faces.size()), p.na += int(m.albedo.size());
+  }
+  p.faces.resize(size_t(p.nf) * 4);
+  p.albedo.resize(size_t(p.nf) * 12);
   size_t v0 = 0, f0 = 0;
   for (auto& m : s.meshes) {
-    p.vertex_offset.push_back(v0);
-    p.face_offset.push_back(f0);
     for (size_t f = 0; !vertices_only && f < m.faces.size(); ++f) {
       const glm::ivec3 F = m.faces[f];
       int* face = &p.faces[(f0 + f) * 4];
@@ -144,10 +148,7 @@ size_t Renderer::Impl::prepare(const Scene& given) {
   // checked, packed and on the device, stay (at 100k faces, packing and uploading them took 3-4
   // ms a render).
   vertices_only = geometry_current && same_faces_and_albedo(given.meshes, meshes_as_given());
-  if (vertices_only)
-    validate_moved(given);
-  else
-    validate(given, DegenerateFaces::Allow);
+  const Bounds extent = validated_bounds(given, vertices_only);
   if (given.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(given.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
@@ -168,7 +169,7 @@ size_t Renderer::Impl::prepare(const Scene& given) {
     throw Error("the scene's lights need " + std::to_string(scene.lights.size()) +
                 " shadow maps (a light mapped on a cube needs 6); at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
-  norm = detail::normalisation(scene);
+  norm = detail::normalisation(extent);
   if (norm.identity()) {
     given_meshes.clear();
   } else {
@@ -197,11 +198,14 @@ std::vector<Light> Renderer::Impl::drawn_lights(const Scene& s, std::vector<int>
 void Renderer::Impl::upload_geometry() {
   geometry.nv = packed.nv;
   geometry.nf = packed.nf;
+  geometry.na = packed.na;
   if (!vertices_only) {  // else into the last render's buffers, of the same sizes
     geometry.vworld = detail::alloc_reals(ctx, precision, size_t(packed.nv) * 4);
     geometry.faces = detail::upload_ints(ctx, packed.faces);
     geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
-    geometry.adj_offsets = geometry.adj = cl::Buffer();  // backward() builds them for these faces
+    // backward() builds these for these faces
+    geometry.adj_offsets = geometry.adj = geometry.albedo_offsets = geometry.albedo_corners =
+        cl::Buffer();
   }
   write_vertices(ctx, precision, geometry.vworld, scene.meshes, size_t(packed.nv));
   geometry_current = true;

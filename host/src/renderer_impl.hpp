@@ -15,10 +15,10 @@ namespace penumbra {
 // The scene's faces and albedo with all meshes concatenated, in the layouts the kernels read
 // (the vertices go to the device straight from the meshes: write_vertices).
 struct Packed {
-  int nv = 0, nf = 0;
+  int nv = 0, nf = 0, na = 0;  // na: albedo entries (a mesh's per vertex or per face)
   std::vector<double> albedo;  // 3·nf × 4
   std::vector<int> faces;      // nf × 4
-  std::vector<size_t> vertex_offset, face_offset;
+  std::vector<size_t> vertex_offset, face_offset, albedo_offset;
 };
 // Fills `p` with the scene's meshes, reusing its storage; with `vertices_only`, `p` holds these
 // meshes' faces and albedo already (same_faces_and_albedo) and only the counts and offsets are
@@ -31,13 +31,14 @@ void write_vertices(Context& ctx, Precision p, cl::Buffer& buffer, const std::ve
 // Whether pack() writes the same faces and albedo for meshes `a` as for meshes `b`: the same
 // faces, albedo and vertex counts, mesh by mesh.
 bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
-// validate(scene, DegenerateFaces::Allow) for a scene whose faces and albedo passed it before,
-// unchanged since (same_faces_and_albedo): all but those (scene.cpp).
-void validate_moved(const Scene& scene);
+// validate(scene, DegenerateFaces::Allow), with `faces_known` all but the faces and albedo (which
+// passed it before, unchanged since: same_faces_and_albedo); returns the bounds of the vertices,
+// taken in the same pass as their checks (scene.cpp).
+Bounds validated_bounds(const Scene& scene, bool faces_known);
 
 // What the backward pass sums on the host (the per-face and per-vertex rows in sum_rows's
 // parts), over cameras and lights, before it becomes
-// SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (3·nf × 4), the per-light terms of the
+// SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (na × 4), the per-light terms of the
 // faces (6·nl + 1 vec4s), dL/dD_L, each light's dL/d(shadow map) and dL/d(penumbra map), and
 // dL/d(its frame) from its own pass.
 struct BackwardSums {
@@ -181,7 +182,7 @@ struct Renderer::Impl {
   template <class Real>
   void check_backward(const Scene& scene, const std::vector<GradBuffers<Real>>& grads);
   // Zero sums, in the last backward's storage (fresh host memory faults its pages in: 12 MB
-  // at 100k faces); the vertex adjacency on the device.
+  // at 100k faces); the face corners grouped by vertex and by albedo entry on the device.
   BackwardSums& start_backward();
   BackwardSums backward_sums;
   void build_adjacency();

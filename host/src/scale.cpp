@@ -18,9 +18,8 @@ namespace detail {
 // ratio of its distance to its size.
 constexpr int kNormalisedExponent = 12;
 constexpr int kFarExponent = 6;
-Normalisation normalisation(const Scene& s) {
+Normalisation normalisation(const Bounds& b) {
   Normalisation n;
-  const Bounds b = bounds(s);
   const double r = b.radius();
   if (!(r > 0) || !std::isfinite(r)) return n;
   const int e = std::ilogb(r);

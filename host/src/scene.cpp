@@ -79,11 +79,17 @@ bool within_coordinates(const glm::dvec3& v) {
          std::abs(v.z) <= kMaxCoordinate;
 }
 
-// The vertices of a mesh, checked on every render: a message is built only for a vertex that
-// fails, not a label for each.
-void validate_vertices(const Mesh& mesh, const std::string& label) {
+// The vertices of a mesh, checked on every render, their bounds added to `b` in the same pass: a
+// message is built only for a vertex that fails, not a label for each.
+void validate_vertices(const Mesh& mesh, const std::string& label, Bounds& b) {
   if (mesh.vertices.empty()) fail(label + " has no vertices");
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+  bool within = true;
+  for (const glm::dvec3& v : mesh.vertices) {
+    within &= within_coordinates(v);
+    b.lo = glm::min(b.lo, v);
+    b.hi = glm::max(b.hi, v);
+  }
+  for (size_t i = 0; !within && i < mesh.vertices.size(); ++i) {
     const glm::dvec3& v = mesh.vertices[i];
     if (within_coordinates(v)) continue;
     if (!finite(v))
@@ -353,18 +359,24 @@ const std::vector<std::pair<ShadowModel, std::string>>& enum_words<ShadowModel>(
 namespace {
 // A mesh; with `faces_known`, one whose faces and albedo passed before: its vertices alone.
 void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces degenerate,
-                   bool faces_known) {
+                   bool faces_known, Bounds& b) {
   if (mesh.faces.empty()) fail(label + " has no faces");
-  validate_vertices(mesh, label);
+  validate_vertices(mesh, label, b);
   if (!faces_known) validate_faces_and_albedo(mesh, label, degenerate);
 }
 
-void validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces_known) {
+Bounds empty_bounds() {  // none yet: every vertex widens them
+  const double inf = std::numeric_limits<double>::infinity();
+  return {glm::dvec3(inf), glm::dvec3(-inf)};
+}
+
+Bounds validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces_known) {
   if (scene.meshes.empty()) fail("scene has no meshes");
+  Bounds b = empty_bounds();
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& m = scene.meshes[i];
     validate_mesh(m, "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'"),
-                  degenerate, faces_known);
+                  degenerate, faces_known, b);
   }
   if (scene.cameras.empty()) fail("scene has no cameras");
   for (size_t i = 0; i < scene.cameras.size(); ++i)
@@ -375,23 +387,25 @@ void validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces_k
   if (any_negative(scene.ambient)) fail("ambient " + vec(scene.ambient) + " is negative");
   if (!finite(scene.background)) fail("background " + vec(scene.background) + " is not finite");
   validate_params(scene.params);
+  return b;
 }
 }  // namespace
 
 void validate(const Mesh& mesh, DegenerateFaces degenerate) {
-  validate_mesh(mesh, mesh_label(mesh), degenerate, false);
+  Bounds b = empty_bounds();
+  validate_mesh(mesh, mesh_label(mesh), degenerate, false, b);
 }
 
 void validate(const Scene& scene, DegenerateFaces degenerate) {
   validate_scene(scene, degenerate, false);
 }
 
-void validate_moved(const Scene& scene) { validate_scene(scene, DegenerateFaces::Allow, true); }
+Bounds validated_bounds(const Scene& scene, bool faces_known) {
+  return validate_scene(scene, DegenerateFaces::Allow, faces_known);
+}
 
 Bounds bounds(const Scene& scene) {
-  Bounds b;
-  b.lo = glm::dvec3(std::numeric_limits<double>::infinity());
-  b.hi = glm::dvec3(-std::numeric_limits<double>::infinity());
+  Bounds b = empty_bounds();
   bool any = false;
   for (const Mesh& m : scene.meshes)
     for (const glm::dvec3& v : m.vertices) {

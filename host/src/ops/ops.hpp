@@ -44,7 +44,7 @@ struct Normalisation {
   double scale = 1;
   bool identity() const { return scale == 1 && origin == glm::dvec3(0.0); }
 };
-Normalisation normalisation(const Scene& s);
+Normalisation normalisation(const Bounds& b);  // of the scene's vertices
 Scene normalised(const Scene& s, const Normalisation& n);
 
 // Kernel objects of one precision, built on first use for the current tuning, with the options
@@ -79,12 +79,14 @@ class Kernels {
 
 // Mesh data of a whole scene on the device (all meshes concatenated).
 struct DeviceGeometry {
-  int nv = 0, nf = 0;
-  cl::Buffer vworld;       // nv × real4
-  cl::Buffer faces;        // nf × int4
-  cl::Buffer albedo;       // 3·nf × real4, per face corner
-  cl::Buffer adj_offsets;  // nv + 1 ints: vertex → (face·3 + corner) list
+  int nv = 0, nf = 0, na = 0;  // na: albedo entries, the meshes' in turn
+  cl::Buffer vworld;           // nv × real4
+  cl::Buffer faces;            // nf × int4
+  cl::Buffer albedo;           // 3·nf × real4, per face corner
+  cl::Buffer adj_offsets;      // nv + 1 ints: vertex → (face·3 + corner) list
   cl::Buffer adj;
+  cl::Buffer albedo_offsets;  // na + 1 ints: albedo entry → (face·3 + corner) list
+  cl::Buffer albedo_corners;
 };
 
 // Items (faces, or shadow-map windows) sorted into screen tiles by bin.cl.
@@ -233,6 +235,8 @@ struct VertexGrads {
 ScreenGeometry transform_forward(Kernels& k, const DeviceGeometry& g, const View& v);
 VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
                                const ScreenGeometry& sg, const FaceGrads& fg);
+// dL/d(albedo) per albedo entry (na × real4) from the face corners' (fg.albedo).
+cl::Buffer albedo_backward(Kernels& k, const DeviceGeometry& g, const FaceGrads& fg);
 
 // The sum of `rows` (≥ 1) rows of n reals of `in`, on the device (transform.cl's sum_rows):
 // `parts` partial rows whose sum in order is the whole, the same on every device.

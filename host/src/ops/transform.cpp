@@ -36,6 +36,15 @@ struct TransformBwdArgs {
   }
 };
 
+struct AlbedoBwdArgs {
+  static constexpr const char* file = "transform.cl";
+  static constexpr const char* kernel = "albedo_bwd";
+  static constexpr KernelPart part = KernelPart::Backward;
+  cl_int na;
+  const cl::Buffer &offsets, &corners, &gface_albedo, &galbedo;
+  auto fields() const { return std::tie(na, offsets, corners, gface_albedo, galbedo); }
+};
+
 struct SumRowsArgs {
   static constexpr const char* file = "transform.cl";
   static constexpr const char* kernel = "sum_rows";
@@ -84,6 +93,14 @@ VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& 
                                            fg.screen, fg.world, out.vertices, out.frame});
   launch_1d(k.ctx(), tb, g.nv);
   return out;
+}
+
+cl::Buffer albedo_backward(Kernels& k, const DeviceGeometry& g, const FaceGrads& fg) {
+  cl::Buffer galbedo = alloc_reals(k.ctx(), k.precision(), size_t(g.na) * 4);
+  auto& ab =
+      bind_args(k, AlbedoBwdArgs{g.na, g.albedo_offsets, g.albedo_corners, fg.albedo, galbedo});
+  launch_1d(k.ctx(), ab, g.na);
+  return galbedo;
 }
 
 }  // namespace penumbra::detail
