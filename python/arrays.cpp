@@ -287,8 +287,10 @@ GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhoue
     check_real(a, names[k]);
     check_shape(a, std::string("the gradient of ") + names[k], scene.cameras.size(), size,
                 kChannels[k], false);
-    g.single = g.single && is(a.dtype(), Code::Float, 32) && c_contiguous(a);
+    g.float32 = g.float32 && is(a.dtype(), Code::Float, 32);
+    g.single = g.single && g.float32 && c_contiguous(a);
   }
+  g.float32 = g.float32 && (g.arrays[0] || g.arrays[1] || g.arrays[2]);
   // float32 C-contiguous arrays are read in place; anything else as doubles (a copy).
   for (int k = 0; k < 3 && !g.single; ++k)
     if (g.arrays[k]) g.copies[k] = flatten(*g.arrays[k]);
@@ -310,22 +312,32 @@ GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhoue
   return g;
 }
 
+template <class Real>
 nb::dict parameter_grads(SceneGrads&& g) {
-  std::vector<glm::dvec3> vertices, albedo;
-  for (const auto& v : g.vertices) vertices.insert(vertices.end(), v.begin(), v.end());
-  for (const auto& a : g.albedo) albedo.insert(albedo.end(), a.begin(), a.end());
-  std::vector<double> lights;
+  std::vector<Real> vertices, albedo, lights;
+  const auto add = [](std::vector<Real>& to, const glm::dvec3& v) {
+    to.insert(to.end(), {Real(v.x), Real(v.y), Real(v.z)});
+  };
+  for (const auto& mesh : g.vertices)
+    for (const glm::dvec3& v : mesh) add(vertices, v);
+  for (const auto& mesh : g.albedo)
+    for (const glm::dvec3& a : mesh) add(albedo, a);
   for (size_t l = 0; l < g.light_size.size(); ++l) {
-    const glm::dvec3 p = g.light_position[l], c = g.light_color[l];
-    lights.insert(lights.end(), {p.x, p.y, p.z, c.x, c.y, c.z, g.light_size[l]});
+    add(lights, g.light_position[l]);
+    add(lights, g.light_color[l]);
+    lights.push_back(Real(g.light_size[l]));
   }
   nb::dict d;
-  const size_t nv = vertices.size(), na = albedo.size(), nl = g.light_size.size();
-  d["vertices"] = adopt<double>(std::move(vertices), {nv, 3});
-  d["albedo"] = adopt<double>(std::move(albedo), {na, 3});
-  d["lights"] = adopt<double>(std::move(lights), {nl, 7});
-  d["ambient"] = adopt<double>(std::vector<double>{g.ambient.x, g.ambient.y, g.ambient.z}, {3});
+  const size_t nv = vertices.size() / 3, na = albedo.size() / 3, nl = g.light_size.size();
+  d["vertices"] = adopt<Real>(std::move(vertices), {nv, 3});
+  d["albedo"] = adopt<Real>(std::move(albedo), {na, 3});
+  d["lights"] = adopt<Real>(std::move(lights), {nl, 7});
+  std::vector<Real> ambient;
+  add(ambient, g.ambient);
+  d["ambient"] = adopt<Real>(std::move(ambient), {3});
   return d;
 }
+template nb::dict parameter_grads<float>(SceneGrads&& g);
+template nb::dict parameter_grads<double>(SceneGrads&& g);
 
 }  // namespace penumbra::python

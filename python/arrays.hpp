@@ -77,6 +77,7 @@ OutputArrays output_arrays(const Scene& scene, const OutArray& colour, const Out
 // place where all are float32 and C-contiguous (`single`: f32), else as doubles (f64, copies).
 struct GradArrays {
   bool single = true;
+  bool float32 = true;                // every array given (at least one) is float32
   std::optional<AnyArray> arrays[3];  // colour, silhouette, depth (kept alive for f32)
   std::vector<double> copies[3];
   std::vector<GradBuffers<float>> f32;
@@ -84,8 +85,9 @@ struct GradArrays {
 };
 GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhouette,
                        nb::handle depth);
-// Gradients laid out as Scene.parameters(): float64 vertices (V, 3), albedo (A, 3), lights
-// (L, 7) and ambient (3,).
+// Gradients laid out as Scene.parameters(), as arrays of Real (float or double): vertices
+// (V, 3), albedo (A, 3), lights (L, 7) and ambient (3,).
+template <class Real>
 nb::dict parameter_grads(SceneGrads&& g);
 
 // The Renderer's bindings (renderer.cpp).

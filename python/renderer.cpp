@@ -161,12 +161,15 @@ void bind_renderer(nb::module_& m) {
           [](Renderer& self, const Scene& s, nb::handle colour, nb::handle silhouette,
              nb::handle depth) {
             const GradArrays g = grad_arrays(s, colour, silhouette, depth);
-            return parameter_grads(released(
-                [&] { return g.single ? self.backward(s, g.f32) : self.backward(s, g.f64); }));
+            SceneGrads grads = released(
+                [&] { return g.single ? self.backward(s, g.f32) : self.backward(s, g.f64); });
+            return g.float32 ? parameter_grads<float>(std::move(grads))
+                             : parameter_grads<double>(std::move(grads));
           },
           "scene"_a, "colour"_a.none(), "silhouette"_a.none(), "depth"_a.none(),
           "backward() given (C, H, W, 3) and (C, H, W) gradient arrays (None: zero), its "
-          "gradients laid out as Scene.parameters().");
+          "gradients laid out as Scene.parameters(): float32 arrays where every array given is "
+          "float32, else float64.");
   bind_maps(r);
 }
 

@@ -247,7 +247,8 @@ def _backward(slots, shapes, batched_albedo, dtypes, d_outputs, batched=True):
     gradients of their outputs (each read once for the whole batch)."""
     d = [_array(g) if batched else _array(g)[None] for g in d_outputs]
     grads = [slots[b].backward(s, *(g[b] for g in d)) for b, s in enumerate(shapes)]
-    stack = lambda key: torch.from_numpy(np.stack([g[key] for g in grads]))  # noqa: E731
+    stack = lambda key: torch.from_numpy(  # noqa: E731 (one shape's: a view, not a copy)
+        grads[0][key][None] if len(grads) == 1 else np.stack([g[key] for g in grads]))
     d_albedo = stack("albedo") if batched_albedo else stack("albedo").sum(0)
     out = [stack("vertices"), d_albedo, stack("lights").sum(0), stack("ambient").sum(0)]
     return tuple(g.to(t) for g, t in zip(out, dtypes))

@@ -207,7 +207,7 @@ def test_backward_input_errors(context):
     assert not g["vertices"][0].any() and not g["ambient"].any()
 
 
-def test_backward_parameters_reads_float32_in_place_and_equals_the_dict_backward(context):
+def test_backward_parameters_equals_the_dict_backward_in_the_gradients_dtype(context):
     renderer = penumbra.Renderer(context)
     scene = bundled("hard", 16)
     renderer.render(scene)
@@ -215,10 +215,16 @@ def test_backward_parameters_reads_float32_in_place_and_equals_the_dict_backward
     colour = (rng.integers(-8, 8, (1, 16, 16, 3)) / 8).astype(np.float32)
     depth = (rng.integers(0, 8, (1, 16, 16)) / 16).astype(np.float32)
     by_dict = renderer.backward(scene, [{"color": colour[0], "depth": depth[0]}])
-    for c, d in [(colour, depth), (colour.astype(np.float64), depth),
-                 (np.asfortranarray(colour), depth)]:
+    for c, d, dtype in [(colour, depth, np.float32),
+                        (colour.astype(np.float64), depth, np.float64),
+                        (np.asfortranarray(colour), depth, np.float32),
+                        (None, None, np.float64)]:
         g = renderer.backward_parameters(scene, c, None, d)
-        assert np.array_equal(g["vertices"], np.concatenate(by_dict["vertices"]))
+        assert all(a.dtype == dtype for a in g.values())
+        expected = by_dict if c is not None else renderer.backward(scene, [{}])
+        assert np.array_equal(g["vertices"], np.concatenate(expected["vertices"]).astype(dtype))
+        positions = np.stack(expected["light_position"]).astype(dtype)
+        assert np.array_equal(g["lights"][:, :3], positions)
     with pytest.raises(penumbra.Error,
                        match=r"the gradient of depth has shape \(1, 8, 16\); expected \(1, 16, 16\)"):
         renderer.backward_parameters(scene, None, None, depth[:, :8])
