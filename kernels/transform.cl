@@ -1,4 +1,5 @@
-// Stage 1 — transform: world vertices → screen, per-face setup; backward gathers per vertex.
+// Stage 1 — transform: world vertices → screen, per-face setup; backward gathers per vertex and
+// per albedo entry.
 //
 // Buffers (V vertices, F faces, P the per-view parameters of common/layout.h):
 //   vworld   V × real4   world positions (w unused)
@@ -8,8 +9,8 @@
 //                        the coverage cut-off radius; empty (x0 > x1) for a dropped face
 //   fnormal  F × real4   unit world normal (xyz) and signed screen area (w; 0 if dropped:
 //                        behind the near plane, edge-on, culled, or casting no shadow)
-// Launch: one work-item per vertex (transform_fwd, transform_bwd) or per face (face_setup);
-// sum_rows: one per column and part.
+// Launch: one work-item per vertex (transform_fwd, transform_bwd), per face (face_setup) or per
+// albedo entry (albedo_bwd); sum_rows: one per column and part.
 #include "common/geometry.clh"
 
 // The scene's bounding box may lie this far (times its diagonal) behind a face's plane and the

@@ -542,9 +542,10 @@ TEST(RasterDeterminism, ReusedBuffersGiveAFreshRenderersBits) {
   expect_reused_renderer_as_fresh(*ctx, {&base, &shrunk, &small, &base, &shrunk});
 }
 
-// A renderer keeps the last render's faces, albedo and vertex adjacency on the device while
-// only the vertices move (as in an optimisation) and uploads them again on any other change:
-// through scenes whose faces, albedo or vertex counts change, and whose vertices then move (with
+// A renderer keeps the last render's faces and the backward's groupings of their corners on the
+// device while the faces stay (as in an optimisation), and its albedo while that stays too, and
+// uploads them again when they change: through scenes whose faces, albedo or vertex counts
+// change, whose albedo changes as the vertices move, and whose vertices then move (with
 // everything but the faces and albedo, once), it renders and differentiates as a fresh one does.
 TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   REQUIRE_CONTEXT(ctx);
@@ -560,6 +561,9 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   std::copy(f.begin() + f.size() / 2, f.begin() + f.size() / 2 * 2, f.begin());
   Scene albedo = base;
   for (dvec3& a : albedo.meshes[0].albedo) a *= 0.5;
+  Scene recoloured_moved = albedo;
+  for (dvec3& a : recoloured_moved.meshes[0].albedo) a.x = 0.9;
+  for (dvec3& v : recoloured_moved.meshes[0].vertices) v *= 0.95;
   Scene more_vertices = base;  // one vertex more, unused: the ground's indices shift when packed
   more_vertices.meshes[0].vertices.push_back({0, 0, 0});
   Scene moved = more_vertices;
@@ -572,8 +576,8 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   seen_anew.ambient *= 0.5;
   seen_anew.background = dvec3(0.2, 0.3, 0.4);
   seen_anew.params.gamma *= 2;
-  expect_reused_renderer_as_fresh(
-      *ctx, {&base, &faces, &base, &albedo, &more_vertices, &moved, &seen_anew, &base});
+  expect_reused_renderer_as_fresh(*ctx, {&base, &faces, &base, &albedo, &recoloured_moved, &base,
+                                         &more_vertices, &moved, &seen_anew, &base});
 }
 
 // Unless PENUMBRA_TRANSFERS chooses, a context copies where the device's memory is not the

@@ -94,7 +94,7 @@ std::pair<std::vector<int>, std::vector<int>> grouped(const std::vector<int>& ta
 }
 
 bool same_meshes(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
-  if (!same_faces_and_albedo(a, b)) return false;
+  if (!same_faces(a, b) || !same_albedo(a, b)) return false;
   for (size_t i = 0; i < a.size(); ++i)
     if (a[i].vertices != b[i].vertices) return false;
   return true;

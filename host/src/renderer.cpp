@@ -1,13 +1,12 @@
-// The renderer's forward pipeline: packs a scene for the device and runs the stages of each
-// light's and each camera's pass (renderer_impl.hpp; the backward pipeline is backward.cpp).
+// The renderer's forward pipeline: prepares a scene for the device (packing.cpp packs its
+// meshes) and runs the stages of each light's and each camera's pass (renderer_impl.hpp; the
+// backward pipeline is backward.cpp).
 #include "penumbra/renderer.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <numeric>
-#include <type_traits>
 
 #include "common/layout.h"
 #include "penumbra/error.hpp"
@@ -16,89 +15,6 @@
 #include "view_params.hpp"
 
 namespace penumbra {
-
-// Written in place over the previous call's storage: at 100k faces, fresh vectors filled by
-// insert() made this 2.5-6 ms of every render, most of it page faults.
-void pack(const Scene& s, Packed& p, bool vertices_only) {
-  p.nv = p.nf = p.na = 0;
-  p.vertex_offset.clear();
-  p.face_offset.clear();
-  p.albedo_offset.clear();
-  for (auto& m : s.meshes) {
-    p.vertex_offset.push_back(size_t(p.nv));
-    p.face_offset.push_back(size_t(p.nf));
-    p.albedo_offset.push_back(size_t(p.na));
-    p.nv += int(m.vertices.size()), p.nf += int(m.faces.size()), p.na += int(m.albedo.size());
-  }
-  p.faces.resize(size_t(p.nf) * 4);
-  p.albedo.resize(size_t(p.nf) * 12);
-  size_t v0 = 0, f0 = 0;
-  for (auto& m : s.meshes) {
-    for (size_t f = 0; !vertices_only && f < m.faces.size(); ++f) {
-      const glm::ivec3 F = m.faces[f];
-      int* face = &p.faces[(f0 + f) * 4];
-      for (int k = 0; k < 3; ++k) {
-        face[k] = F[k] + int(v0);
-        const glm::dvec3& a = m.albedo_mode == AlbedoMode::PerFace ? m.albedo[f] : m.albedo[F[k]];
-        double* at = &p.albedo[((f0 + f) * 3 + k) * 4];
-        at[0] = a.x, at[1] = a.y, at[2] = a.z, at[3] = 0;
-      }
-      face[3] = 0;
-    }
-    v0 += m.vertices.size();
-    f0 += m.faces.size();
-  }
-}
-
-void write_vertices(Context& ctx, Precision p, cl::Buffer& buffer, const std::vector<Mesh>& meshes,
-                    size_t nv) {
-  detail::fill_reals(ctx, p, buffer, nv * 4, [&](auto* at) {
-    using Real = std::remove_pointer_t<decltype(at)>;
-    for (const Mesh& m : meshes)
-      for (const glm::dvec3& v : m.vertices) {
-        at[0] = Real(v.x), at[1] = Real(v.y), at[2] = Real(v.z), at[3] = 0;
-        at += 4;
-      }
-  });
-}
-
-namespace {
-// to = from, where their meshes' faces and albedo are already equal: those are not copied again
-// (at a million faces the whole copy took 8 ms a render). The bindings name every member: one
-// added to Scene or Mesh stops the build here until it is copied too.
-void assign_keeping_faces(Scene& to, const Scene& from) {
-  const auto& [meshes, cameras, lights, ambient, background, params] = from;
-  to.meshes.resize(meshes.size());
-  for (size_t i = 0; i < meshes.size(); ++i) {
-    [[maybe_unused]] const auto& [name, vertices, faces, albedo, albedo_mode] = meshes[i];
-    to.meshes[i].name = name;
-    to.meshes[i].vertices = vertices;
-  }
-  to.cameras = cameras;
-  to.lights = lights;
-  to.ambient = ambient;
-  to.background = background;
-  to.params = params;
-}
-
-// The same bits (memcmp: at a million faces 3.1 ms, against 4.2 element by element through
-// glm's operator==). An albedo that differs only as −0 from +0 is packed again, which changes
-// nothing.
-template <class T>
-bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
-  static_assert(std::has_unique_object_representations_v<T> || std::is_same_v<T, glm::dvec3>);
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
-}  // namespace
-
-bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
-  if (a.size() != b.size()) return false;
-  for (size_t i = 0; i < a.size(); ++i)
-    if (a[i].vertices.size() != b[i].vertices.size() || !same_bytes(a[i].faces, b[i].faces) ||
-        a[i].albedo_mode != b[i].albedo_mode || !same_bytes(a[i].albedo, b[i].albedo))
-      return false;
-  return true;
-}
 
 Renderer::Impl::TunedFor Renderer::Impl::TunedFor::of(const Scene& s) {
   return {s.cameras.empty() ? Camera{} : s.cameras.front(), s.params.sigma, s.params.dist_eps};
@@ -144,20 +60,23 @@ void Renderer::Impl::stage(const char* name) {
 }
 
 size_t Renderer::Impl::prepare(const Scene& given) {
-  // An optimisation moves the vertices of fixed faces: the last render's faces and albedo,
-  // checked, packed and on the device, stay (at 100k faces, packing and uploading them took 3-4
-  // ms a render).
-  vertices_only = geometry_current && same_faces_and_albedo(given.meshes, meshes_as_given());
-  const Bounds extent = validated_bounds(given, vertices_only);
+  // An optimisation moves the vertices of fixed faces, and may change their albedo: the last
+  // render's faces (and albedo), checked, packed and on the device, stay (at 100k faces,
+  // packing and uploading them took 3-4 ms a render).
+  kept = !geometry_current || !same_faces(given.meshes, meshes_as_given()) ? Kept::Nothing
+         : same_albedo(given.meshes, meshes_as_given())                    ? Kept::FacesAndAlbedo
+                                                                           : Kept::Faces;
+  const Bounds extent =
+      validated_bounds(given, kept != Kept::Nothing, kept == Kept::FacesAndAlbedo);
   if (given.lights.size() > P_MAX_LIGHTS)
     throw Error("scene has " + std::to_string(given.lights.size()) + " lights; at most " +
                 std::to_string(P_MAX_LIGHTS) + " are supported");
   started = true;
   geometry_current = false;  // until upload_geometry() has put this scene's meshes there
-  if (vertices_only)
-    assign_keeping_faces(scene, given);
-  else
+  if (kept == Kept::Nothing)
     scene = given;
+  else
+    assign_keeping_faces(scene, given, kept == Kept::FacesAndAlbedo);
   meshes_normalised = false;
   // Frusta not given are fitted to this scene and then fixed; without shadows none is used.
   if (scene.params.shadows != Shadows::None) fit_light_frusta(scene);
@@ -177,11 +96,11 @@ size_t Renderer::Impl::prepare(const Scene& given) {
     scene = detail::normalised(scene, norm);
     meshes_normalised = true;
   }
-  if (automatic && !(vertices_only && tuned_for == TunedFor::of(given))) {
+  if (automatic && !(kept != Kept::Nothing && tuned_for == TunedFor::of(given))) {
     kernels.set_tuning(database.lookup(ctx.info(), [&] { return workload_stats(given); }));
     tuned_for = TunedFor::of(given);
   }
-  pack(scene, packed, vertices_only);
+  pack(scene, packed, kept);
   const size_t estimate = estimate_device_memory(scene, precision, false, &kernels.tuning());
   detail::check_memory(ctx, estimate,
                        "rendering the scene (" + std::to_string(packed.nf) + " faces)");
@@ -199,14 +118,15 @@ void Renderer::Impl::upload_geometry() {
   geometry.nv = packed.nv;
   geometry.nf = packed.nf;
   geometry.na = packed.na;
-  if (!vertices_only) {  // else into the last render's buffers, of the same sizes
+  if (kept == Kept::Nothing) {  // else into the last render's buffers, of the same sizes
     geometry.vworld = detail::alloc_reals(ctx, precision, size_t(packed.nv) * 4);
     geometry.faces = detail::upload_ints(ctx, packed.faces);
-    geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
     // backward() builds these for these faces
     geometry.adj_offsets = geometry.adj = geometry.albedo_offsets = geometry.albedo_corners =
         cl::Buffer();
   }
+  if (kept != Kept::FacesAndAlbedo)
+    geometry.albedo = detail::upload_reals(ctx, precision, packed.albedo);
   write_vertices(ctx, precision, geometry.vworld, scene.meshes, size_t(packed.nv));
   geometry_current = true;
 }

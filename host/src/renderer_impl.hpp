@@ -20,21 +20,26 @@ struct Packed {
   std::vector<int> faces;      // nf × 4
   std::vector<size_t> vertex_offset, face_offset, albedo_offset;
 };
-// Fills `p` with the scene's meshes, reusing its storage; with `vertices_only`, `p` holds these
-// meshes' faces and albedo already (same_faces_and_albedo) and only the counts and offsets are
-// written.
-void pack(const Scene& s, Packed& p, bool vertices_only);
+// What a render's meshes keep of the last render's: the faces (same_faces: so the device keeps
+// them, and the backward's grouping of their corners), and the albedo (same_albedo) too.
+enum class Kept { Nothing, Faces, FacesAndAlbedo };
+// Fills `p` with the scene's meshes, reusing its storage: counts and offsets, and what `kept`
+// says `p` does not hold already.
+void pack(const Scene& s, Packed& p, Kept kept);
 // The meshes' vertices, concatenated, as the device's reals (x, y, z, 0), written into `buffer`
 // (mapped where the device shares the host's memory): one pass, no host copy between.
 void write_vertices(Context& ctx, Precision p, cl::Buffer& buffer, const std::vector<Mesh>& meshes,
                     size_t nv);
-// Whether pack() writes the same faces and albedo for meshes `a` as for meshes `b`: the same
-// faces, albedo and vertex counts, mesh by mesh.
-bool same_faces_and_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
-// validate(scene, DegenerateFaces::Allow), with `faces_known` all but the faces and albedo (which
-// passed it before, unchanged since: same_faces_and_albedo); returns the bounds of the vertices,
-// taken in the same pass as their checks (scene.cpp).
-Bounds validated_bounds(const Scene& scene, bool faces_known);
+// Whether pack() writes the same faces for meshes `a` as for meshes `b`: the same faces, vertex
+// counts and albedo modes and counts, mesh by mesh; same_albedo: and the same albedo.
+bool same_faces(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
+bool same_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
+// to = from, where their meshes' faces (and with `albedo_kept` their albedo) are already equal.
+void assign_keeping_faces(Scene& to, const Scene& from, bool albedo_kept);
+// validate(scene, DegenerateFaces::Allow) but for the faces or albedo known to have passed it
+// before, unchanged since; returns the bounds of the vertices, taken in the same pass as their
+// checks (scene.cpp).
+Bounds validated_bounds(const Scene& scene, bool faces_known, bool albedo_known);
 
 // What the backward pass sums on the host (the per-face and per-vertex rows in sum_rows's
 // parts), over cameras and lights, before it becomes
@@ -99,8 +104,8 @@ struct Renderer::Impl {
   std::vector<LightFrustum> frusta;  // the lights' frusta as fitted, in world units
   Packed packed;
   detail::DeviceGeometry geometry;
-  bool geometry_current = false;  // packed and geometry hold these meshes' faces and albedo
-  bool vertices_only = false;     // this render's meshes differ from the last's in vertices only
+  bool geometry_current = false;        // packed and geometry hold these meshes' faces and albedo
+  Kept kept = Kept::Nothing;            // what this render's meshes keep of the last's
   std::vector<ViewPass> camera_passes;  // one per camera
   std::vector<LightPass> light_passes;  // one per light, when shadows are on
   std::vector<std::vector<double>> view_P;

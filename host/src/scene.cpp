@@ -98,9 +98,8 @@ void validate_vertices(const Mesh& mesh, const std::string& label, Bounds& b) {
   }
 }
 
-// The faces and albedo of a mesh whose vertices validate_vertices accepted.
-void validate_faces_and_albedo(const Mesh& mesh, const std::string& label,
-                               DegenerateFaces degenerate) {
+// The faces of a mesh whose vertices validate_vertices accepted.
+void validate_faces(const Mesh& mesh, const std::string& label, DegenerateFaces degenerate) {
   const auto n = static_cast<long long>(mesh.vertices.size());
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const glm::ivec3& t = mesh.faces[f];
@@ -117,7 +116,9 @@ void validate_faces_and_albedo(const Mesh& mesh, const std::string& label,
            " is degenerate (its corners are on one line: twice its area is " +
            num(relative_area(a, b, c)) + " times its longest edge squared)");
   }
+}
 
+void validate_albedo(const Mesh& mesh, const std::string& label) {
   const bool per_vertex = mesh.albedo_mode == AlbedoMode::PerVertex;
   const size_t want = per_vertex ? mesh.vertices.size() : mesh.faces.size();
   if (mesh.albedo.size() != want)
@@ -256,113 +257,17 @@ void validate_params(const RenderParams& p) {
 
 }  // namespace
 
-template <>
-const std::vector<std::pair<Projection, std::string>>& enum_words<Projection>() {
-  static const std::vector<std::pair<Projection, std::string>> words{
-      {Projection::Perspective, "perspective"}, {Projection::Orthographic, "orthographic"}};
-  return words;
-}
-template <>
-const std::vector<std::pair<LightType, std::string>>& enum_words<LightType>() {
-  static const std::vector<std::pair<LightType, std::string>> words{
-      {LightType::Point, "point"}, {LightType::Directional, "directional"}};
-  return words;
-}
-template <>
-const std::vector<std::pair<ShadowMapShape, std::string>>& enum_words<ShadowMapShape>() {
-  static const std::vector<std::pair<ShadowMapShape, std::string>> words{
-      {ShadowMapShape::Auto, "auto"},
-      {ShadowMapShape::Frustum, "frustum"},
-      {ShadowMapShape::Cube, "cube"}};
-  return words;
-}
-template <>
-const std::vector<std::pair<Shadows, std::string>>& enum_words<Shadows>() {
-  static const std::vector<std::pair<Shadows, std::string>> words{
-      {Shadows::None, "none"}, {Shadows::Hard, "hard"}, {Shadows::Soft, "soft"}};
-  return words;
-}
-const std::vector<SamplingMethod>& sampling_methods() {
-  static const std::vector<SamplingMethod> methods{
-      {Sampling::Truncated, "truncated", "Gaussian cut at ε_λ", true},
-      {Sampling::Exact, "exact", "every texel", false}};
-  return methods;
-}
-const SamplingMethod& sampling_method(Sampling s) {
-  for (const SamplingMethod& m : sampling_methods())
-    if (m.value == s) return m;
-  throw Error("sampling method " + std::to_string(int(s)) + " is not in sampling_methods()");
-}
-template <>
-const std::vector<std::pair<Sampling, std::string>>& enum_words<Sampling>() {
-  static const std::vector<std::pair<Sampling, std::string>> words = [] {
-    std::vector<std::pair<Sampling, std::string>> w;
-    for (const SamplingMethod& m : sampling_methods()) w.emplace_back(m.value, m.word);
-    return w;
-  }();
-  return words;
-}
-template <>
-const std::vector<std::pair<ExactBackend, std::string>>& enum_words<ExactBackend>() {
-  static const std::vector<std::pair<ExactBackend, std::string>> words{
-      {ExactBackend::Auto, "auto"},
-      {ExactBackend::Kernels, "kernels"},
-      {ExactBackend::CLBlast, "clblast"}};
-  return words;
-}
-
-bool sampling_from_word(const std::string& w, Sampling* sampling,
-                        std::optional<ExactBackend>* backend) {
-  if (w == gemm_shorthand()) {
-    *sampling = Sampling::Exact;
-    *backend = ExactBackend::CLBlast;
-    return true;
-  }
-  backend->reset();
-  return from_word(w, sampling);
-}
-
-std::string sampling_word_choices() {
-  std::string out;
-  for (const auto& [value, w] : enum_words<Sampling>()) out += w + ", ";
-  return out.substr(0, out.size() - 2) + " or " + gemm_shorthand();
-}
-// The defaults and their reasons: docs/shadows.md (paper: math.md §10). The accurate model's
-// compare needs no slack for a tilted receiver, so a small β keeps contact shadows closed; its
-// hard shadow's edge falls within a fraction of a texel of the true edge, so the map sets how
-// far it can stray (against the ray tracer a 256² map left one contact pixel lit on a knot
-// touching the ground, bench/accuracy.hpp).
-const std::vector<ShadowModelTraits>& shadow_models() {
-  static const std::vector<ShadowModelTraits> models{
-      {ShadowModel::Accurate, "accurate",
-       "percentage-closer filtering; soft shadows by a blocker search, PCSS", 0.35, 0.004, 0.01,
-       384, true, false, "compares, then filters"},
-      {ShadowModel::Paper, "paper", "filter then compare; the penumbra map", 2.0, 0.02, 0.05, 256,
-       false, true, ""}};
-  return models;
-}
-const ShadowModelTraits& shadow_model_traits(ShadowModel m) {
-  for (const ShadowModelTraits& t : shadow_models())
-    if (t.value == m) return t;
-  throw Error("shadow model " + std::to_string(int(m)) + " is not in shadow_models()");
-}
-template <>
-const std::vector<std::pair<ShadowModel, std::string>>& enum_words<ShadowModel>() {
-  static const std::vector<std::pair<ShadowModel, std::string>> words = [] {
-    std::vector<std::pair<ShadowModel, std::string>> w;
-    for (const ShadowModelTraits& m : shadow_models()) w.emplace_back(m.value, m.word);
-    return w;
-  }();
-  return words;
-}
-
 namespace {
-// A mesh; with `faces_known`, one whose faces and albedo passed before: its vertices alone.
+// All of a mesh but what is known (passed before, unchanged since); its bounds added to `b`.
+struct Known {
+  bool faces = false, albedo = false;
+};
 void validate_mesh(const Mesh& mesh, const std::string& label, DegenerateFaces degenerate,
-                   bool faces_known, Bounds& b) {
+                   Known known, Bounds& b) {
   if (mesh.faces.empty()) fail(label + " has no faces");
   validate_vertices(mesh, label, b);
-  if (!faces_known) validate_faces_and_albedo(mesh, label, degenerate);
+  if (!known.faces) validate_faces(mesh, label, degenerate);
+  if (!known.albedo) validate_albedo(mesh, label);
 }
 
 Bounds empty_bounds() {  // none yet: every vertex widens them
@@ -370,13 +275,13 @@ Bounds empty_bounds() {  // none yet: every vertex widens them
   return {glm::dvec3(inf), glm::dvec3(-inf)};
 }
 
-Bounds validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces_known) {
+Bounds validate_scene(const Scene& scene, DegenerateFaces degenerate, Known known) {
   if (scene.meshes.empty()) fail("scene has no meshes");
   Bounds b = empty_bounds();
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     const Mesh& m = scene.meshes[i];
     validate_mesh(m, "mesh " + std::to_string(i) + (m.name.empty() ? "" : " '" + m.name + "'"),
-                  degenerate, faces_known, b);
+                  degenerate, known, b);
   }
   if (scene.cameras.empty()) fail("scene has no cameras");
   for (size_t i = 0; i < scene.cameras.size(); ++i)
@@ -393,15 +298,15 @@ Bounds validate_scene(const Scene& scene, DegenerateFaces degenerate, bool faces
 
 void validate(const Mesh& mesh, DegenerateFaces degenerate) {
   Bounds b = empty_bounds();
-  validate_mesh(mesh, mesh_label(mesh), degenerate, false, b);
+  validate_mesh(mesh, mesh_label(mesh), degenerate, {}, b);
 }
 
 void validate(const Scene& scene, DegenerateFaces degenerate) {
-  validate_scene(scene, degenerate, false);
+  validate_scene(scene, degenerate, {});
 }
 
-Bounds validated_bounds(const Scene& scene, bool faces_known) {
-  return validate_scene(scene, DegenerateFaces::Allow, faces_known);
+Bounds validated_bounds(const Scene& scene, bool faces_known, bool albedo_known) {
+  return validate_scene(scene, DegenerateFaces::Allow, {faces_known, albedo_known});
 }
 
 Bounds bounds(const Scene& scene) {

@@ -97,7 +97,7 @@ enum class Shadows { None, Hard, Soft };
 // How the Gaussian shadow filter is summed (docs/shadows.md): `Truncated` (the texels within
 // the window where the weight exceeds ε_λ) or `Exact` (every texel of the map).
 enum class Sampling { Truncated, Exact };
-// One row per sampling method, in scene.cpp's table: its word (scene files, --sampling,
+// One row per sampling method, in scene_words.cpp's table: its word (scene files, --sampling,
 // Python), what it sums (--sampling's help), and whether that sum is a window around each
 // fragment (`windowed`: the gathers then find the fragments through texel buckets, and the
 // paper model's hard shadows take their per-fragment kernel) or the whole map (whose sum of
@@ -122,7 +122,7 @@ enum class ExactBackend { Auto, Kernels, CLBlast };
 // `Count` is no model but how many there are: every value below it has its row in
 // shadow_models() and in the renderer's table (tests/test_shadow_models.cpp checks both).
 enum class ShadowModel { Accurate, Paper, Count };
-// One row per shadow model, in scene.cpp's table: its word (scene files, --shadow-model,
+// One row per shadow model, in scene_words.cpp's table: its word (scene files, --shadow-model,
 // Python, messages) and what it does (--shadow-model's help); its defaults of σ_s (texel²), γ_s and
 // β (per depth unit) and of the map side W_s (shadow_sigma_s, ...); whether its light pass holds
 // only the faces that can cast a shadow (`casters_only`: their coverage A is a lookup input and the
