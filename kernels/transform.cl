@@ -89,7 +89,7 @@ FORWARD_KERNEL void face_setup(__global const real4* vworld, __global const real
 // result is bit-for-bit reproducible.
 //   adj_offsets (V+1) × int, adj (Σ) × int: entries face*3 + corner, sorted
 //   gface_screen, gface_world  3F × real4
-//   gvworld  V × real4 (output): dL/d world position
+//   gvworld  V × real4 (added to): dL/d world position, the views' in turn
 //   gframe   4V × real4 (output): this vertex's share of dL/d(eye, fwd, right, up) of the
 //            view's frame (summed by sum_rows where the frame depends on a light's position)
 BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const real4* vscreen,
@@ -105,7 +105,7 @@ BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const 
     gw += gface_world[adj[i]].xyz;
   }
   FrameGrads gf = {0, 0, 0, 0};
-  gvworld[v] = (real4)(project_bwd(vworld[v].xyz, vscreen[v].xyz, gs, P + P_FRAME, &gf) + gw, 0);
+  gvworld[v] += (real4)(project_bwd(vworld[v].xyz, vscreen[v].xyz, gs, P + P_FRAME, &gf) + gw, 0);
   gframe[4 * v] = (real4)(gf.eye, 0);
   gframe[4 * v + 1] = (real4)(gf.fwd, 0);
   gframe[4 * v + 2] = (real4)(gf.right, 0);
@@ -115,14 +115,14 @@ BACKWARD_KERNEL void transform_bwd(__global const real4* vworld, __global const 
 // Backward: each albedo entry (a vertex's or a face's, as its mesh has them) gathers, in a fixed
 // order, the per-corner dL/d(albedo) of the corners that read it.
 //   offsets (A+1) × int, corners (Σ) × int: entries face*3 + corner, sorted
-//   gface_albedo  3F × real4;  galbedo  A × real4 (output)
+//   gface_albedo  3F × real4;  galbedo  A × real4 (added to: the cameras' in turn)
 BACKWARD_KERNEL void albedo_bwd(int na, __global const int* offsets, __global const int* corners,
                                 __global const real4* gface_albedo, __global real4* galbedo) {
   int a = get_global_id(0);
   if (a >= na) return;
   real4 g = 0;
   for (int i = offsets[a]; i < offsets[a + 1]; ++i) g += gface_albedo[corners[i]];
-  galbedo[a] = g;
+  galbedo[a] += g;
 }
 
 // Backward: the sum over `rows` rows of n reals (per-face light gradients, per-vertex frame

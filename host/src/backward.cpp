@@ -75,10 +75,12 @@ glm::dvec3 vec3_at(const std::vector<double>& a, size_t at) {
 }
 
 // Rows [first, first + n) of rows of 4 reals, as vectors (written once: no zeros first).
-std::vector<glm::dvec3> vec3_rows(const std::vector<double>& a, size_t first, size_t n) {
+template <class Real>
+std::vector<glm::dvec3> vec3_rows(const Real* a, size_t first, size_t n) {
   std::vector<glm::dvec3> rows;
   rows.reserve(n);
-  for (size_t i = first; i < first + n; ++i) rows.push_back(vec3_at(a, i * 4));
+  for (size_t i = first; i < first + n; ++i)
+    rows.emplace_back(a[i * 4], a[i * 4 + 1], a[i * 4 + 2]);
   return rows;
 }
 
@@ -139,8 +141,8 @@ BackwardSums& Renderer::Impl::start_backward() {
   const Packed& p = packed;
   BackwardSums& sums = backward_sums;
   const size_t nl = scene.lights.size(), maps = light_passes.size();
-  sums.vertices.assign(size_t(p.nv) * 4, 0.0);
-  sums.albedo.assign(size_t(p.na) * 4, 0.0);
+  sums.vertices = detail::zero_reals(ctx, precision, size_t(p.nv) * 4);
+  sums.albedo = detail::zero_reals(ctx, precision, size_t(p.na) * 4);
   sums.lights.assign((6 * nl + 1) * 4, 0.0);
   sums.light_size.assign(nl, 0.0);
   sums.frames.resize(nl);
@@ -249,11 +251,11 @@ void Renderer::Impl::light_backward(int light, BackwardSums& sums) {
 void Renderer::Impl::sum_face_grads(const ViewPass& vp, const detail::FaceGrads& fg,
                                     BackwardSums& sums, std::vector<double>* glights,
                                     std::vector<double>* gframe) {
-  auto gv = detail::transform_backward(kernels, geometry, vp.view, vp.screen, fg);
-  accumulate(ctx, precision, sums.vertices, gv.vertices);
-  if (gframe) accumulate_row_sum(kernels, *gframe, gv.frame, size_t(packed.nv));
+  const cl::Buffer frame =
+      detail::transform_backward(kernels, geometry, vp.view, vp.screen, fg, sums.vertices);
+  if (gframe) accumulate_row_sum(kernels, *gframe, frame, size_t(packed.nv));
   if (glights) {
-    accumulate(ctx, precision, sums.albedo, detail::albedo_backward(kernels, geometry, fg));
+    detail::albedo_backward(kernels, geometry, fg, sums.albedo);
     accumulate_row_sum(kernels, *glights, fg.light, size_t(packed.nf));
   }
 }
@@ -262,11 +264,14 @@ SceneGrads Renderer::Impl::scene_grads(const BackwardSums& sums) const {
   const Scene& s = scene;
   const Packed& p = packed;
   SceneGrads out;
-  for (size_t mi = 0; mi < s.meshes.size(); ++mi) {
-    const Mesh& mesh = s.meshes[mi];
-    out.vertices.push_back(vec3_rows(sums.vertices, p.vertex_offset[mi], mesh.vertices.size()));
-    out.albedo.push_back(vec3_rows(sums.albedo, p.albedo_offset[mi], mesh.albedo.size()));
-  }
+  detail::read_reals(ctx, precision, sums.vertices, size_t(p.nv) * 4, [&](const auto* g) {
+    for (size_t mi = 0; mi < s.meshes.size(); ++mi)
+      out.vertices.push_back(vec3_rows(g, p.vertex_offset[mi], s.meshes[mi].vertices.size()));
+  });
+  detail::read_reals(ctx, precision, sums.albedo, size_t(p.na) * 4, [&](const auto* g) {
+    for (size_t mi = 0; mi < s.meshes.size(); ++mi)
+      out.albedo.push_back(vec3_rows(g, p.albedo_offset[mi], s.meshes[mi].albedo.size()));
+  });
   const std::vector<double>& gl = sums.lights;
   const int nl = int(s.lights.size());
   out.light_position.assign(frusta.size(), glm::dvec3(0.0));  // one per given light

@@ -41,13 +41,14 @@ void assign_keeping_faces(Scene& to, const Scene& from, bool albedo_kept);
 // checks (scene.cpp).
 Bounds validated_bounds(const Scene& scene, bool faces_known, bool albedo_known);
 
-// What the backward pass sums on the host (the per-face and per-vertex rows in sum_rows's
-// parts), over cameras and lights, before it becomes
-// SceneGrads: dL/d(vertices) (nv × 4), dL/d(albedo) (na × 4), the per-light terms of the
-// faces (6·nl + 1 vec4s), dL/dD_L, each light's dL/d(shadow map) and dL/d(penumbra map), and
-// dL/d(its frame) from its own pass.
+// What the backward pass sums over cameras and lights before it becomes SceneGrads: on the
+// device dL/d(vertices) (nv × real4) and dL/d(albedo) (na × real4); on the host (the per-face
+// and per-vertex rows in sum_rows's parts) the per-light terms of the faces (6·nl + 1 vec4s),
+// dL/dD_L, each light's dL/d(shadow map) and dL/d(penumbra map), and dL/d(its frame) from its
+// own pass.
 struct BackwardSums {
-  std::vector<double> vertices, albedo, lights, light_size;
+  cl::Buffer vertices, albedo;
+  std::vector<double> lights, light_size;
   std::vector<std::vector<double>> maps, penumbra_maps, covers, frames;
 };
 

@@ -226,17 +226,17 @@ struct FaceGrads {
   cl::Buffer light;                  // nf × (6·nlights + 1) × real4
 };
 
-// dL/d world vertex positions (nv × real4) and each vertex's share of dL/d(the view's frame)
-// (4·nv × real4: eye, fwd, right, up).
-struct VertexGrads {
-  cl::Buffer vertices, frame;
-};
-
 ScreenGeometry transform_forward(Kernels& k, const DeviceGeometry& g, const View& v);
-VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
-                               const ScreenGeometry& sg, const FaceGrads& fg);
-// dL/d(albedo) per albedo entry (na × real4) from the face corners' (fg.albedo).
-cl::Buffer albedo_backward(Kernels& k, const DeviceGeometry& g, const FaceGrads& fg);
+// Adds one view's dL/d world vertex positions to `gvertices` (nv × real4: the views' in turn, on
+// the device) and returns each vertex's share of dL/d(the view's frame) (4·nv × real4: eye, fwd,
+// right, up).
+cl::Buffer transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
+                              const ScreenGeometry& sg, const FaceGrads& fg,
+                              const cl::Buffer& gvertices);
+// Adds dL/d(albedo) per albedo entry, from the face corners' (fg.albedo), to `galbedo`
+// (na × real4).
+void albedo_backward(Kernels& k, const DeviceGeometry& g, const FaceGrads& fg,
+                     const cl::Buffer& galbedo);
 
 // The sum of `rows` (≥ 1) rows of n reals of `in`, on the device (transform.cl's sum_rows):
 // `parts` partial rows whose sum in order is the whole, the same on every device.

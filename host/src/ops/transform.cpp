@@ -84,23 +84,21 @@ ScreenGeometry transform_forward(Kernels& k, const DeviceGeometry& g, const View
   return sg;
 }
 
-VertexGrads transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
-                               const ScreenGeometry& sg, const FaceGrads& fg) {
-  VertexGrads out;
-  out.vertices = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 4);
-  out.frame = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 16);
+cl::Buffer transform_backward(Kernels& k, const DeviceGeometry& g, const View& v,
+                              const ScreenGeometry& sg, const FaceGrads& fg,
+                              const cl::Buffer& gvertices) {
+  cl::Buffer frame = alloc_reals(k.ctx(), k.precision(), size_t(g.nv) * 16);
   auto& tb = bind_args(k, TransformBwdArgs{g.vworld, sg.vscreen, v.P, g.nv, g.adj_offsets, g.adj,
-                                           fg.screen, fg.world, out.vertices, out.frame});
+                                           fg.screen, fg.world, gvertices, frame});
   launch_1d(k.ctx(), tb, g.nv);
-  return out;
+  return frame;
 }
 
-cl::Buffer albedo_backward(Kernels& k, const DeviceGeometry& g, const FaceGrads& fg) {
-  cl::Buffer galbedo = alloc_reals(k.ctx(), k.precision(), size_t(g.na) * 4);
+void albedo_backward(Kernels& k, const DeviceGeometry& g, const FaceGrads& fg,
+                     const cl::Buffer& galbedo) {
   auto& ab =
       bind_args(k, AlbedoBwdArgs{g.na, g.albedo_offsets, g.albedo_corners, fg.albedo, galbedo});
   launch_1d(k.ctx(), ab, g.na);
-  return galbedo;
 }
 
 }  // namespace penumbra::detail
