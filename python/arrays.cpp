@@ -315,6 +315,12 @@ GradArrays grad_arrays(const Scene& scene, nb::handle colour, nb::handle silhoue
 template <class Real>
 nb::dict parameter_grads(SceneGrads&& g) {
   std::vector<Real> vertices, albedo, lights;
+  size_t rows = 0;
+  for (const auto& mesh : g.vertices) rows += mesh.size();
+  vertices.reserve(rows * 3);
+  rows = 0;
+  for (const auto& mesh : g.albedo) rows += mesh.size();
+  albedo.reserve(rows * 3);
   const auto add = [](std::vector<Real>& to, const glm::dvec3& v) {
     to.insert(to.end(), {Real(v.x), Real(v.y), Real(v.z)});
   };

@@ -85,7 +85,7 @@ size_t estimate_device_memory(const Scene& scene, Precision precision, bool back
   z.rs = precision == Precision::Double ? 8 : 4;
   for (const Mesh& m : scene.meshes)
     z.nv += m.vertices.size(), z.nf += m.faces.size(), z.na += m.albedo.size();
-  size_t bytes = z.nv * 3 * 4 * z.rs + z.nf * (16 * z.rs + 48);  // geometry (renderer.cpp)
+  size_t bytes = z.nv * 3 * 4 * z.rs + z.nf * (16 * z.rs + 48);  // geometry (packing.cpp)
   // vertex, frame and albedo gradients; the corners grouped by albedo entry (backward.cpp)
   if (backward) bytes += z.nv * 20 * z.rs + z.na * (4 * z.rs + 4) + 4 + z.nf * 3 * 4;
   const RenderParams& p = scene.params;

@@ -74,9 +74,10 @@ bool same_faces(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
 }
 
 bool same_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b) {
-  for (size_t i = 0; i < a.size() && i < b.size(); ++i)
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
     if (!same_bytes(a[i].albedo, b[i].albedo)) return false;
-  return a.size() == b.size();
+  return true;
 }
 
 // to = from, where their meshes' faces (and with `albedo_kept` their albedo) are already equal:

@@ -187,8 +187,9 @@ struct Renderer::Impl {
   // The scene is the last render's, and there is a gradient per camera, each finite.
   template <class Real>
   void check_backward(const Scene& scene, const std::vector<GradBuffers<Real>>& grads);
-  // Zero sums, in the last backward's storage (fresh host memory faults its pages in: 12 MB
-  // at 100k faces); the face corners grouped by vertex and by albedo entry on the device.
+  // Zero sums: the vertices' and albedo's zeroed by the device, the host's in the last
+  // backward's storage; the face corners grouped by vertex and by albedo entry on the device,
+  // once per set of faces.
   BackwardSums& start_backward();
   BackwardSums backward_sums;
   void build_adjacency();
