@@ -2,7 +2,9 @@
 module's own Renderer.render_into on the same scene (the C++ call with nothing around it), and
 a batch of B shapes in one call against B calls, at 1,312 faces and (the layer) with the ball
 made a sphere of 99,224. Medians of alternated runs, and the overhead and speed-up as medians
-of the runs' quotients, as JSON.
+of the runs' quotients, as JSON. With each batch, the device time of its kernels per shape
+(PENUMBRA_PROFILE=1, in a process of its own) and the speed-up a batch would have if it took
+only that time (`speedup_bound`: separate calls' time over B times the kernels').
 
     .venv/bin/python bench/python_calls.py [-o out/bench/python.json] [--repeats 15]
 """
@@ -10,6 +12,8 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -17,6 +21,7 @@ import torch
 
 import penumbra
 import penumbra.torch as pt
+from results import KERNEL_LINE
 
 
 def uv_sphere(rings, centre, radius):
@@ -86,25 +91,53 @@ def layer_overhead(context, repeats, size=256, rings=0):
             "overhead": ratio - 1}
 
 
-def batch_gain(context, repeats, batch=8, size=128, shadows="hard"):
+def batch_calls(context, batch, size, shadows):
+    """One call rendering `batch` shapes of the bundled scene, and `batch` calls of one each."""
     vertices, faces, camera, light, params = bundled(size, shadows)
     v = torch.cat(vertices)
     f = torch.cat([faces[0], faces[1] + len(vertices[0])])
     shapes = torch.stack([v * (1 + 0.02 * b) for b in range(batch)])
     one_call = lambda: pt.render(shapes, f, camera, light, params=params, context=context)  # noqa: E731
     separate = lambda: [pt.render(s, f, camera, light, params=params, context=context) for s in shapes]  # noqa: E731
+    return one_call, separate
+
+
+def kernel_ms_per_shape(repeats, batch, size, shadows):
+    """The device time of a batch's kernels per shape: `repeats` batched calls after one in a
+    new process with PENUMBRA_PROFILE=1 (which prints each kernel's summed time at exit)."""
+    env = dict(os.environ, PENUMBRA_PROFILE="1")
+    command = [sys.executable, os.path.abspath(__file__), "--kernel-time",
+               f"{repeats},{batch},{size},{shadows}"]
+    p = subprocess.run(command, env=env, capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"python_calls: the profiled batch failed ({p.returncode}):\n{p.stderr}")
+    rows = [KERNEL_LINE.match(line) for line in p.stderr.splitlines()]
+    return sum(float(m.group(2)) for m in rows if m) / ((repeats + 1) * batch)
+
+
+def batch_gain(context, repeats, batch=8, size=128, shadows="hard"):
+    one_call, separate = batch_calls(context, batch, size, shadows)
     one_call(), separate()
     (batched, calls), (_, ratio) = timed([one_call, separate], repeats)
+    kernels = kernel_ms_per_shape(repeats, batch, size, shadows)
     return {"batch": batch, "size": size, "shadows": shadows, "batched_ms": batched,
-            "separate_ms": calls, "speedup": ratio}
+            "separate_ms": calls, "speedup": ratio, "kernel_ms_per_shape": kernels,
+            "speedup_bound": calls / (batch * kernels)}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("-o", "--output", default="out/bench/python.json")
     parser.add_argument("--repeats", type=int, default=15)
+    parser.add_argument("--kernel-time", help=argparse.SUPPRESS)  # kernel_ms_per_shape's child
     args = parser.parse_args()
     context = penumbra.Context()
+    if args.kernel_time:
+        repeats, batch, size, shadows = args.kernel_time.split(",")
+        one_call, _ = batch_calls(context, int(batch), int(size), shadows)
+        for _ in range(int(repeats) + 1):
+            one_call()
+        return
     results = {"device": context.info.name, "load": os.getloadavg()[0],
                "layer": layer_overhead(context, args.repeats),
                "layer_dense": layer_overhead(context, args.repeats, rings=158),

@@ -17,6 +17,7 @@
 #include <functional>
 #include <iostream>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -25,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cl/device.hpp"
+#include "cl/pocl_environment.hpp"
 #include "cli_run.hpp"
 #include "penumbra/error.hpp"
 #include "penumbra/gradcheck.hpp"
@@ -563,6 +565,46 @@ TEST(FaultsCli, PoclCqTracingIsTurnedOffAndRendersLikeWithout) {
     }
     ::unsetenv("POCL_TRACING");
   }
+}
+
+// PoCL pins its worker thread i to CPU i under POCL_AFFINITY=1 and aborts where the process may
+// not run there (a container's cpuset), so penumbra sets it only where every online CPU,
+// numbered from 0, is allowed.
+TEST(FaultsPocl, ThreadsArePinnedOnlyWhereEveryCpuIsAllowed) {
+  using penumbra::detail::pocl_threads_may_be_pinned;
+  EXPECT_TRUE(pocl_threads_may_be_pinned({0, 1}, 2));
+  EXPECT_TRUE(pocl_threads_may_be_pinned({0, 1, 2, 3}, 4));
+  EXPECT_FALSE(pocl_threads_may_be_pinned({1}, 2));      // a cpuset of CPU 1: worker 0 aborts
+  EXPECT_FALSE(pocl_threads_may_be_pinned({0}, 2));      // taskset -c 0: left to the user
+  EXPECT_FALSE(pocl_threads_may_be_pinned({0, 2}, 2));   // CPU 1 offline or excluded
+  EXPECT_FALSE(pocl_threads_may_be_pinned({}, 2));       // sched_getaffinity failed
+  EXPECT_FALSE(pocl_threads_may_be_pinned({0, 1}, -1));  // sysconf failed
+}
+
+// Where every CPU is allowed, this process's PoCL runs one worker pinned to each of them
+// (/proc/self/task/*/status: a thread whose Cpus_allowed_list is that CPU alone).
+TEST(FaultsPocl, WorkerThreadsArePinnedToEveryCpu) {
+  const auto devices = penumbra::list_devices();  // sets POCL_AFFINITY, loads PoCL
+  if (devices.empty() ||
+      devices.front().platform.find("Portable Computing Language") == std::string::npos)
+    GTEST_SKIP() << "not PoCL";
+  const char* set = std::getenv("POCL_AFFINITY");
+  if (set == nullptr || std::string(set) != "1") GTEST_SKIP() << "not every CPU is allowed";
+  penumbra::Context ctx;  // PoCL starts its workers with its first context
+  std::set<std::string> pinned;
+  for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+    std::ifstream status(task.path() / "status");
+    for (std::string line; std::getline(status, line);)
+      if (line.rfind("Cpus_allowed_list:", 0) == 0) {
+        std::istringstream cpus(line.substr(18));
+        std::string list;
+        cpus >> list;
+        pinned.insert(list);
+      }
+  }
+  const long online = ::sysconf(_SC_NPROCESSORS_ONLN);
+  for (long cpu = 0; cpu < online; ++cpu)
+    EXPECT_EQ(pinned.count(std::to_string(cpu)), 1u) << "no thread pinned to CPU " << cpu;
 }
 
 // ---------------------------------------------------------------------------------------------

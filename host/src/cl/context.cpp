@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "cl/pocl_environment.hpp"
 #include "cl/program_cache.hpp"
 #include "penumbra/error.hpp"
 
@@ -79,23 +80,6 @@ std::string condense(const std::string& log) {
   return out;
 }
 
-// PoCL 3.1's command-queue profiler (POCL_TRACING=cq) corrupts the heap of any program that
-// launches a few kernels (docs/faults.md: a 20-line reproduction). PoCL reads the variable when
-// the first OpenCL call loads it, so it is turned off before that, with a warning.
-void turn_off_pocl_cq_tracing() {
-  static const bool done = [] {
-    const char* value = std::getenv("POCL_TRACING");
-    if (value == nullptr || std::string(value) != "cq") return true;
-    ::unsetenv("POCL_TRACING");
-    std::fprintf(stderr,
-                 "penumbra: warning: POCL_TRACING=cq turned off: PoCL's command-queue profiler "
-                 "corrupts memory (docs/faults.md); PENUMBRA_PROFILE=1 prints the device time "
-                 "per kernel instead\n");
-    return true;
-  }();
-  (void)done;
-}
-
 // Whether the device's memory is the host's. The query is deprecated since OpenCL 2.0; a driver
 // that refuses it is taken to share it, as maps (the transfers it then gets) work everywhere.
 bool shares_host_memory(const cl::Device& d) {
@@ -106,23 +90,10 @@ bool shares_host_memory(const cl::Device& d) {
   }
 }
 
-// PoCL compiles each kernel twice in a process that fills the kernel cache: once for any
-// work-group size when the program's binary is asked for (the binary holds that code), once
-// more at its first launch for that launch's sizes, unless work-group specialization is off —
-// then a launch runs the code the binary holds, and a process that loads the cache compiles
-// nothing. Measured on the bundled scene (bench/first_call.py): cold first render 3.7 -> 2.6 s,
-// with the kernel cache filled and PoCL's empty 1.19 s -> 59 ms; frame times unchanged within
-// the noise and outputs bit-identical. A value the user set is left alone.
-void skip_pocl_work_group_specialization() {
-  static const int done = ::setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", /*overwrite=*/0);
-  (void)done;
-}
-
 }  // namespace
 
 std::vector<DeviceInfo> list_devices() {
-  turn_off_pocl_cq_tracing();
-  skip_pocl_work_group_specialization();
+  detail::prepare_pocl_environment();
   std::vector<cl::Platform> platforms;
   try {
     cl::Platform::get(&platforms);
