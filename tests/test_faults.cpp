@@ -581,15 +581,20 @@ TEST(FaultsPocl, ThreadsArePinnedOnlyWhereEveryCpuIsAllowed) {
   EXPECT_FALSE(pocl_threads_may_be_pinned({0, 1}, -1));  // sysconf failed
 }
 
-// Where every CPU is allowed, this process's PoCL runs one worker pinned to each of them
-// (/proc/self/task/*/status: a thread whose Cpus_allowed_list is that CPU alone).
+// Where every CPU is allowed, this process's PoCL runs one worker pinned to each of the first
+// CPUs, as many as the device's compute units (its workers; /proc/self/task/*/status: a thread
+// whose Cpus_allowed_list is that CPU alone).
 TEST(FaultsPocl, WorkerThreadsArePinnedToEveryCpu) {
   const auto devices = penumbra::list_devices();  // sets POCL_AFFINITY, loads PoCL
   if (devices.empty() ||
       devices.front().platform.find("Portable Computing Language") == std::string::npos)
     GTEST_SKIP() << "not PoCL";
+  if (!penumbra::detail::pocl_threads_may_be_pinned(penumbra::detail::allowed_cpus(),
+                                                    ::sysconf(_SC_NPROCESSORS_ONLN)))
+    GTEST_SKIP() << "not every CPU is allowed";
   const char* set = std::getenv("POCL_AFFINITY");
-  if (set == nullptr || std::string(set) != "1") GTEST_SKIP() << "not every CPU is allowed";
+  ASSERT_NE(set, nullptr) << "list_devices() left POCL_AFFINITY unset";
+  if (std::string(set) != "1") GTEST_SKIP() << "POCL_AFFINITY=" << set << " set by the user";
   penumbra::Context ctx;  // PoCL starts its workers with its first context
   std::set<std::string> pinned;
   for (const auto& task : fs::directory_iterator("/proc/self/task")) {
@@ -602,8 +607,8 @@ TEST(FaultsPocl, WorkerThreadsArePinnedToEveryCpu) {
         pinned.insert(list);
       }
   }
-  const long online = ::sysconf(_SC_NPROCESSORS_ONLN);
-  for (long cpu = 0; cpu < online; ++cpu)
+  const auto workers = devices.front().device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+  for (cl_uint cpu = 0; cpu < workers; ++cpu)
     EXPECT_EQ(pinned.count(std::to_string(cpu)), 1u) << "no thread pinned to CPU " << cpu;
 }
 

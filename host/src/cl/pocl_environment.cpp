@@ -37,21 +37,10 @@ void skip_pocl_work_group_specialization() {
   ::setenv("POCL_WORK_GROUP_SPECIALIZATION", "0", /*overwrite=*/0);
 }
 
-// The CPUs this thread may run on.
-std::vector<int> allowed_cpus() {
-  std::vector<int> cpus;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (::sched_getaffinity(0, sizeof set, &set) != 0) return cpus;
-  for (int i = 0; i < CPU_SETSIZE; ++i)
-    if (CPU_ISSET(i, &set)) cpus.push_back(i);
-  return cpus;
-}
-
 // PoCL's worker threads are free to move between cores. With kernels of a millisecond and the
 // host waiting on the device between them (a batch of small renders), the scheduler can keep
 // both workers of a 2-core machine on one core for seconds at a time, so that every render
-// takes up to 1.7 times as long (bench/python_calls.py; docs/api.md). PoCL pins worker i to
+// takes up to 1.7 times as long (bench/pocl_pinning.py; README). PoCL pins worker i to
 // CPU i when POCL_AFFINITY is 1, and aborts where the process may not run on that CPU (a
 // container's cpuset; docs/faults.md), so it is set only where the process may run on all.
 void pin_pocl_threads() {
@@ -61,6 +50,16 @@ void pin_pocl_threads() {
 }
 
 }  // namespace
+
+std::vector<int> allowed_cpus() {
+  std::vector<int> cpus;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::sched_getaffinity(0, sizeof set, &set) != 0) return cpus;
+  for (int i = 0; i < CPU_SETSIZE; ++i)
+    if (CPU_ISSET(i, &set)) cpus.push_back(i);
+  return cpus;
+}
 
 bool pocl_threads_may_be_pinned(const std::vector<int>& allowed, long online) {
   if (online <= 0 || long(allowed.size()) != online) return false;

@@ -11,6 +11,9 @@ namespace penumbra::detail {
 // calls it before it asks for the platforms.
 void prepare_pocl_environment();
 
+// The CPUs this thread may run on (sched_getaffinity; none where it fails).
+std::vector<int> allowed_cpus();
+
 // Whether PoCL may pin its worker thread i to CPU i (POCL_AFFINITY=1) without aborting: the
 // process may run on every one of the machine's online CPUs, which are numbered 0 .. online − 1.
 bool pocl_threads_may_be_pinned(const std::vector<int>& allowed_cpus, long online_cpus);
