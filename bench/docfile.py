@@ -1,5 +1,5 @@
-"""Writing the benchmark pages and plots (bench/report.py, bench/first_call.py,
-bench/mitsuba_side_by_side.py): every file goes
+"""Writing the benchmark pages, plots and JSON (bench/report.py, bench/first_call.py,
+bench/mitsuba_side_by_side.py, bench/python_calls.py, bench/pocl_pinning.py): every file goes
 through a temporary file in its folder and a rename, so a failed run leaves the old file whole;
 onto what is not a regular file (a pipe, /dev/null) it is written directly."""
 import os

@@ -4,7 +4,7 @@ import os
 import sys
 
 import docfile
-from measures import ACC_SCENES, ACC_TARGETS, SERIES, acc_ref, device_mib, fmt, ms, sweep
+from measures import ACC_PICTURED, ACC_SCENES, ACC_TARGETS, SERIES, acc_ref, device_mib, fmt, ms, sweep
 
 
 def get_plt():
@@ -108,9 +108,10 @@ def make_plots(plt, res, image_dir):
 
 def copy_comparisons(folder, image_dir):
     """truth | penumbra | difference strips of the accurate model (compare_*_accurate_*.png
-    written by the accuracy group under $PENUMBRA_BENCH_IMAGES) → image_dir/accuracy_*.png."""
+    written by the accuracy group under $PENUMBRA_BENCH_IMAGES) → image_dir/accuracy_*.png,
+    for the scenes a page shows (ACC_PICTURED)."""
     copied = []
-    for sc in ACC_SCENES:
+    for sc in ACC_PICTURED:
         for sh in ("hard", "soft"):
             src = os.path.join(folder or "", f"compare_{sc}_accurate_{sh}.png")
             if folder and os.path.exists(src):

@@ -14,6 +14,8 @@ import subprocess
 import sys
 import time
 
+import docfile
+
 
 def rounds_of_one_process(rounds, calls, pinned):
     env = dict(os.environ)
@@ -68,9 +70,7 @@ def main():
     results = {"load": os.getloadavg()[0], "slow_ms": args.slow,
                "unpinned": summary(runs[False], args.slow), "pinned": summary(runs[True], args.slow)}
     os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
-    with open(args.output + ".tmp", "w") as f:
-        json.dump(results, f, indent=1)
-    os.replace(args.output + ".tmp", args.output)
+    docfile.write_text(args.output, json.dumps(results, indent=1))
     for name in ("unpinned", "pinned"):
         r = results[name]
         print(f"{name}: {r['slow_rounds']} of {r['rounds']} rounds over {args.slow} ms a call, in "

@@ -19,6 +19,7 @@ import time
 import numpy as np
 import torch
 
+import docfile
 import penumbra
 import penumbra.torch as pt
 from results import KERNEL_LINE
@@ -143,9 +144,7 @@ def main():
                "layer_dense": layer_overhead(context, args.repeats, rings=158),
                "batch": [batch_gain(context, args.repeats, shadows=s) for s in ("none", "hard")]}
     os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
-    with open(args.output + ".tmp", "w") as f:
-        json.dump(results, f, indent=1)
-    os.replace(args.output + ".tmp", args.output)
+    docfile.write_text(args.output, json.dumps(results, indent=1))
     print(json.dumps(results, indent=1))
 
 

@@ -4,9 +4,9 @@
 #include <sched.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <numeric>
 #include <string>
 
 namespace penumbra::detail {
@@ -39,8 +39,8 @@ void skip_pocl_work_group_specialization() {
 
 // PoCL's worker threads are free to move between cores. With kernels of a millisecond and the
 // host waiting on the device between them (a batch of small renders), the scheduler can keep
-// both workers of a 2-core machine on one core for seconds at a time, so that every render
-// takes up to 1.7 times as long (bench/pocl_pinning.py; README). PoCL pins worker i to
+// both workers of a 2-core machine on one core for seconds at a time, and renders take about
+// 1.5 times as long (bench/pocl_pinning.py; README). PoCL pins worker i to
 // CPU i when POCL_AFFINITY is 1, and aborts where the process may not run on that CPU (a
 // container's cpuset; docs/faults.md), so it is set only where the process may run on all.
 void pin_pocl_threads() {
@@ -63,9 +63,9 @@ std::vector<int> allowed_cpus() {
 
 bool pocl_threads_may_be_pinned(const std::vector<int>& allowed, long online) {
   if (online <= 0 || long(allowed.size()) != online) return false;
-  for (long i = 0; i < online; ++i)
-    if (std::find(allowed.begin(), allowed.end(), int(i)) == allowed.end()) return false;
-  return true;
+  std::vector<int> every(allowed.size());
+  std::iota(every.begin(), every.end(), 0);
+  return allowed == every;
 }
 
 void prepare_pocl_environment() {

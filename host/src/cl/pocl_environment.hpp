@@ -15,7 +15,8 @@ void prepare_pocl_environment();
 std::vector<int> allowed_cpus();
 
 // Whether PoCL may pin its worker thread i to CPU i (POCL_AFFINITY=1) without aborting: the
-// process may run on every one of the machine's online CPUs, which are numbered 0 .. online − 1.
+// process may run on every one of the machine's online CPUs, numbered 0 .. online − 1 (`allowed`
+// in ascending order, as allowed_cpus() gives it).
 bool pocl_threads_may_be_pinned(const std::vector<int>& allowed_cpus, long online_cpus);
 
 }  // namespace penumbra::detail
