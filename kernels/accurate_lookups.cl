@@ -26,7 +26,7 @@
 //   rec_light   K·nl × real4 (μx, μy, d, s): s is written here
 //   rec_light2  K·nl × real4 (∇_μ d, σ, z_b): σ and z_b are written here
 //   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd),
-//               .x 0 where the filter is flat (filter_flat: pcf_gather would add only zeros)
+//               all 0 where the filter is flat (filter_flat: pcf_gather would add only zeros)
 //   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
@@ -82,14 +82,6 @@ INLINE Window search_window(Receiver x, LightDisc L, WindowLogs logs, __global c
   real eps = window_eps(P, 1), st = L.stride;
   if (!inside_map(x.mu, Wm, Hm)) return no_window();
   return clipped_window(x.mu / st, window_radius(L.sigma_b, logs[1]) / st, eps, Wb, Hb);
-}
-
-// The search's sums (Σh', Σh'c, Σh'S, Σh'cS) over the search map.
-INLINE real4 search_sums(Receiver x, LightDisc L, WindowLogs logs, __global const real* P,
-                         __global const real* Sb, __global const real* Ab, int Wm, int Hm,
-                         int Wb, int Hb) {
-  return window_sums(search_window(x, L, logs, P, Wm, Hm, Wb, Hb), search_receiver(x, L),
-                     search_variance(L), P, Sb, Ab, Wb);
 }
 
 // Penumbra width w (texels) for blocker depth zb and receiver depth d, with ∂w/∂zb, ∂w/∂d and
@@ -148,13 +140,20 @@ FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int 
     rec_light2[at].zw = (real2)(sigma, zb);
     return;
   }
-  if (soft_mode(P)) {
+  if (soft_mode(P)) {  // the search's sums (Σh', Σh'c, Σh'S, Σh'cS); flat: no blocker, z_b = d
     LightDisc L = light_disc(P, light);
-    zb = blocker_depth(search_sums(x, L, logs, P, Sb, Ab, Wm, Hm, Wb, Hb), x.d, &V);
+    Receiver xb = search_receiver(x, L);
+    real sb = search_variance(L);
+    Window wb = search_window(x, L, logs, P, Wm, Hm, Wb, Hb);
+    if (!window_flat(xb, nonzero_part(wb, xb.mu, sb), P, Sb, Wb))
+      zb = blocker_depth(window_sums(wb, xb, sb, P, Sb, Ab, Wb), x.d, &V);
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
   }
-  real4 f = window_sums(filter_window(x.mu, sigma, logs, P, Wm, Hm), x, sigma, P, S, A, Wm);
+  Window fw = filter_window(x.mu, sigma, logs, P, Wm, Hm);
+  real4 f = window_flat(x, nonzero_part(fw, x.mu, sigma), P, S, Wm)
+                ? (real4)(1, 1, 0, 0)  // s = 1 exactly, as the sums give it there
+                : window_sums(fw, x, sigma, P, S, A, Wm);
   rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
   rec_light2[at].zw = (real2)(sigma, zb);
 }
@@ -186,11 +185,12 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
   // Through the filter, σ held: s = Σ w·c / Σ w. Nothing to do where dL/ds = 0 (a fragment
   // unlit from this light, or outside the loss): every gradient is 0.
+  // Nor where the filter is flat (filter_flat): every gradient is 0 there too.
   Moments f;
-  Window w;
   if (G != 0) {
-    w = filter_window(x.mu, sigma, logs, P, Wm, Hm);
-    f = window_moments(w, x, sigma, 0, s, P, S, A, Wm);
+    Window w = filter_window(x.mu, sigma, logs, P, Wm, Hm);
+    if (filter_flat(x, sigma, w, logs, P, S, Wm, Hm)) G = 0;
+    else f = window_moments(w, x, sigma, 0, s, P, S, A, Wm);
   }
   if (G == 0 || !(f.w > 0)) {
     rec_lgrad[at] = 0;
@@ -220,8 +220,7 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
     }
   }
   ggrad = slope_limit_bwd(P, light, x.d, rec_light2[at].xy, ggrad, &gd);
-  const int flat = filter_flat(x, sigma, w, f, logs, P, S, Wm, Hm);
-  rec_lgrad[at] = (real4)(flat ? 0 : k, gmu, gd);  // flat: pcf_gather would add only zeros
+  rec_lgrad[at] = (real4)(k, gmu, gd);
   rec_lgrad2[at] = (real4)(ggrad, gzb_v, gsize);
 }
 

@@ -15,7 +15,8 @@
 //   PcfSearch.*       the blocker search's stride, and the scenes above search with strides > 1
 //   PcfGemm.*         gemm sampling is refused for the accurate model
 //   PcfDeterminism.*  two backward calls give bit-identical gradients
-//   PcfGather.FlatFilters*  pcf_gather's skip of flat filters changes no bit, and happens
+//   PcfFlat.*         the lookups' answer without sums where a window is flat (window_flat:
+//                     forward filter and search, backward) changes no bit, and happens
 //   PcfFacing.*       pcf_sample's skip of fragments facing away from the light changes no bit
 //                     of an image or gradient, and happens
 // A missing OpenCL device fails these tests; it never skips them.
@@ -347,34 +348,44 @@ void for_each_variant(std::initializer_list<Layout> layouts, F&& f) {
             std::string(name_of(layout)) + " " + name_of(sh) + " " + penumbra_tests::name_of(sa));
 }
 
-// pcf_sample_bwd stores a filter scale of 0 where the filter is flat (filter_flat) and
-// pcf_gather skips it: with kernels whose filter_flat finds none, every gradient is the same
-// bit for bit. And the skip happens: kernels that store NaN there instead give NaN gradients.
-constexpr const char* kFlatTest = "  if (!f.flat || EXACT) return f.flat;";
-constexpr const char* kFlatStore = "(real4)(flat ? 0 : k, gmu, gd)";
+// Where a window is flat (window_flat) the lookups answer without its sums: the filter's s = 1,
+// the search's z_b = d, and the backward's gradients 0 (which pcf_gather then skips). Kernels
+// whose window_flat finds none give the same images and gradients bit for bit; kernels that
+// answer NaN at one of the three places give NaN colours, so each happens in these scenes.
+constexpr const char* kFlatTest = "return !mask_any(slope);";
 
-TEST(PcfGather, FlatFiltersSkippedChangeNoBit) {
+TEST(PcfFlat, AnswersWithoutSumsChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string never = patched_kernels("penumbra_pcf_never_flat", "common/accurate_filter.clh",
-                                            kFlatTest, "  return 0;");
-  for_each_variant({Layout::Point, Layout::Directional}, [&](Precision p, const Scene& scene,
-                                                             const std::string& what) {
-    const auto weights = random_loss_weights(scene, 7);
-    expect_identical(grads_with("", scene, p, weights), grads_with(never, scene, p, weights),
-                     what + ": flat filters skipped or not", true);
-  });
+                                            kFlatTest, "return 0;");
+  for_each_variant({Layout::Point, Layout::Directional},
+                   [&](Precision p, const Scene& scene, const std::string& what) {
+                     expect_skip_changes_no_bit(never, scene, p, what + ": flat windows");
+                   });
 }
 
-TEST(PcfGather, FlatFiltersOccur) {
+TEST(PcfFlat, AnswersWithoutSumsHappen) {
   REQUIRE_CONTEXT(ctx);
-  const std::string poisoned = patched_kernels("penumbra_pcf_flat_nan", "accurate_lookups.cl",
-                                               kFlatStore, "(real4)(flat ? NAN : k, gmu, gd)");
-  for (Shadows sh : {Shadows::Hard, Shadows::Soft}) {
-    const Scene scene = pcf_scene(Layout::Point, sh, Sampling::Truncated);
-    const auto weights = random_loss_weights(scene, 7);
-    EXPECT_TRUE(all_finite(grads_with("", scene, Precision::Float, weights)));
-    EXPECT_FALSE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)))
-        << "no fragment's filter was flat where the gather would read it";
+  const struct {
+    Shadows shadows;
+    const char *what, *from, *to;
+  } places[] = {
+      {Shadows::Hard, "filter", "? (real4)(1, 1, 0, 0)", "? (real4)(1, NAN, 0, 0)"},
+      {Shadows::Soft, "search", "    if (!window_flat(xb, ",
+       "    if (window_flat(xb, nonzero_part(wb, xb.mu, sb), P, Sb, Wb)) {\n"
+       "      rec_light[at].w = NAN;\n      return;\n    }\n    if (!window_flat(xb, "},
+      {Shadows::Hard, "backward", "G = 0;\n    else", "{ rec_lgrad[at] = NAN; return; }\n    else"},
+  };
+  for (const auto& place : places) {
+    const std::string poisoned = patched_kernels(std::string("penumbra_pcf_flat_nan_") + place.what,
+                                                 "accurate_lookups.cl", place.from, place.to);
+    const Scene scene = pcf_scene(Layout::Point, place.shadows, Sampling::Truncated);
+    const auto weights = random_loss_weights(scene, 11);
+    const Results clean = results_with("", scene, Precision::Float, weights),
+                  out = results_with(poisoned, scene, Precision::Float, weights);
+    ASSERT_TRUE(finite_image(clean.images[0].color) && all_finite(clean.grads)) << place.what;
+    EXPECT_FALSE(finite_image(out.images[0].color) && all_finite(out.grads))
+        << place.what << ": no flat window was answered without its sums";
   }
 }
 
