@@ -339,6 +339,24 @@ inline void fragment_shading_bwd(int r, int nl, const Fragment* fr, const Face* 
   }
 }
 
+// Whether pixel pix has a gradient (in a light's view, a texel that a lookup window reaches):
+// where it has none, every term of pixel_face_bwd is a product with one of these or with dL/ds,
+// which is 0 too, and it adds nothing.
+inline int pixel_has_gradient(int pix, __global const real4* gimage, __global const real* gdepth) {
+  real4 g = gimage[pix];
+  return g.x != 0 || g.y != 0 || g.z != 0 || g.w != 0 || gdepth[pix] != 0;
+}
+
+// Whether a pixel of rows y0 … y1 of box bb has a gradient: a face whose rows have none (most
+// of a light's view, where the lookups' windows are flat) skips their shapes altogether.
+inline int rows_have_gradient(int4 bb, int y0, int y1, int W, __global const real4* gimage,
+                              __global const real* gdepth) {
+  for (int py = y0; py <= y1; ++py)
+    for (int px = bb.x; px <= bb.z; ++px)
+      if (pixel_has_gradient(py * W + px, gimage, gdepth)) return 1;
+  return 0;
+}
+
 // The backward of one face at one pixel of its box (lane `lane` of `row`), added to s.
 inline void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row, const Face* F,
                            const ReceiverFace* rf, int receiver_plane, __global const real* P,
@@ -350,10 +368,8 @@ inline void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row,
                            __global const real4* rec_lgrad2, FaceSums* s) {
   const int nl = (int)P[P_NLIGHTS];
   int pix = py * W + px;
+  if (!pixel_has_gradient(pix, gimage, gdepth)) return;
   real4 gimg = gimage[pix];
-  // A pixel with no gradient (in a light's view, a texel no lookup window reaches) adds
-  // nothing: every term below is a product with one of these or with dL/ds, which is 0 too.
-  if (gimg.x == 0 && gimg.y == 0 && gimg.z == 0 && gimg.w == 0 && gdepth[pix] == 0) return;
   // Only a kept fragment (its depth within [near, far]) has weight and shading terms; a
   // fragment that was not kept, under a silhouette whose 1 − A underflowed to 0 (most of
   // a dense mesh's pixels), has no gradient: every term below would be a product with 0.
@@ -411,9 +427,10 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   const Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
   ReceiverFace rf[P_MAX_LIGHTS];  // the face's receiver plane in each light's view
   const int receiver_plane = P[P_SHADOWS] > 0 && P[P_RECEIVER_PLANE] > 0;
-  if (bb.x <= bb.z)
+  const int active = rows_have_gradient(bb, y0, y1, W, gimage, gdepth);
+  if (active)
     for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
-  for (int py = y0; py <= y1; ++py) {
+  for (int py = y0; active && py <= y1; ++py) {
     RowLanes row;
     for (int px = bb.x; px <= bb.z; ++px) {
       int lane = (px - bb.x) % PPW;
