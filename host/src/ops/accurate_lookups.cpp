@@ -121,16 +121,15 @@ struct PcfBucketRadiusArgs {
 
 // Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
 // ε_λ) or search window (σ_b cut at PCF_SEARCH_EPS) can hold a texel, plus one for the
-// bucket's rounding.
-int gather_reach(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
-                 const Fragments& f, int light) {
+// bucket's rounding. Soft shadows' filters are at most σ_b wide (filter_sigma), as the device
+// holds it: a bound known without reading the fragments back.
+int gather_reach(Precision precision, const RenderParams& p, double search_sigma) {
   double sigma = shadow_sigma_s(p), r2 = 0;  // hard shadows: every filter has σ_s
-  if (p.shadows == Shadows::Soft) {          // the widest filter the forward chose (rec_light2.z)
-    read_reals(k.ctx(), k.precision(), f.rec_light2, f.nrec * v.nlights * 4, [&](const auto* rec) {
-      for (size_t r = 0; r < f.nrec; ++r)
-        sigma = std::max(sigma, double(rec[(r * v.nlights + light) * 4 + 2]));
-    });
-    r2 = 2 * search_sigma * std::log(1 / kSearchEps);
+  if (p.shadows == Shadows::Soft) {
+    const double sigma_b =
+        precision == Precision::Float ? double(float(search_sigma)) : search_sigma;
+    sigma = std::max(sigma, sigma_b);
+    r2 = 2 * sigma_b * std::log(1 / kSearchEps);
   }
   r2 = std::max(r2, 2 * sigma * std::log(1 / p.lambda_eps));
   return int(std::ceil(std::sqrt(r2))) + 1;
@@ -255,16 +254,17 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
                        variant);
   launch_1d(ctx, sb, n);
   const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at, logs);
-  const int reach = gather_reach(k, p, search_sigma, v, f, light);
+  const int reach = gather_reach(k.precision(), p, search_sigma);
   auto& ga = bind_args(
       k,
       PcfGatherArgs{at, logs, reach, lm.S, lm.A, buckets.records.grec, buckets.records.gslope,
                     buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
       variant);
   launch_gather(k, ga, Wm, Hm);
-  if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, in order
-    read_reals(ctx, k.precision(), fgr.rec_lgrad2, size_t(n) * nl * 4, [&](const auto* g2) {
-      for (int r = 0; r < n; ++r) *gsize += g2[(size_t(r) * nl + light) * 4 + 3];
+  if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, on the device in parts
+    const RowParts sums = sum_rows(k, fgr.rec_lgrad2, size_t(n), size_t(nl) * 4);
+    read_reals(ctx, k.precision(), sums.partial, sums.parts * nl * 4, [&](const auto* g2) {
+      for (size_t part = 0; part < sums.parts; ++part) *gsize += g2[(part * nl + light) * 4 + 3];
     });
   }
   return g;
