@@ -31,16 +31,22 @@
 //   S, gS       W_s·H_s × real: the light's shadow map and its gradient
 //   A, gA       W_s·H_s × real: the map's caster coverage and its gradient
 //   Sb, Ab      Wb·Hb × real: the search map
-//   bucket_radius  W_s·H_s × real: per texel bucket, how far pcf_gather looks for its fragments
+// The backward's gather runs in passes (pcf_gather): over the map, each fragment with its
+// filter's window; for soft shadows over the search map, with its search's window there. Per
+// pass, of its map's texels:
+//   bucket_radius  per texel bucket, how far pcf_gather looks for its fragments
 //   grec, gslope   per gather entry (window.clh: a texel bucket's place in bucket_recs when
 //               truncated, the fragment when exact) × real8 (μx, μy, σ, dL/ds / Σg', dL/dz_b / V,
-//               d, z_b, 0) and × real2 (∇_μ d, slope limited): what pcf_gather and
-//               pcf_bucket_radius read of a fragment, in the order they visit fragments
+//               d, z_b, 0) and × real2 (∇_μ d, slope limited), of the filter (dL/dz_b / V 0) or
+//               of the search as the search map sees it (μ/st, σ_b/st², st·∇_μ d; dL/ds 0): what
+//               pcf_gather and pcf_bucket_radius read of a fragment, in the order they visit
+//               fragments
 //   logs        2 × real: log(1/ε) of the filter's and the search's cuts (pcf_window_logs)
-// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd), one per ROW texels of
-// GATHER_ROWS rows (pcf_gather), one per texel of the search map (pcf_search_map) or of the
-// map (pcf_bucket_radius), one per fragment (pcf_gather_records) or per bucket entry
-// (pcf_gather_entry_of), a single one (pcf_window_logs).
+// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd, pcf_search_boxes), one per
+// ROW texels of GATHER_ROWS rows (pcf_gather), one per texel of the search map
+// (pcf_search_map) or of the pass's map (pcf_bucket_radius), one per
+// fragment (pcf_gather_records) or per bucket entry (pcf_gather_entry_of), a single one
+// (pcf_window_logs).
 #include "common/window.clh"
 #include "common/accurate_filter.clh"
 
@@ -229,9 +235,12 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
 // the fragment order put them, far apart, missed the cache at every visit. Written in fragment
 // order (reading the records in turn) to entry entry_of[r] (pcf_gather_entry_of; r itself
 // when exact, or −1: in no bucket). An entry outside the map (exact: the chunks hold every
-// fragment) gets no gradient, so that the gather skips it.
+// fragment) gets no gradient, so that the gather skips it. Each pass copies one of a
+// fragment's two windows (the host's gather_pass): the filter's, in the map, or the search's,
+// as the search map sees the fragment (search_receiver, search_variance).
 BACKWARD_KERNEL void pcf_gather_records(__global const real* P, int nrec, int light, int nl,
-                                        int Wm, int Hm, __global const int* entry_of,
+                                        int Wm, int Hm, int search,
+                                        __global const int* entry_of,
                                         __global const real4* rec_light,
                                         __global const real4* rec_light2,
                                         __global const real4* rec_lgrad,
@@ -244,9 +253,36 @@ BACKWARD_KERNEL void pcf_gather_records(__global const real* P, int nrec, int li
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real4 x2 = rec_light2[at];
   int inside = inside_map(x.mu, Wm, Hm);
-  grec[e] = (real8)(x.mu, x2.z, inside ? rec_lgrad[at].x : 0, inside ? rec_lgrad2[at].z : 0, x.d,
-                    x2.w, 0);
+  real sigma = x2.z, a = inside && !search ? rec_lgrad[at].x : 0,
+       b = inside && search ? rec_lgrad2[at].z : 0;
+  if (search) {
+    LightDisc L = light_disc(P, light);
+    x = search_receiver(x, L);
+    sigma = search_variance(L);
+  }
+  grec[e] = (real8)(x.mu, sigma, a, b, x.d, x2.w, 0);
   gslope[e] = x.grad;
+}
+
+// The search pass's buckets (bin.cl with one-texel tiles on the search map): the texel of the
+// search map nearest each fragment's μ/st, for a fragment in the map with dL/dz_b ≠ 0; empty
+// for the others, which add nothing there (shadow_boxes, paper_lookups.cl, for the filter's).
+BACKWARD_KERNEL void pcf_search_boxes(__global const real* P, int nrec, int light, int nl,
+                                      int Wm, int Hm, int Wb, int Hb,
+                                      __global const real4* rec_light,
+                                      __global const real4* rec_lgrad2, __global int4* boxes) {
+  int r = get_global_id(0);
+  if (r >= nrec) return;
+  const int at = r * nl + light;
+  const real2 mu = rec_light[at].xy;
+  int4 box = (int4)(1, 1, 0, 0);
+  if (inside_map(mu, Wm, Hm) && rec_lgrad2[at].z != 0) {
+    const real2 mb = mu / light_disc(P, light).stride;
+    const int bx = clamp((int)floor(mb.x + RL(0.5)), 0, Wb - 1);
+    const int by = clamp((int)floor(mb.y + RL(0.5)), 0, Hb - 1);
+    box = (int4)(bx, by, bx, by);
+  }
+  boxes[r] = box;
 }
 
 // The entry of each bucketed fragment: its place in bucket_recs (entry_of: nrec × int, −1
@@ -257,52 +293,64 @@ BACKWARD_KERNEL void pcf_gather_entry_of(int entries, __global const int* bucket
   if (e < entries) entry_of[bucket_recs[e]] = e;
 }
 
-// pcf_gather's reach of each texel bucket: the radius (texels) of the widest window a fragment
-// of the bucket adds through (its filter's where dL/ds ≠ 0; soft shadows: the search's where
-// dL/dz_b ≠ 0), squared radii widened by GATHER_MARGIN as pcf_gather widens them, plus one
-// texel (a fragment lies within half a texel of its bucket's); −1 where none adds anything.
-// The gather skips a bucket beyond it before reading any of its fragments.
-BACKWARD_KERNEL void pcf_bucket_radius(__global const real* P, int nrec, int light, int nl,
-                                       int Wm, int Hm, WindowLogs logs, __global const real8* grec,
+// An entry's window (grec: variance .s2; a filter's where .s3 = dL/ds / Σg' ≠ 0, a search's
+// where .s4 = dL/dz_b / V ≠ 0): its squared radius widened by GATHER_MARGIN, beyond which its
+// weights are exactly 0; −1 for an entry that adds nothing.
+inline real entry_r2(real8 g, WindowLogs logs) {
+  if (g.s3 == 0 && g.s4 == 0) return -1;
+  return window_r2(g.s2, logs[g.s3 != 0 ? 0 : 1]) * GATHER_MARGIN;
+}
+
+// pcf_gather's reach of each texel bucket: the radius (texels) of the widest window of its
+// entries (entry_r2), plus one texel (a fragment lies within half a texel of its bucket's);
+// −1 where none adds anything. The gather skips a bucket beyond it before reading any of its
+// fragments.
+BACKWARD_KERNEL void pcf_bucket_radius(int Wm, int Hm, WindowLogs logs, __global const real8* grec,
                                        __global const int* bucket_offsets,
                                        __global const int* bucket_counts,
                                        __global real* bucket_radius) {
   int t = get_global_id(0);
   if (t >= Wm * Hm) return;
-  const real leps = logs[0], sigma_b = light_disc(P, light).sigma_b;
-  const real r2s = soft_mode(P) ? window_r2(sigma_b, logs[1]) * GATHER_MARGIN : -1;
   real r2 = -1;
-  for (int e = bucket_offsets[t]; e < bucket_offsets[t] + bucket_counts[t]; ++e) {
-    real8 g = grec[e];
-    if (g.s3 != 0) r2 = max(r2, window_r2(g.s2, leps) * GATHER_MARGIN);
-    if (g.s4 != 0) r2 = max(r2, r2s);
-  }
+  for (int e = bucket_offsets[t]; e < bucket_offsets[t] + bucket_counts[t]; ++e)
+    r2 = max(r2, entry_r2(grec[e], logs));
   bucket_radius[t] = r2 < 0 ? -1 : sqrt(r2) + 1;
 }
 
-// One fragment's terms in one row of a gather block (pcf_gather's sums): the filter's with
-// weight a (0: none) and lane weights gx·gy, the search's with weight b (0: none) and hx·hy,
-// at receiver depths d against the row's S and A.
-inline void pcf_gather_row(realR S, realR A, realR d, real zb, __global const real* P, real a,
-                           realR gx, real gy, real eps, real b, realR hx, real hy, real eps_b,
-                           realR* acc, realR* accA) {
+// One entry's terms in one row of a gather block (pcf_gather's sums), of weight k times
+// g' = max(0, gx·gy − ε): the filter's, or the search's on the search map (`search`), at
+// receiver depths d against the row's S and A.
+inline void pcf_gather_row(realR S, realR A, realR d, real zb, __global const real* P, int search,
+                           real k, realR gx, real gy, real eps, realR* acc, realR* accA) {
   realR dc, step;
   realR lit = lit_term(S, A, d, P, &dc, &step);
-  if (a != 0) {
-    realR g = fmax(gx * gy - eps, (realR)0);
-    *acc -= a * g * dc;
-    *accA -= a * g * step;
-  }
-  if (b != 0) {
-    realR h = fmax(hx * hy - eps_b, (realR)0);
-    *acc += b * h * ((1 - lit) + (S - zb) * dc);
-    *accA += b * h * step * (S - zb);
+  realR g = k * fmax(gx * gy - eps, (realR)0);
+  if (search) {
+    *acc += g * ((1 - lit) + (S - zb) * dc);
+    *accA += g * step * (S - zb);
+  } else {
+    *acc -= g * dc;
+    *accA -= g * step;
   }
 }
 
-// dL/dS and dL/dA per texel, gathered in a fixed order (no atomics) from the fragments whose
-// filter or search window holds it (from the nearby texel buckets when truncated; every
-// fragment when exact), with o = 1 − c and `step` the compare's smooth step:
+// Adds sums of the search map's texels i0 .. i0 + n − 1 of rows j0 .. j0 + rows − 1 (store_rows)
+// to the map's texels (st·i, st·j) of `out`, Wg texels wide (pcf_search_map's).
+INLINE void add_search_rows(const realR* acc, int rows, int n, int i0, int j0, int st, int Wg,
+                            __global real* out) {
+  FOR_ROWS(t, rows) {
+    real v[ROW];
+    vstoreR(acc[t], 0, v);
+    for (int l = 0; l < n; ++l) out[(j0 + t) * st * Wg + (i0 + l) * st] += v[l];
+  }
+}
+
+// dL/dS and dL/dA per texel, gathered in a fixed order (no atomics) from the entries whose
+// window holds it (from the nearby texel buckets when truncated; every fragment when exact),
+// with o = 1 − c and `step` the compare's smooth step. A pass over the map gathers the filters'
+// terms into gS, gA; for soft shadows a second pass (`search`) over the search map gathers the
+// searches' (their texels are the search map's alone) and adds them to those of gS, gA
+// (Wg texels wide) at the map's texels (st·I, st·J):
 //   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
 GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
@@ -312,81 +360,69 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
                                 __global const int* bucket_offsets,
                                 __global const int* bucket_counts, __global const int* bucket_recs,
                                 __global const real* bucket_radius, __global const int4* chunks,
-                                __global real* gS, __global real* gA) {
+                                __global real* gS, __global real* gA, int search, int Wg) {
   int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
   GATHER_STAGE_MEMORY;
   RETURN_PAST_MAP(i0, j0);
-  const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm), soft = soft_mode(P);
-  const LightDisc L = light_disc(P, light);
-  const real sigma_b = L.sigma_b;
-  // The search sums over texels (st·I, st·J) only (the search map's).
-  const realR on_grid = select((realR)0, (realR)1, fmod((real)i0 + LANER, (real)L.stride) == 0);
+  const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm);
   realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS];
   FOR_ROWS(t, rows) {
     Sv[t] = loadR(S, (j0 + t) * Wm + i0, n);
     Av[t] = loadR(A, (j0 + t) * Wm + i0, n);
     acc[t] = accA[t] = 0;
   }
-  const real eps = window_eps(P, 0), eps_b = window_eps(P, 1), leps = logs[0], leps_b = logs[1];
-  // A fragment reaches texels within r2 of it (the larger of its filter's and search's windows).
-  // Of those, a part whose own window, its squared radius widened by GATHER_MARGIN, misses them
-  // adds exactly 0 (each weight max(0, g − ε) is 0), as does one without a gradient (dL/ds or
-  // dL/dz_b 0): the gather skips both.
-  const real r2s = soft ? window_r2(sigma_b, leps_b) : 0;
+  const real eps = window_eps(P, 0), eps_b = window_eps(P, 1);
+  // An entry reaches the texels within its window's r2; one without a gradient (entry_r2 −1)
+  // adds exactly 0, and the gather skips it.
   FOR_EACH_NEAR_GATHER_ENTRY(e, reach, bucket_radius) {
     const real8 g = grec[e];
+    if (entry_r2(g, logs) < 0) continue;
+    const int search_entry = g.s3 == 0;
     const real2 mu = g.s01;
-    const real sigma = g.s2, a = g.s3, b = g.s4;
-    const real r2f = window_r2(sigma, leps);
-    const real r2 = sampling_r2(max(r2f, r2s), soft ? max(sigma, sigma_b) : sigma);
+    const real sigma = g.s2;
+    const real r2 = sampling_r2(window_r2(sigma, logs[search_entry]), sigma);
     if (!window_reaches(mu, i0, j0, rows, r2)) continue;
-    const real r2f_m = sampling_r2(r2f * GATHER_MARGIN, sigma);
-    const real r2s_m = sampling_r2(r2s * GATHER_MARGIN, sigma_b);
-    const int filter = a != 0 && window_reaches(mu, i0, j0, rows, r2f_m);
-    const int search = soft && b != 0 && window_reaches(mu, i0, j0, rows, r2s_m);
-    if (!filter && !search) continue;
     const Receiver x = {mu, g.s5, gslope[e]};
-    const real zb = g.s6;
-    realR offx = (real)i0 + LANER - x.mu.x, gx = 0, hx = 0;
-    if (filter) gx = axis_weight(offx, sigma);
-    if (search) hx = on_grid * axis_weight(offx, sigma_b);
-    real gy[GATHER_LANES], hy[GATHER_LANES];  // the rows' weights (realG)
-    const realG offy_rows = (real)j0 + LANEG - x.mu.y;
-    if (filter) vstoreG(axis_weight(offy_rows, sigma), 0, gy);
-    if (search) vstoreG(axis_weight(offy_rows, sigma_b), 0, hy);
+    const realR offx = (real)i0 + LANER - x.mu.x, gx = axis_weight(offx, sigma);
+    real gy[GATHER_LANES];  // the rows' weights (realG)
+    vstoreG(axis_weight((real)j0 + LANEG - x.mu.y, sigma), 0, gy);
     FOR_ROWS(t, rows) {
       real offy = j0 + t - x.mu.y;
       if (!(offy * offy < r2)) continue;
-      const int filter_row = filter && offy * offy < r2f_m;
-      const int search_row = search && (j0 + t) % L.stride == 0 && offy * offy < r2s_m;
-      if (!filter_row && !search_row) continue;
-      pcf_gather_row(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, zb, P,
-                     filter_row ? a : 0, gx, filter_row ? gy[t] : 0, eps,
-                     search_row ? b : 0, hx, search_row ? hy[t] : 0, eps_b, &acc[t], &accA[t]);
+      pcf_gather_row(Sv[t], Av[t], x.d + x.grad.x * offx + x.grad.y * offy, g.s6, P,
+                     search_entry, search_entry ? g.s4 : g.s3, gx, gy[t],
+                     search_entry ? eps_b : eps, &acc[t], &accA[t]);
     }
   }
-  store_rows(acc, rows, n, i0, j0, Wm, gS);
-  store_rows(accA, rows, n, i0, j0, Wm, gA);
+  if (search) {
+    const int st = light_disc(P, light).stride;
+    add_search_rows(acc, rows, n, i0, j0, st, Wg, gS);
+    add_search_rows(accA, rows, n, i0, j0, st, Wg, gA);
+  } else {
+    store_rows(acc, rows, n, i0, j0, Wm, gS);
+    store_rows(accA, rows, n, i0, j0, Wm, gA);
+  }
 }
 
 // pcf_gather's chunks (window.clh): the texels within the exact weights' zero_radius of each
-// fragment inside the map, its filter's where dL/ds ≠ 0 and (soft shadows) its search's where
-// dL/dz_b ≠ 0 (pcf_gather skips a fragment with neither).
+// fragment inside the map, its filter's where dL/ds ≠ 0, or in the search pass its search's
+// in the search map where dL/dz_b ≠ 0 (pcf_gather skips a fragment without).
 BACKWARD_KERNEL void pcf_gather_chunks(__global const real* P, int nrec, int light, int nl, int Wm,
-                                       int Hm, __global const real4* rec_light,
+                                       int Hm, int search, __global const real4* rec_light,
                                        __global const real4* rec_light2,
                                        __global const real4* rec_lgrad,
                                        __global const real4* rec_lgrad2, __global int4* chunks) {
   int c = get_global_id(0);
   if (c * GATHER_CHUNK >= nrec) return;
-  const real sigma_b = light_disc(P, light).sigma_b;
+  const LightDisc L = light_disc(P, light);
   int4 box = empty_box();
   for (int r = c * GATHER_CHUNK; r < min(nrec, (c + 1) * GATHER_CHUNK); ++r) {
     int at = r * nl + light;
-    if (!inside_map(rec_light[at].xy, Wm, Hm)) continue;
-    if (rec_lgrad[at].x != 0) box = grow_box(box, rec_light[at].xy, zero_radius(rec_light2[at].z));
-    if (soft_mode(P) && rec_lgrad2[at].z != 0)
-      box = grow_box(box, rec_light[at].xy, zero_radius(sigma_b));
+    const real2 mu = rec_light[at].xy;
+    if (!inside_map(mu, Wm, Hm)) continue;
+    if (!search && rec_lgrad[at].x != 0) box = grow_box(box, mu, zero_radius(rec_light2[at].z));
+    if (search && rec_lgrad2[at].z != 0)
+      box = grow_box(box, mu / L.stride, zero_radius(search_variance(L)));
   }
   chunks[c] = box;
 }

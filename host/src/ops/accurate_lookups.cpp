@@ -69,8 +69,10 @@ struct PcfGatherArgs {
   const cl::Buffer &S, &A, &grec, &gslope;
   BinLists buckets;
   const cl::Buffer &bucket_radius, &chunks, &gS, &gA;
+  cl_int search, Wg;
   auto fields() const {
-    return std::tie(at, logs, reach, S, A, grec, gslope, buckets, bucket_radius, chunks, gS, gA);
+    return std::tie(at, logs, reach, S, A, grec, gslope, buckets, bucket_radius, chunks, gS, gA,
+                    search, Wg);
   }
 };
 
@@ -85,11 +87,22 @@ struct PcfGatherRecordsArgs {
   static constexpr const char* kernel = "pcf_gather_records";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
+  cl_int search;
   const cl::Buffer &entry_of, &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2;
   const GatherRecords& out;
   auto fields() const {
-    return std::tie(at, entry_of, rec_light, rec_light2, rec_lgrad, rec_lgrad2, out);
+    return std::tie(at, search, entry_of, rec_light, rec_light2, rec_lgrad, rec_lgrad2, out);
   }
+};
+
+struct PcfSearchBoxesArgs {
+  static constexpr const char* file = "accurate_lookups.cl";
+  static constexpr const char* kernel = "pcf_search_boxes";
+  static constexpr KernelPart part = KernelPart::Backward;
+  MapLookup at;
+  cl_int Wb, Hb;
+  const cl::Buffer &rec_light, &rec_lgrad2, &boxes;
+  auto fields() const { return std::tie(at, Wb, Hb, rec_light, rec_lgrad2, boxes); }
 };
 
 struct PcfGatherEntryOfArgs {
@@ -106,32 +119,44 @@ struct PcfGatherChunksArgs {
   static constexpr const char* kernel = "pcf_gather_chunks";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
+  cl_int search;
   const cl::Buffer &rec_light, &rec_light2, &rec_lgrad, &rec_lgrad2, &chunks;
-  auto fields() const { return std::tie(at, rec_light, rec_light2, rec_lgrad, rec_lgrad2, chunks); }
+  auto fields() const {
+    return std::tie(at, search, rec_light, rec_light2, rec_lgrad, rec_lgrad2, chunks);
+  }
 };
 
 struct PcfBucketRadiusArgs {
   static constexpr const char* file = "accurate_lookups.cl";
   static constexpr const char* kernel = "pcf_bucket_radius";
   static constexpr KernelPart part = KernelPart::Backward;
-  MapLookup at;
+  cl_int W, H;
   const cl::Buffer &logs, &grec, &offsets, &counts, &radius;
-  auto fields() const { return std::tie(at, logs, grec, offsets, counts, radius); }
+  auto fields() const { return std::tie(W, H, logs, grec, offsets, counts, radius); }
 };
 
-// Texels within which the gather finds every fragment whose filter window (variance σ_f cut at
-// ε_λ) or search window (σ_b cut at PCF_SEARCH_EPS) can hold a texel, plus one for the
-// bucket's rounding. Soft shadows' filters are at most σ_b wide (filter_sigma), as the device
-// holds it: a bound known without reading the fragments back.
-int gather_reach(Precision precision, const RenderParams& p, double search_sigma) {
-  double sigma = shadow_sigma_s(p), r2 = 0;  // hard shadows: every filter has σ_s
-  if (p.shadows == Shadows::Soft) {
-    const double sigma_b =
-        precision == Precision::Float ? double(float(search_sigma)) : search_sigma;
-    sigma = std::max(sigma, sigma_b);
-    r2 = 2 * sigma_b * std::log(1 / kSearchEps);
+// A pass of the gather: the filters' terms over the map (W × H texels), or (soft shadows) the
+// searches' over the search map.
+struct GatherPass {
+  bool search;
+  cl_int W, H;
+};
+
+// Texels within which a pass of the gather finds every fragment whose window can hold a texel,
+// plus one for the bucket's rounding: the filters' (variance σ_f cut at ε_λ), at most σ_b wide
+// for soft shadows (filter_sigma), as the device holds it, a bound known without reading the
+// fragments back; or the searches' in the search map (σ_b / st² cut at PCF_SEARCH_EPS).
+int gather_reach(Precision precision, const RenderParams& p, double search_sigma, bool search) {
+  const double sigma_b = precision == Precision::Float ? double(float(search_sigma)) : search_sigma;
+  double r2;
+  if (search) {
+    const int st = blocker_search_stride(search_sigma);
+    r2 = 2 * sigma_b / (st * st) * std::log(1 / kSearchEps);
+  } else {
+    double sigma = shadow_sigma_s(p);  // hard shadows: every filter has σ_s
+    if (p.shadows == Shadows::Soft) sigma = std::max(sigma, sigma_b);
+    r2 = 2 * sigma * std::log(1 / p.lambda_eps);
   }
-  r2 = std::max(r2, 2 * sigma * std::log(1 / p.lambda_eps));
   return int(std::ceil(std::sqrt(r2))) + 1;
 }
 
@@ -147,7 +172,8 @@ struct GatherBuckets {
 // The copies of the fragments for pcf_gather (pcf_gather_records), one per entry: per bucket
 // entry (`bins`, truncated), per fragment (exact).
 GatherRecords gather_records(Kernels& k, Sampling sampling, const Fragments& f,
-                             const FragmentGrads& fgr, const MapLookup& at, const Bins& bins) {
+                             const FragmentGrads& fgr, const MapLookup& at, bool search,
+                             const Bins& bins) {
   Context& ctx = k.ctx();
   const std::string variant = sampling_define(sampling);
   const bool bucketed = sampling_method(sampling).windowed;
@@ -164,39 +190,71 @@ GatherRecords gather_records(Kernels& k, Sampling sampling, const Fragments& f,
   if (entries > 0)
     launch_1d(ctx,
               bind_args(k,
-                        PcfGatherRecordsArgs{at, entry_of, f.rec_light, f.rec_light2, fgr.rec_lgrad,
-                                             fgr.rec_lgrad2, g},
+                        PcfGatherRecordsArgs{at, cl_int(search), entry_of, f.rec_light,
+                                             f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2, g},
                         variant),
               nrec);
   return g;
 }
 
+// The fragments with a search gradient bucketed by the search map's texel nearest their μ/st.
+Bins search_buckets(Kernels& k, Sampling sampling, const Fragments& f, const FragmentGrads& fgr,
+                    const MapLookup& at, const GatherPass& pass) {
+  const int n = at.nrec;
+  cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
+  launch_1d(k.ctx(),
+            bind_args(k, PcfSearchBoxesArgs{at, pass.W, pass.H, f.rec_light, fgr.rec_lgrad2, boxes},
+                      sampling_define(sampling)),
+            n);
+  return bin_boxes(k, boxes, n, pass.W, pass.H, 1);
+}
+
 GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
-                             const FragmentGrads& fgr, const MapLookup& at,
-                             const cl::Buffer& logs) {
+                             const FragmentGrads& fgr, const MapLookup& at, const cl::Buffer& logs,
+                             const GatherPass& pass) {
   Context& ctx = k.ctx();
   GatherBuckets b;
   if (!sampling_method(sampling).windowed) {
     b.bins.offsets = b.bins.counts = b.bins.items = alloc_ints(ctx, 1);
     b.radius = alloc_reals(ctx, k.precision(), 1);
     b.chunks = gather_chunks(k, at.nrec, [&](const cl::Buffer& out) -> cl::Kernel& {
-      return bind_args(
-          k, PcfGatherChunksArgs{at, f.rec_light, f.rec_light2, fgr.rec_lgrad, fgr.rec_lgrad2, out},
-          sampling_define(sampling));
+      return bind_args(k,
+                       PcfGatherChunksArgs{at, cl_int(pass.search), f.rec_light, f.rec_light2,
+                                           fgr.rec_lgrad, fgr.rec_lgrad2, out},
+                       sampling_define(sampling));
     });
-    b.records = gather_records(k, sampling, f, fgr, at, b.bins);
+    b.records = gather_records(k, sampling, f, fgr, at, pass.search, b.bins);
     return b;
   }
   b.chunks = alloc_ints(ctx, 4);
-  const size_t texels = size_t(at.Wm) * at.Hm;
-  b.bins = texel_buckets(k, v, f, fgr, at.light, at.Wm, at.Hm);
-  b.records = gather_records(k, sampling, f, fgr, at, b.bins);
+  const size_t texels = size_t(pass.W) * pass.H;
+  b.bins = pass.search ? search_buckets(k, sampling, f, fgr, at, pass)
+                       : texel_buckets(k, v, f, fgr, at.light, at.Wm, at.Hm);
+  b.records = gather_records(k, sampling, f, fgr, at, pass.search, b.bins);
   b.radius = alloc_reals(ctx, k.precision(), texels);
-  auto& radius = bind_args(
-      k, PcfBucketRadiusArgs{at, logs, b.records.grec, b.bins.offsets, b.bins.counts, b.radius},
-      sampling_define(sampling));
+  auto& radius = bind_args(k,
+                           PcfBucketRadiusArgs{pass.W, pass.H, logs, b.records.grec, b.bins.offsets,
+                                               b.bins.counts, b.radius},
+                           sampling_define(sampling));
   launch_1d(ctx, radius, texels);
   return b;
+}
+
+// One pass of the gather: dL/dS and dL/dA of the W × H texels S, A into gS, gA (Wm wide),
+// written by the map's pass, added to the map's texels (st·I, st·J) by the search map's.
+void gather_pass(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
+                 const Fragments& f, const FragmentGrads& fgr, const MapLookup& at,
+                 const cl::Buffer& logs, const GatherPass& pass, const cl::Buffer& S,
+                 const cl::Buffer& A, const cl::Buffer& gS, const cl::Buffer& gA) {
+  const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at, logs, pass);
+  const int reach = gather_reach(k.precision(), p, search_sigma, pass.search);
+  const MapLookup on{at.P, at.nrec, at.light, at.nl, pass.W, pass.H};
+  auto& ga = bind_args(k,
+                       PcfGatherArgs{on, logs, reach, S, A, buckets.records.grec,
+                                     buckets.records.gslope, buckets.bins, buckets.radius,
+                                     buckets.chunks, gS, gA, cl_int(pass.search), at.Wm},
+                       sampling_define(p.sampling));
+  launch_gather(k, ga, pass.W, pass.H);
 }
 
 SearchMap search_map(Kernels& k, const RenderParams& p, double search_sigma, const LightMaps& lm) {
@@ -253,15 +311,11 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
                                         fgr.rec_lgrad, fgr.rec_lgrad2},
                        variant);
   launch_1d(ctx, sb, n);
-  const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at, logs);
-  const int reach = gather_reach(k.precision(), p, search_sigma);
-  auto& ga = bind_args(
-      k,
-      PcfGatherArgs{at, logs, reach, lm.S, lm.A, buckets.records.grec, buckets.records.gslope,
-                    buckets.bins, buckets.radius, buckets.chunks, g.S, g.A},
-      variant);
-  launch_gather(k, ga, Wm, Hm);
-  if (p.shadows == Shadows::Soft) {  // dL/dD_L: Σ over the fragments, on the device in parts
+  gather_pass(k, p, search_sigma, v, f, fgr, at, logs, {false, Wm, Hm}, lm.S, lm.A, g.S, g.A);
+  if (p.shadows == Shadows::Soft) {
+    gather_pass(k, p, search_sigma, v, f, fgr, at, logs, {true, search.W, search.H}, search.S,
+                search.A, g.S, g.A);
+    // dL/dD_L: Σ over the fragments, on the device in parts
     const RowParts sums = sum_rows(k, fgr.rec_lgrad2, size_t(n), size_t(nl) * 4);
     read_reals(ctx, k.precision(), sums.partial, sums.parts * nl * 4, [&](const auto* g2) {
       for (size_t part = 0; part < sums.parts; ++part) *gsize += g2[(part * nl + light) * 4 + 3];
