@@ -266,8 +266,8 @@ TEST(PcfFrustum, TightAroundWhatCastsShadows) {
 }
 
 // The search's Gaussian spans two strides per standard deviation. The soft cases above compare
-// with the reference and finite differences at strides above 1 (pcf_search_map, the strided
-// gather), and at 1.
+// with the reference and finite differences at strides above 1 (pcf_search_map, the gather's
+// pass over the search map), and at 1.
 TEST(PcfSearch, StrideSpansTheGaussian) {
   EXPECT_EQ(blocker_search_stride(0.5), 1);
   EXPECT_EQ(blocker_search_stride(15.9), 1);
