@@ -24,7 +24,8 @@
 // Buffers (K fragments, nl lights, this light l):
 //   rec_shade   K·(1+nl) × real4 (raster.cl): the w of entry 1 + l, whether the fragment faces l
 //   rec_light   K·nl × real4 (μx, μy, d, s): s is written here
-//   rec_light2  K·nl × real4 (∇_μ d, σ, z_b): σ and z_b are written here
+//   rec_light2  K·nl × real4 (∇_μ d, σ, z_b): σ and z_b are written here, σ negated where the
+//               filter is flat (filter_flat; stored_sigma, stored_flat), which the backward skips
 //   rec_lgrad   K·nl × real4: in (dL/ds, ·, ·, ·); out (dL/ds / Σg', dL/dμx, dL/dμy, dL/dd),
 //               all 0 where the filter is flat (filter_flat: pcf_gather would add only zeros)
 //   rec_lgrad2  K·nl × real4: out (dL/d∇_μ d, dL/dz_b / V, dL/dD_L)  (V the search's denominator)
@@ -64,6 +65,11 @@ inline LightDisc light_disc(__global const real* P, int light) {
                  (int)P[at + L_SEARCH_STRIDE]};
   return L;
 }
+
+// rec_light2's σ, and whether pcf_sample found the filter flat (filter_flat), stored as −σ: the
+// backward then knows without testing it again.
+inline real stored_sigma(real4 x2) { return fabs(x2.z); }
+inline int stored_flat(real4 x2) { return x2.z < 0; }
 
 // The search map's texel (I, J): the map's (st·I, st·J).
 FORWARD_KERNEL void pcf_search_map(int Wm, __global const real* S, __global const real* A, int st,
@@ -156,12 +162,13 @@ FORWARD_KERNEL void pcf_sample(__global const real* P, int nrec, int light, int 
     real w = penumbra_width(L, zb, x.d, &dzb, &dd, &dsize);
     sigma = filter_sigma(w, sigma, L.sigma_b, &dw);
   }
+  // Flat over every texel the backward could weigh (filter_flat, a superset of the window):
+  // s = 1 exactly, as the sums give it there, and the backward gives no gradient.
   Window fw = filter_window(x.mu, sigma, logs, P, Wm, Hm);
-  real4 f = window_flat(x, nonzero_part(fw, x.mu, sigma), P, S, Wm)
-                ? (real4)(1, 1, 0, 0)  // s = 1 exactly, as the sums give it there
-                : window_sums(fw, x, sigma, P, S, A, Wm);
+  const int flat = filter_flat(x, sigma, fw, logs, P, S, Wm, Hm);
+  real4 f = flat ? (real4)(1, 1, 0, 0) : window_sums(fw, x, sigma, P, S, A, Wm);
   rec_light[at].w = f.x > 0 ? f.y / f.x : 1;
-  rec_light2[at].zw = (real2)(sigma, zb);
+  rec_light2[at].zw = (real2)(flat ? -sigma : sigma, zb);
 }
 
 // The search's moments over the search map, in the map's texels: .mu (Σ over offsets / σ_b)
@@ -188,15 +195,15 @@ BACKWARD_KERNEL void pcf_sample_bwd(__global const real* P, int nrec, int light,
   if (r >= nrec) return;
   int at = r * nl + light;
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
-  real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = rec_light2[at].z, zb = rec_light2[at].w;
+  const real4 x2 = rec_light2[at];
+  real G = rec_lgrad[at].x, s = rec_light[at].w, sigma = stored_sigma(x2), zb = x2.w;
   // Through the filter, σ held: s = Σ w·c / Σ w. Nothing to do where dL/ds = 0 (a fragment
   // unlit from this light, or outside the loss): every gradient is 0.
-  // Nor where the filter is flat (filter_flat): every gradient is 0 there too.
+  // Nor where the filter is flat (pcf_sample found it so): every gradient is 0 there too.
   Moments f;
   if (G != 0) {
-    Window w = filter_window(x.mu, sigma, logs, P, Wm, Hm);
-    if (filter_flat(x, sigma, w, logs, P, S, Wm, Hm)) G = 0;
-    else f = window_moments(w, x, sigma, 0, s, P, S, A, Wm);
+    if (stored_flat(x2)) G = 0;
+    else f = window_moments(filter_window(x.mu, sigma, logs, P, Wm, Hm), x, sigma, 0, s, P, S, A, Wm);
   }
   if (G == 0 || !(f.w > 0)) {
     rec_lgrad[at] = 0;
@@ -253,7 +260,7 @@ BACKWARD_KERNEL void pcf_gather_records(__global const real* P, int nrec, int li
   Receiver x = receiver_at(rec_light, rec_light2, at, P, light);
   real4 x2 = rec_light2[at];
   int inside = inside_map(x.mu, Wm, Hm);
-  real sigma = x2.z, a = inside && !search ? rec_lgrad[at].x : 0,
+  real sigma = stored_sigma(x2), a = inside && !search ? rec_lgrad[at].x : 0,
        b = inside && search ? rec_lgrad2[at].z : 0;
   if (search) {
     LightDisc L = light_disc(P, light);
@@ -420,7 +427,8 @@ BACKWARD_KERNEL void pcf_gather_chunks(__global const real* P, int nrec, int lig
     int at = r * nl + light;
     const real2 mu = rec_light[at].xy;
     if (!inside_map(mu, Wm, Hm)) continue;
-    if (!search && rec_lgrad[at].x != 0) box = grow_box(box, mu, zero_radius(rec_light2[at].z));
+    if (!search && rec_lgrad[at].x != 0)
+      box = grow_box(box, mu, zero_radius(stored_sigma(rec_light2[at])));
     if (search && rec_lgrad2[at].z != 0)
       box = grow_box(box, mu / L.stride, zero_radius(search_variance(L)));
   }

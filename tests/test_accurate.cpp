@@ -349,7 +349,8 @@ void for_each_variant(std::initializer_list<Layout> layouts, F&& f) {
 }
 
 // Where a window is flat (window_flat) the lookups answer without its sums: the filter's s = 1,
-// the search's z_b = d, and the backward's gradients 0 (which pcf_gather then skips). Kernels
+// the search's z_b = d, and where pcf_sample marked the filter flat (over the wider window the
+// backward weighs) the backward's gradients 0 (which pcf_gather then skips). Kernels
 // whose window_flat finds none give the same images and gradients bit for bit; kernels that
 // answer NaN at one of the three places give NaN colours or gradients, so each happens in
 // these scenes.
