@@ -797,14 +797,17 @@ TEST(ShadowFacing, LookupsSkipped) {
 // ---------------------------------------------------------------------------------------------
 // (i) The gathers' texel buckets.
 
-// shadow_boxes buckets only the fragments with a gradient to pass to the maps (a nonzero
-// gather scale). Under a loss that leaves the image's left half out (and so the fragments
-// there, besides those facing away from a light), kernels that bucket every fragment in the map
-// give the same images and gradients bit for bit, for both models and hard and soft shadows.
-// And the buckets leave fragments out: with a soft_gather that turns NaN on meeting a fragment
-// without a gradient, the gradients stay finite with the project's buckets and are NaN with
-// every fragment bucketed.
-constexpr const char* kBucketTest = "(rec_lgrad[at].x != 0 || rec_lgrad2[at].z != 0)";
+// shadow_boxes (and for the accurate model's search pass pcf_search_boxes) buckets only the
+// fragments with a gradient to pass to the maps (a nonzero gather scale). Under a loss that
+// leaves the image's left half out (and so the fragments there, besides those facing away from
+// a light), kernels that bucket every fragment in the map give the same images and gradients
+// bit for bit, for both models and hard and soft shadows. And the buckets leave fragments out:
+// with a soft_gather that turns NaN on meeting a fragment without a gradient, the gradients
+// stay finite with the project's buckets and are NaN with every fragment bucketed.
+const KernelEdit kBucketEvery{"paper_lookups.cl", "Hm) && rec_lgrad[at].x != 0)",
+                              "Hm) && r < nrec)"};
+const KernelEdit kSearchBucketEvery{"accurate_lookups.cl", "Hm) && rec_lgrad2[at].z != 0)",
+                                    "Hm) && r < nrec)"};
 
 Scene bucket_scene(Lighting lighting, Shadows shadows, ShadowModel model) {
   Scene s = shadow_scene(lighting);
@@ -824,7 +827,7 @@ std::vector<OutputGrads> right_half_loss(const Scene& scene) {
 TEST(ShadowBuckets, FragmentsWithoutGradientLeftOutChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
   const std::string every =
-      patched_kernels("penumbra_bucket_every", "paper_lookups.cl", kBucketTest, "r < nrec");
+      patched_kernels("penumbra_bucket_every", {kBucketEvery, kSearchBucketEvery});
   for (Precision p : {Precision::Float, Precision::Double})
     for (Lighting lighting : {Lighting::Point, Lighting::Two})
       for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})
@@ -847,9 +850,7 @@ TEST(ShadowBuckets, FragmentsWithoutGradientLeftOut) {
   const KernelEdit poison{"paper_lookups.cl", "    if (k == 0) continue;",
                           "    if (k == 0) {\n      accS[0] = NAN;\n      continue;\n    }"};
   const std::string poisoned = patched_kernels("penumbra_bucket_nan", {poison}),
-                    every =
-                        patched_kernels("penumbra_bucket_every_nan",
-                                        {poison, {"paper_lookups.cl", kBucketTest, "r < nrec"}});
+                    every = patched_kernels("penumbra_bucket_every_nan", {poison, kBucketEvery});
   const Scene scene = bucket_scene(Lighting::Point, Shadows::Soft, ShadowModel::Paper);
   const auto weights = right_half_loss(scene);
   EXPECT_TRUE(all_finite(grads_with(poisoned, scene, Precision::Float, weights)));

@@ -15,8 +15,8 @@ struct ShadowBoxesArgs {
   static constexpr const char* kernel = "shadow_boxes";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  const cl::Buffer &rec_light, &rec_lgrad, &rec_lgrad2, &boxes;
-  auto fields() const { return std::tie(at, rec_light, rec_lgrad, rec_lgrad2, boxes); }
+  const cl::Buffer &rec_light, &rec_lgrad, &boxes;
+  auto fields() const { return std::tie(at, rec_light, rec_lgrad, boxes); }
 };
 
 struct ShadowSampleArgs {
@@ -276,9 +276,7 @@ Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, const Fragment
   const int n = int(f.nrec);
   cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
   auto& bx = bind_args(
-      k,
-      ShadowBoxesArgs{
-          {v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, fgr.rec_lgrad, fgr.rec_lgrad2, boxes});
+      k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, fgr.rec_lgrad, boxes});
   launch_1d(k.ctx(), bx, n);
   return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
