@@ -47,7 +47,9 @@ void tube_faces(Mesh& m, int segments, int sides, const std::vector<glm::dvec3>&
   const glm::dvec3 n =
       glm::cross(m.vertices[f.y] - m.vertices[f.x], m.vertices[f.z] - m.vertices[f.x]);
   if (glm::dot(n, m.vertices[f.x] - centers.front()) < 0)
-    for (auto& g : m.faces) std::swap(g.y, g.z);
+    m.faces.edit([](std::vector<glm::ivec3>& faces) {
+      for (auto& g : faces) std::swap(g.y, g.z);
+    });
 }
 
 // Lowest vertex of `m` moved to height `lift`.

@@ -111,15 +111,10 @@ void each_row(const AnyArray& a, size_t first, size_t count, Put&& put) {
     read(static_cast<const double*>(a.data()));
 }
 
-// The rows of checked rows `a`, in order, over the meshes' `member` rows (as many in all).
-void write_rows(const AnyArray& a, std::vector<Mesh>& meshes,
-                std::vector<glm::dvec3> Mesh::*member) {
-  size_t first = 0;
-  for (Mesh& mesh : meshes) {
-    std::vector<glm::dvec3>& rows = mesh.*member;
-    each_row(a, first, rows.size(), [&](size_t i, glm::dvec3 x) { rows[i] = x; });
-    first += rows.size();
-  }
+// Rows first .. first + rows.size() − 1 of checked rows `a` written over `rows`; first moves past.
+void read_rows(const AnyArray& a, size_t& first, std::vector<glm::dvec3>& rows) {
+  each_row(a, first, rows.size(), [&](size_t i, glm::dvec3 x) { rows[i] = x; });
+  first += rows.size();
 }
 
 size_t total_rows(const Scene& scene, bool albedo) {
@@ -184,8 +179,14 @@ void set_parameters(Scene& scene, nb::handle vertices, nb::handle albedo, nb::ha
   const auto l = reals(any_array(lights, "lights"), "lights", long(scene.lights.size()), 7);
   const auto amb = reals(any_array(ambient, "ambient"), "ambient", 3, 0);
   // Every array checked: only now is the scene changed.
-  write_rows(v, scene.meshes, &Mesh::vertices);
-  write_rows(a, scene.meshes, &Mesh::albedo);
+  size_t first = 0;
+  for (Mesh& mesh : scene.meshes) read_rows(v, first, mesh.vertices);
+  first = 0;
+  for (Mesh& mesh : scene.meshes) {  // new arrays: a renderer's record keeps the last values
+    std::vector<glm::dvec3> albedo(mesh.albedo.size());
+    read_rows(a, first, albedo);
+    mesh.albedo = std::move(albedo);
+  }
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     Light& light = scene.lights[i];
     const double* r = &l[7 * i];

@@ -127,12 +127,12 @@ void bind_mesh(nb::module_& m) {
           nb::for_getter(nb::rv_policy::automatic),
           "(V, 3) float64 vertex positions (a read-only copy; assign to change)")
       .def_prop_rw(
-          "faces", [](const Mesh& mesh) { return rows_out<int>(mesh.faces); },
+          "faces", [](const Mesh& mesh) { return rows_out<int>(mesh.faces.values()); },
           [](Mesh& mesh, nb::handle a) { mesh.faces = index_rows(any_array(a, "faces"), "faces"); },
           nb::for_getter(nb::rv_policy::automatic),
           "(F, 3) int32 vertex indices, counter-clockwise (a read-only copy; assign to change)")
       .def_prop_rw(
-          "albedo", [](const Mesh& mesh) { return rows_out<double>(mesh.albedo); },
+          "albedo", [](const Mesh& mesh) { return rows_out<double>(mesh.albedo.values()); },
           [](Mesh& mesh, nb::handle a) {
             mesh.albedo = real_rows(any_array(a, "albedo"), "albedo");
           },

@@ -334,7 +334,7 @@ TEST_F(ErrorsBackward, BeforeRenderOrOnAnotherScene) {
   moved.meshes[0].vertices[3].y += 0.1;
   EXPECT_CONTAINS(error_of([&] { renderer.backward(moved, g); }), "call render() first");
   Scene recoloured = scene;
-  recoloured.meshes[0].albedo[0].x *= 0.5;
+  recoloured.meshes[0].albedo.edit([](std::vector<glm::dvec3>& a) { a[0].x *= 0.5; });
   EXPECT_CONTAINS(error_of([&] { renderer.backward(recoloured, g); }), "call render() first");
   Scene turned = scene;
   turned.cameras[0].eye.x += 0.1;

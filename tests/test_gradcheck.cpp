@@ -232,7 +232,9 @@ TEST(GradCheck, ColoursAtZero) {
   Scene scene = penumbra::random_scene(4);
   scene.ambient = glm::dvec3(0.0);
   for (auto& light : scene.lights) light.color.g = 0.0;
-  for (auto& a : scene.meshes[0].albedo) a.b = 0.0;
+  scene.meshes[0].albedo.edit([](std::vector<glm::dvec3>& all) {
+    for (auto& a : all) a.b = 0.0;
+  });
   GradCheckOptions options;
   options.samples = 40;
   GradCheckResult r;

@@ -1,5 +1,5 @@
-// Files in and out: OBJ, JSON scenes, PNG, .npy; scene validation and framing (io.hpp,
-// scene.hpp).
+// Files in and out: OBJ, JSON scenes, PNG, .npy; scene validation and framing, and the meshes'
+// shared arrays (io.hpp, scene.hpp, shared_array.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -153,6 +153,30 @@ Scene small_scene() {
   return s;
 }
 
+// Copies of a SharedArray share its values until one is written; a write gives the written
+// array its own values, and the others keep theirs.
+TEST(SharedArray, CopiesShareUntilOneIsWritten) {
+  SharedArray<int> a = std::vector<int>{1, 2, 3};
+  SharedArray<int> b = a;
+  EXPECT_TRUE(b.shares(a));
+  b.push_back(4);
+  EXPECT_FALSE(b.shares(a));
+  EXPECT_EQ(a, (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(b, (std::vector<int>{1, 2, 3, 4}));
+  SharedArray<int> c = a;
+  c.edit([](std::vector<int>& v) { v[0] = 7; });
+  EXPECT_EQ(a, (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(c, (std::vector<int>{7, 2, 3}));
+  SharedArray<int> alone = std::vector<int>{5};
+  const int* values = alone.data();
+  alone.edit([](std::vector<int>& v) { v[0] = 6; });  // shared with none: written in place
+  EXPECT_EQ(alone.data(), values);
+  EXPECT_EQ(SharedArray<int>(std::vector<int>{1, 2, 3}), a);  // equal values, not shared
+  a.clear();
+  EXPECT_TRUE(a.empty());
+  EXPECT_EQ(b.size(), 4u);
+}
+
 TEST(IoValidate, Mesh) {
   EXPECT_NO_THROW(validate(triangle()));
   {
@@ -162,7 +186,7 @@ TEST(IoValidate, Mesh) {
   }
   {
     Mesh m = triangle();
-    m.faces[0].z = -1;
+    m.faces.edit([](std::vector<glm::ivec3>& f) { f[0].z = -1; });
     expect_error([&] { validate(m); }, "out of range");
   }
   {
@@ -184,9 +208,10 @@ TEST(IoValidate, Mesh) {
   }
   {
     Mesh m = triangle();
-    m.albedo[2].x = -0.1;
+    m.albedo.edit([](std::vector<glm::dvec3>& a) { a[2].x = -0.1; });
     expect_error([&] { validate(m); }, "albedo 2 is negative");
-    m.albedo[2].x = std::numeric_limits<double>::quiet_NaN();
+    m.albedo.edit(
+        [](std::vector<glm::dvec3>& a) { a[2].x = std::numeric_limits<double>::quiet_NaN(); });
     expect_error([&] { validate(m); }, "albedo 2 is non-finite");
   }
   {

@@ -194,9 +194,11 @@ const std::vector<Case>& cases() {
          m.vertices.push_back(m.vertices[0]);
          m.albedo.push_back(m.albedo[0]);
          int around = 0;
-         for (glm::ivec3& f : m.faces)
-           for (int k = 0; k < 3; ++k)
-             if (f[k] == 0 && (around++ % 2 == 1)) f[k] = copy;
+         m.faces.edit([&](std::vector<glm::ivec3>& faces) {
+           for (glm::ivec3& f : faces)
+             for (int k = 0; k < 3; ++k)
+               if (f[k] == 0 && (around++ % 2 == 1)) f[k] = copy;
+         });
        }},
       {"edge_on_camera", 1,
        [](Scene& s, double k) {

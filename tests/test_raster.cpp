@@ -329,7 +329,7 @@ TEST(RasterReference, NearFarAndCulling) {
   s.params.cull_backfaces = true;
   out = penumbra::reference::render(s, 0);
   EXPECT_NEAR(out.silhouette.at(8, 8), 1.0, 1e-12);  // CCW towards the camera: kept
-  std::swap(s.meshes[0].faces[0].y, s.meshes[0].faces[0].z);
+  s.meshes[0].faces.edit([](std::vector<glm::ivec3>& f) { std::swap(f[0].y, f[0].z); });
   out = penumbra::reference::render(s, 0);
   for (double v : out.silhouette.data) EXPECT_EQ(v, 0.0);  // turned away: culled
 }
@@ -557,12 +557,17 @@ TEST(RasterDeterminism, ChangedFacesAndAlbedoAreUploadedAgain) {
   for (const glm::ivec3& face : sphere.faces)
     sphere.albedo.push_back(dvec3(0.3, 0.5, 0.7) + 0.1 * (face.x % 3));
   Scene faces = base;  // the sphere's first half of faces replaced by copies of its second
-  std::vector<glm::ivec3>& f = faces.meshes[0].faces;
-  std::copy(f.begin() + f.size() / 2, f.begin() + f.size() / 2 * 2, f.begin());
+  faces.meshes[0].faces.edit([](std::vector<glm::ivec3>& f) {
+    std::copy(f.begin() + f.size() / 2, f.begin() + f.size() / 2 * 2, f.begin());
+  });
   Scene albedo = base;
-  for (dvec3& a : albedo.meshes[0].albedo) a *= 0.5;
+  albedo.meshes[0].albedo.edit([](std::vector<dvec3>& all) {
+    for (dvec3& a : all) a *= 0.5;
+  });
   Scene recoloured_moved = albedo;
-  for (dvec3& a : recoloured_moved.meshes[0].albedo) a.x = 0.9;
+  recoloured_moved.meshes[0].albedo.edit([](std::vector<dvec3>& all) {
+    for (dvec3& a : all) a.x = 0.9;
+  });
   for (dvec3& v : recoloured_moved.meshes[0].vertices) v *= 0.95;
   Scene more_vertices = base;  // one vertex more, unused: the ground's indices shift when packed
   more_vertices.meshes[0].vertices.push_back({0, 0, 0});

@@ -1,10 +1,11 @@
 // The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, an
 // abandoned call leaves it usable, gradients must be finite, a collapsed face renders as if it
 // were absent, a given frustum that leaves out casters warns once, each call checks what
-// changed since the last, render_into writes what render() returns into the caller's memory,
-// and backward takes its gradients from there as from images.
+// changed since the last (an edit after a render included), render_into writes what render()
+// returns into the caller's memory, and backward takes its gradients from there as from images.
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -155,14 +156,40 @@ TEST(RendererCalls, EachCallChecksWhatChanged) {
                     "mesh 0 'occluder': vertex 3 (0.262865556, 1e+101, 0) has a coordinate beyond"),
             "");
   Scene reindexed = scene;
-  reindexed.meshes[1].faces[2].z = int(reindexed.meshes[1].vertices.size());
+  const int beyond = int(reindexed.meshes[1].vertices.size());
+  reindexed.meshes[1].faces.edit([&](std::vector<glm::ivec3>& f) { f[2].z = beyond; });
   EXPECT_EQ(
       refused(reindexed, "mesh 1 'ground': face 2 (1, 6, 25) has vertex index 25 out of range"),
       "");
   Scene recoloured = scene;
-  recoloured.meshes[1].albedo[0].x = -1;
+  recoloured.meshes[1].albedo.edit([](std::vector<glm::dvec3>& a) { a[0].x = -1; });
   EXPECT_EQ(refused(recoloured, "mesh 1 'ground': albedo 0 is negative"), "");
   EXPECT_NO_THROW(renderer.render(scene));
+}
+
+// The renderer's record of a render shares the scene's faces and albedo (SharedArray): an edit of
+// the rendered scene's own faces or albedo gives that scene new values and leaves the record as
+// it was, so backward() refuses the edited scene and the next render draws the edit, as a fresh
+// renderer does.
+TEST(RendererCalls, AnEditAfterARenderReachesTheNextCall) {
+  REQUIRE_CONTEXT(ctx);
+  const std::vector<std::function<void(Mesh&)>> edits = {
+      [](Mesh& m) { m.albedo.edit([](std::vector<glm::dvec3>& a) {
+                      a[0] = {0.9, 0.1, 0.1};
+                    }); },
+      [](Mesh& m) { m.faces.edit([](std::vector<glm::ivec3>& f) { f.resize(f.size() / 2); }); },
+  };
+  for (const auto& edit : edits) {
+    Scene scene = sphere_over_ground();
+    Renderer renderer(*ctx);
+    const std::vector<RenderOutput> before = renderer.render(scene);
+    edit(scene.meshes[1]);
+    EXPECT_THROW(renderer.backward(scene, std::vector<OutputGrads>(1)), Error);
+    const std::vector<RenderOutput> after = renderer.render(scene);
+    Renderer fresh(*ctx);
+    EXPECT_EQ(after[0].color.data, fresh.render(scene)[0].color.data);
+    EXPECT_NE(after[0].color.data, before[0].color.data);
+  }
 }
 
 // render_into gives render()'s values in the caller's precision (float: render()'s doubles

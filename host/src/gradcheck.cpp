@@ -51,24 +51,27 @@ Param light_param(const Scene& scene, int l, int axis) {
   return p;
 }
 
-double& parameter(Scene& scene, const Param& p) {
+// Calls f(double&) on entry p of `scene` (an albedo entry through SharedArray::edit).
+template <class F>
+void with_parameter(Scene& scene, const Param& p, F&& f) {
   switch (p.kind) {
     case Param::Vertex:
-      return scene.meshes[p.mesh].vertices[p.index][p.axis];
+      return f(scene.meshes[p.mesh].vertices[p.index][p.axis]);
     case Param::Albedo:
-      return scene.meshes[p.mesh].albedo[p.index][p.axis];
+      return scene.meshes[p.mesh].albedo.edit(
+          [&](std::vector<glm::dvec3>& a) { f(a[p.index][p.axis]); });
     case Param::LightPosition:
-      return scene.lights[p.index].position[p.axis];
+      return f(scene.lights[p.index].position[p.axis]);
     case Param::LightDirection:
-      return scene.lights[p.index].direction[p.axis];
+      return f(scene.lights[p.index].direction[p.axis]);
     case Param::LightColor:
-      return scene.lights[p.index].color[p.axis];
+      return f(scene.lights[p.index].color[p.axis]);
     case Param::LightSize:
-      return scene.lights[p.index].size;
+      return f(scene.lights[p.index].size);
     case Param::Ambient:
       break;
   }
-  return scene.ambient[p.axis];
+  f(scene.ambient[p.axis]);
 }
 
 template <class T>
@@ -384,8 +387,11 @@ double entry_step(const Scene& work, const Param& p, double step, double scale) 
 // dL/d(entry p) by a central difference of step h, `perturbed` left as it was.
 double finite_difference(Renderer& renderer, Scene& perturbed,
                          const std::vector<OutputGrads>& weights, const Param& p, double h) {
-  double& x = parameter(perturbed, p);
-  const double x0 = x;
+  double x0 = 0;
+  with_parameter(perturbed, p, [&](double& x) { x0 = x; });
+  const auto set = [&](double value) {
+    with_parameter(perturbed, p, [&](double& x) { x = value; });
+  };
   double xp = x0 + h, xm = x0 - h;
   if (!p.positional() && xm < 0) {
     // Colours may not go negative. The outputs are linear in albedo, light colour and
@@ -393,11 +399,11 @@ double finite_difference(Renderer& renderer, Scene& perturbed,
     xm = x0;
     xp = x0 + 2 * h;
   }
-  x = xp;
+  set(xp);
   const double lp = linear_loss(renderer.render(perturbed), weights);
-  x = xm;
+  set(xm);
   const double lm = linear_loss(renderer.render(perturbed), weights);
-  x = x0;
+  set(x0);
   return (lp - lm) / (xp - xm);
 }
 

@@ -73,10 +73,7 @@ size_t Renderer::Impl::prepare(const Scene& given) {
                 std::to_string(P_MAX_LIGHTS) + " are supported");
   started = true;
   geometry_current = false;  // until upload_geometry() has put this scene's meshes there
-  if (kept == Kept::Nothing)
-    scene = given;
-  else
-    assign_keeping_faces(scene, given, kept == Kept::FacesAndAlbedo);
+  scene = given;             // the faces and albedo shared, not copied
   meshes_normalised = false;
   // Frusta not given are fitted to this scene and then fixed; without shadows none is used.
   if (scene.params.shadows != Shadows::None) fit_light_frusta(scene);

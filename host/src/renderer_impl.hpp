@@ -34,8 +34,6 @@ void write_vertices(Context& ctx, Precision p, cl::Buffer& buffer, const std::ve
 // counts and albedo modes and counts, mesh by mesh; same_albedo: and the same albedo.
 bool same_faces(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
 bool same_albedo(const std::vector<Mesh>& a, const std::vector<Mesh>& b);
-// to = from, where their meshes' faces (and with `albedo_kept` their albedo) are already equal.
-void assign_keeping_faces(Scene& to, const Scene& from, bool albedo_kept);
 // validate(scene, DegenerateFaces::Allow) but for the faces or albedo known to have passed it
 // before, unchanged since; returns the bounds of the vertices, taken in the same pass as their
 // checks (scene.cpp).

@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/shared_array.hpp"
+
 namespace penumbra {
 
 enum class AlbedoMode { PerVertex, PerFace };
@@ -14,8 +16,10 @@ enum class AlbedoMode { PerVertex, PerFace };
 struct Mesh {
   std::string name;
   std::vector<glm::dvec3> vertices;
-  std::vector<glm::ivec3> faces;   // indices into vertices, counter-clockwise
-  std::vector<glm::dvec3> albedo;  // one per vertex or one per face (see albedo_mode)
+  // Shared by the mesh's copies until written (shared_array.hpp): a renderer knows the last
+  // call's faces and albedo in O(1).
+  SharedArray<glm::ivec3> faces;   // indices into vertices, counter-clockwise
+  SharedArray<glm::dvec3> albedo;  // one per vertex or one per face (see albedo_mode)
   AlbedoMode albedo_mode = AlbedoMode::PerVertex;
 };
 

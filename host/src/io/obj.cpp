@@ -189,11 +189,12 @@ void add_faces(const tinyobj::ObjReader& reader, const std::vector<size_t>& poly
 void set_albedo(const tinyobj::attrib_t& attrib, glm::dvec3 default_albedo, Mesh& mesh) {
   const size_t nv = mesh.vertices.size();
   mesh.albedo_mode = AlbedoMode::PerVertex;
-  mesh.albedo.assign(nv, default_albedo);
-  if (attrib.colors.empty() || attrib.colors.size() != attrib.vertices.size()) return;
-  for (size_t i = 0; i < nv; ++i)
-    mesh.albedo[i] =
-        glm::dvec3(attrib.colors[3 * i], attrib.colors[3 * i + 1], attrib.colors[3 * i + 2]);
+  std::vector<glm::dvec3> albedo(nv, default_albedo);
+  if (!attrib.colors.empty() && attrib.colors.size() == attrib.vertices.size())
+    for (size_t i = 0; i < nv; ++i)
+      albedo[i] =
+          glm::dvec3(attrib.colors[3 * i], attrib.colors[3 * i + 1], attrib.colors[3 * i + 2]);
+  mesh.albedo = std::move(albedo);
 }
 
 }  // namespace

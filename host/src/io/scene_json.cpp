@@ -180,7 +180,9 @@ Mesh parse_mesh(const json& j, const std::string& where, const std::filesystem::
   // A mirroring scale (odd number of negative factors) would turn the faces inside out:
   // swap two corners so that the winding stays counter-clockwise seen from outside.
   if (scale.x * scale.y * scale.z < 0)
-    for (glm::ivec3& f : mesh.faces) std::swap(f.y, f.z);
+    mesh.faces.edit([](std::vector<glm::ivec3>& faces) {
+      for (glm::ivec3& f : faces) std::swap(f.y, f.z);
+    });
   if (has_albedo) {
     mesh.albedo_mode = AlbedoMode::PerVertex;
     mesh.albedo.assign(mesh.vertices.size(), albedo);
