@@ -33,7 +33,6 @@ class SharedArray {
   bool empty() const { return values().empty(); }
   const T& operator[](size_t i) const { return values()[i]; }
   const T& front() const { return values().front(); }
-  const T& back() const { return values().back(); }
   const T* data() const { return values().data(); }
   const_iterator begin() const { return values().begin(); }
   const_iterator end() const { return values().end(); }
@@ -53,16 +52,13 @@ class SharedArray {
   void pop_back() { own().pop_back(); }
   void assign(size_t n, const T& value) { own().assign(n, value); }
   void resize(size_t n) { own().resize(n); }
-  void resize(size_t n, const T& value) { own().resize(n, value); }
   void reserve(size_t n) { own().reserve(n); }
   void clear() { values_.reset(); }
 
   friend bool operator==(const SharedArray& a, const SharedArray& b) {
     return a.shares(b) || a.values() == b.values();
   }
-  friend bool operator!=(const SharedArray& a, const SharedArray& b) { return !(a == b); }
   friend bool operator==(const SharedArray& a, const std::vector<T>& b) { return a.values() == b; }
-  friend bool operator!=(const SharedArray& a, const std::vector<T>& b) { return !(a == b); }
 
  private:
   static const std::vector<T>& none() {
