@@ -311,7 +311,7 @@ inline int find_fragment(int pix, int f, __global const int* pix_offset,
 // each light, dL/d ambient, then dL/d(eye, fwd, right, up) of each light's frame.
 // Through the shading of kept fragment r (weight w, colour gradient gc = dL/dI·w): adds to the
 // world, normal, albedo and light sums, and returns in gb dL/d(barycentric) of the fragment.
-inline void fragment_shading_bwd(int r, int nl, const Fragment* fr, const Face* F,
+INLINE void fragment_shading_bwd(int r, int nl, const Fragment* fr, const Face* F,
                                  const ReceiverFace* rf, int receiver_plane, real3 gc,
                                  __global const real* P, __global const real4* rec_light,
                                  __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
@@ -358,7 +358,7 @@ inline int rows_have_gradient(int4 bb, int y0, int y1, int W, __global const rea
 }
 
 // The backward of one face at one pixel of its box (lane `lane` of `row`), added to s.
-inline void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row, const Face* F,
+INLINE void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row, const Face* F,
                            const ReceiverFace* rf, int receiver_plane, __global const real* P,
                            int W, int H, __global const real* gcover,
                            __global const real4* gimage, __global const real* gdepth,
@@ -419,7 +419,7 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   if (f >= nf) return;
   const int nl = (int)P[P_NLIGHTS];
   FaceSums s;
-  face_sums_zero(&s);
+  face_sums_zero(&s, nl);
   int4 bb = fbbox[f];
   const int rows = bb.w - bb.y + 1;
   const int band_rows = max(MIN_BAND_ROWS, (rows + FACE_LANES - 1) / FACE_LANES);
