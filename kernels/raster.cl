@@ -18,6 +18,8 @@
 //   tile_offsets, tile_counts, tile_faces   from bin.cl (ignored when BRUTE_FORCE)
 //   pix_count, pix_offset, pix_n   N × int: fragment bound, first fragment, fragments kept
 //   block_hits       ulong bits, per block of PPW pixels and tile-list entry (see TILE_BLOCKS)
+//   face_kept        F × int, zeroed by the host: raster_fragments sets it where the face keeps a
+//                    fragment at any pixel (an atomic OR: many blocks may), raster_bwd reads it
 //   rec_face K × int; rec_frag K × real2 (D·e^{(z̃−m)/γ}, z)
 //   rec_shade K·(1+nl) × real4 (ambient term, 0), then per light (direct term, 1 where the
 //                    fragment faces the light, n·l > 0; else 0, its direct term 0 too, and
@@ -159,7 +161,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
                       __global int* pix_n,
                       __global int* rec_face, __global real2* rec_frag,
                       __global real4* rec_shade, __global real4* rec_light,
-                      __global real4* rec_light2) {
+                      __global real4* rec_light2, __global int* face_kept) {
   int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
   if (py0 >= H || px0 >= W) return;
   VIEW_RECIPROCALS(P)
@@ -188,6 +190,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     realP lw = log_D + (zt - m) * inv_gamma;
     const uint kept = mask_bits(in_range && lw >= keep);  // lane j's bit: a kept fragment
     if (kept == 0) continue;
+    atomic_or(&face_kept[f], 1);
     real lws[PPW], zs[PPW], weights[PPW];
     VSTOREP(lw, 0, lws);
     // The scalar exp of every lane, unrolled: the compiler evaluates the lanes' copies as one
@@ -347,20 +350,25 @@ inline int pixel_has_gradient(int pix, __global const real4* gimage, __global co
   return g.x != 0 || g.y != 0 || g.z != 0 || g.w != 0 || gdepth[pix] != 0;
 }
 
-// Whether a pixel of rows y0 … y1 of box bb has a gradient: a face whose rows have none (most
-// of a light's view, where the lookups' windows are flat) skips their shapes altogether.
-inline int rows_have_gradient(int4 bb, int y0, int y1, int W, __global const real4* gimage,
+// Whether a pixel of rows y0 … y1 of box bb has a gradient that reaches the face: any, where it
+// kept a fragment somewhere (`kept`), else one through its coverage alone (gcover: the face is
+// hidden, its weights cut off everywhere). A face whose rows have none (most of a light's view,
+// where the lookups' windows are flat, and the faces behind others) skips their shapes.
+inline int rows_have_gradient(int4 bb, int y0, int y1, int W, int kept,
+                              __global const real* gcover, __global const real4* gimage,
                               __global const real* gdepth) {
   for (int py = y0; py <= y1; ++py)
     for (int px = bb.x; px <= bb.z; ++px)
-      if (pixel_has_gradient(py * W + px, gimage, gdepth)) return 1;
+      if (kept ? pixel_has_gradient(py * W + px, gimage, gdepth) : gcover[py * W + px] != 0)
+        return 1;
   return 0;
 }
 
-// The backward of one face at one pixel of its box (lane `lane` of `row`), added to s.
-INLINE void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row, const Face* F,
-                           const ReceiverFace* rf, int receiver_plane, __global const real* P,
-                           int W, int H, __global const real* gcover,
+// The backward of one face at one pixel of its box (lane `lane` of `row`), added to s; `kept`:
+// whether the face kept a fragment at any pixel (else none is searched for).
+INLINE void pixel_face_bwd(int px, int py, int lane, int f, int kept, const RowLanes* row,
+                           const Face* F, const ReceiverFace* rf, int receiver_plane,
+                           __global const real* P, int W, int H, __global const real* gcover,
                            __global const real4* gimage, __global const real* gdepth,
                            __global const int* pix_offset, __global const int* pix_n,
                            __global const int* rec_face, __global const real4* rec_light,
@@ -373,7 +381,7 @@ INLINE void pixel_face_bwd(int px, int py, int lane, int f, const RowLanes* row,
   // Only a kept fragment (its depth within [near, far]) has weight and shading terms; a
   // fragment that was not kept, under a silhouette whose 1 − A underflowed to 0 (most of
   // a dense mesh's pixels), has no gradient: every term below would be a product with 0.
-  int r = find_fragment(pix, f, pix_offset, pix_n, rec_face);
+  int r = kept ? find_fragment(pix, f, pix_offset, pix_n, rec_face) : -1;
   real gc = gcover[pix];
   if (r < 0 && gc == 0) return;
   real2 q = pixel_centre(px, py, W, H);
@@ -406,7 +414,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
                                 __global const real* P, int W, int H, int nf,
                                 __global const real* gcover, __global const real4* gimage,
                                 __global const real* gdepth, __global const int* pix_offset,
-                                __global const int* pix_n, __global const int* rec_face,
+                                __global const int* pix_n, __global const int* face_kept,
+                                __global const int* rec_face,
                                 __global const real4* rec_light, __global const real2* rec_wg,
                                 __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
                                 __global real4* gface_screen, __global real4* gface_world,
@@ -427,7 +436,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
   const Face F = load_face(f, vscreen, vworld, faces, fnormal, albedo);
   ReceiverFace rf[P_MAX_LIGHTS];  // the face's receiver plane in each light's view
   const int receiver_plane = P[P_SHADOWS] > 0 && P[P_RECEIVER_PLANE] > 0;
-  const int active = rows_have_gradient(bb, y0, y1, W, gimage, gdepth);
+  const int kept = face_kept[f];
+  const int active = rows_have_gradient(bb, y0, y1, W, kept, gcover, gimage, gdepth);
   if (active)
     for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
   for (int py = y0; active && py <= y1; ++py) {
@@ -436,8 +446,8 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
       int lane = (px - bb.x) % PPW;
       if (lane == 0) lanes_row(px, py, W, H, &F, P, &row);
       if (row.reach[lane] == 0) continue;
-      pixel_face_bwd(px, py, lane, f, &row, &F, rf, receiver_plane, P, W, H, gcover, gimage,
-                     gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad,
+      pixel_face_bwd(px, py, lane, f, kept, &row, &F, rf, receiver_plane, P, W, H, gcover,
+                     gimage, gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad,
                      rec_lgrad2, &s);
     }
   }

@@ -42,7 +42,7 @@ size_t view_bytes(const Sizes& z, size_t pixels, size_t lights, size_t shadowed,
   // face, weight and depth (2 reals), shading (shade_terms real4s), two light records (shadowed)
   const size_t shade_terms = size_t(detail::shade_terms(shadowed > 0, int(lights)));
   size_t per_fragment = sizeof(int) + z.rs * (2 + 4 * shade_terms + 8 * shadowed);
-  size_t per_face = 4 * sizeof(int) + 4 * z.rs;  // box, normal
+  size_t per_face = 5 * sizeof(int) + 4 * z.rs;  // box, normal, kept mark
   if (backward) {
     per_fragment += z.rs * (2 + 8 * shadowed);  // weight gradients, two light gradients
     per_face += z.rs * (36 + (6 * lights + 1) * 4);

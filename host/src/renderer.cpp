@@ -145,8 +145,8 @@ size_t buffer_bytes(const cl::Buffer& b) { return b() ? b.getInfo<CL_MEM_SIZE>()
 size_t fragment_bytes(const std::vector<detail::Fragments>& fragments) {
   size_t bytes = 0;
   for (const detail::Fragments& f : fragments) {
-    for (const cl::Buffer* b :
-         {&f.aux, &f.pix_n, &f.rec_face, &f.rec_frag, &f.rec_shade, &f.rec_light, &f.rec_light2})
+    for (const cl::Buffer* b : {&f.aux, &f.pix_n, &f.rec_face, &f.rec_frag, &f.rec_shade,
+                                &f.rec_light, &f.rec_light2, &f.face_kept})
       bytes += buffer_bytes(*b);
     for (const auto* kept : {&f.exact_forward, &f.exact_backward})
       for (const detail::ExactWeights& w : *kept)

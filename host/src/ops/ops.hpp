@@ -188,6 +188,7 @@ struct Fragments {
   size_t nrec = 0;  // fragment records: Σ over the pixels of raster_count's bound on the kept
   cl::Buffer aux, pix_offset, pix_n;
   cl::Buffer rec_face, rec_frag, rec_shade, rec_light, rec_light2;
+  cl::Buffer face_kept;  // F ints: not 0 where the face kept a fragment at any pixel
   // The exact lookups' weights of each light, forward and backward, handed on from render to
   // render with the rest (paper_lookups.cpp).
   std::vector<ExactWeights> exact_forward, exact_backward;

@@ -26,11 +26,11 @@ struct RasterFragmentsArgs {
   cl_int W, H, nf, tiles_x;
   BinLists tiles;
   const cl::Buffer &aux, &pix_count, &block_hits, &pix_offset, &pix_n;
-  const cl::Buffer &rec_face, &rec_frag, &rec_shade, &rec_light, &rec_light2;
+  const cl::Buffer &rec_face, &rec_frag, &rec_shade, &rec_light, &rec_light2, &face_kept;
   auto fields() const {
     return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, tiles_x, tiles,
                     aux, pix_count, block_hits, pix_offset, pix_n, rec_face, rec_frag, rec_shade,
-                    rec_light, rec_light2);
+                    rec_light, rec_light2, face_kept);
   }
 };
 
@@ -67,13 +67,13 @@ struct RasterBwdArgs {
   static constexpr KernelPart part = KernelPart::Backward;
   const cl::Buffer &vscreen, &vworld, &faces, &fbbox, &fnormal, &albedo, &P;
   cl_int W, H, nf;
-  const cl::Buffer &gcover, &gimage, &gdepth, &pix_offset, &pix_n;
+  const cl::Buffer &gcover, &gimage, &gdepth, &pix_offset, &pix_n, &face_kept;
   const cl::Buffer &rec_face, &rec_light, &rec_wg, &rec_lgrad, &rec_lgrad2;
   const cl::Buffer &gface_screen, &gface_world, &gface_albedo, &gface_light;
   auto fields() const {
     return std::tie(vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H, nf, gcover, gimage,
-                    gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad, rec_lgrad2,
-                    gface_screen, gface_world, gface_albedo, gface_light);
+                    gdepth, pix_offset, pix_n, face_kept, rec_face, rec_light, rec_wg, rec_lgrad,
+                    rec_lgrad2, gface_screen, gface_world, gface_albedo, gface_light);
   }
 };
 
@@ -165,6 +165,8 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
   const size_t light_reals = f.nrec * 4 * size_t(v.shadow_lights());
   f.rec_light = reuse_or_alloc(ctx, std::move(spare.rec_light), light_reals, rs);
   f.rec_light2 = reuse_or_alloc(ctx, std::move(spare.rec_light2), light_reals, rs);
+  f.face_kept = reuse_or_alloc(ctx, std::move(spare.face_kept), size_t(g.nf), i);
+  ctx.queue().enqueueFillBuffer(f.face_kept, cl_int(0), 0, std::max(size_t(g.nf), size_t(1)) * i);
   f.exact_forward = std::move(spare.exact_forward);
   f.exact_backward = std::move(spare.exact_backward);
   auto& frag =
@@ -172,7 +174,7 @@ Fragments raster_fragments(Kernels& k, const DeviceGeometry& g, const View& v,
                        sg.vscreen, g.vworld,    g.faces,     sg.fbbox,     sg.fnormal,   g.albedo,
                        v.P,        v.W,         v.H,         g.nf,         bins.tiles_x, bins,
                        f.aux,      pix_count,   block_hits,  f.pix_offset, f.pix_n,      f.rec_face,
-                       f.rec_frag, f.rec_shade, f.rec_light, f.rec_light2});
+                       f.rec_frag, f.rec_shade, f.rec_light, f.rec_light2, f.face_kept});
   launch_tiled(k, frag, v);
   return f;
 }
@@ -215,12 +217,12 @@ FaceGrads raster_backward(Kernels& k, const DeviceGeometry& g, const View& v,
   fg.world = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.albedo = alloc_reals(ctx, k.precision(), size_t(g.nf) * 12);
   fg.light = alloc_reals(ctx, k.precision(), size_t(g.nf) * (6 * v.nlights + 1) * 4);
-  auto& rb =
-      bind_args(k, RasterBwdArgs{sg.vscreen, g.vworld,    g.faces,    sg.fbbox,      sg.fnormal,
-                                 g.albedo,   v.P,         v.W,        v.H,           g.nf,
-                                 fgr.gcover, gimage,      gdepth,     f.pix_offset,  f.pix_n,
-                                 f.rec_face, f.rec_light, fgr.rec_wg, fgr.rec_lgrad, fgr.rec_lgrad2,
-                                 fg.screen,  fg.world,    fg.albedo,  fg.light});
+  auto& rb = bind_args(
+      k, RasterBwdArgs{sg.vscreen,     g.vworld,   g.faces,     sg.fbbox,     sg.fnormal,
+                       g.albedo,       v.P,        v.W,         v.H,          g.nf,
+                       fgr.gcover,     gimage,     gdepth,      f.pix_offset, f.pix_n,
+                       f.face_kept,    f.rec_face, f.rec_light, fgr.rec_wg,   fgr.rec_lgrad,
+                       fgr.rec_lgrad2, fg.screen,  fg.world,    fg.albedo,    fg.light});
   const int lanes = k.tuning().raster.face_lanes;  // a work-group per face when more than 1
   launch_1d(ctx, rb, size_t(g.nf) * lanes, lanes > 1 ? lanes : 16);
   return fg;
