@@ -615,6 +615,24 @@ TEST(FaultsPocl, WorkerThreadsArePinnedToEveryCpu) {
 // ---------------------------------------------------------------------------------------------
 // Device memory, bounded before anything is allocated.
 
+// Threads of a new process that each open a context at once make its first OpenCL calls
+// together, as the ICD loader and PoCL set themselves up: every one must find the device.
+TEST(FaultsPocl, ContextsOpenedFromThreadsAtOnceAllFindTheDevice) {
+  constexpr int kThreads = 4;
+  std::vector<std::string> errors(kThreads);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kThreads; ++i)
+    threads.emplace_back([&errors, i] {
+      try {
+        penumbra::Context ctx;
+      } catch (const std::exception& e) {
+        errors[size_t(i)] = e.what();
+      }
+    });
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(errors, std::vector<std::string>(kThreads)) << "(each thread's error, if any)";
+}
+
 // "At once": before any kernel program is built (PENUMBRA_PROFILE=1 would print a line for it;
 // its table of stages, which follows the error, holds the render's first stage alone).
 TEST(FaultsCli, MemoryLimitRefusesTooLargeARenderAtOnce) {

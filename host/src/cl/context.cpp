@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <mutex>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -93,6 +94,11 @@ bool shares_host_memory(const cl::Device& d) {
 }  // namespace
 
 std::vector<DeviceInfo> list_devices() {
+  // One thread at a time: the ICD loader and PoCL set themselves up on a process's first
+  // calls, and threads that made those calls together found no device (and, four at once,
+  // crashed).
+  static std::mutex discovery;
+  const std::lock_guard<std::mutex> one_at_a_time(discovery);
   detail::prepare_pocl_environment();
   std::vector<cl::Platform> platforms;
   try {
