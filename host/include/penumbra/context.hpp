@@ -27,6 +27,8 @@ std::vector<DeviceInfo> list_devices();
 // exit, docs/faults.md). Calls into CLBlast made afterwards compile its programs again.
 void release_gemm_programs();
 
+// One OpenCL device, its context and queue. Threads may open contexts at once, and several
+// renderers, of one thread or many, may share one; each outlives the renderers made on it.
 class Context {
  public:
   // `device`: empty → $PENUMBRA_DEVICE → the first GPU, else the first device. Otherwise an

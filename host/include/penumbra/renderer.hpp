@@ -93,6 +93,7 @@ using ProgressObserver = std::function<void(const RenderProgress&)>;
 
 // A Renderer may be shared by several threads: its calls run one at a time, each waiting for
 // the one in progress (a backward() differentiates the most recent render() of any thread).
+// Its Context must outlive it.
 class Renderer {
  public:
   // Launch parameters chosen from the tuning database (TuningDatabase::load_default: a tuned
