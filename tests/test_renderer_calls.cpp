@@ -1,8 +1,9 @@
-// The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, an
-// abandoned call leaves it usable, gradients must be finite, a collapsed face renders as if it
-// were absent, a given frustum that leaves out casters warns once, each call checks what
-// changed since the last (an edit after a render included), render_into writes what render()
-// returns into the caller's memory, and backward takes its gradients from there as from images.
+// The Renderer's call contract (renderer.hpp): threads that share a renderer take turns, and
+// renderers of several threads share a context; an abandoned call leaves it usable, gradients
+// must be finite, a collapsed face renders as if it were absent, a given frustum that leaves out
+// casters warns once, each call checks what changed since the last (an edit after a render
+// included), render_into writes what render() returns into the caller's memory, and backward
+// takes its gradients from there as from images.
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -50,6 +51,26 @@ TEST(RendererCalls, ThreadsSharingARendererTakeTurns) {
     });
   for (std::thread& t : threads) t.join();
   EXPECT_EQ(mismatches, std::vector<int>(scenes.size(), 0));
+}
+
+// Renderers of several threads on one new context build its programs at once.
+TEST(RendererCalls, RenderersOfSeveralThreadsShareANewContext) {
+  REQUIRE_CONTEXT(ctx);
+  const Scene scene = sphere_over_ground();
+  const Image expected = Renderer(*ctx).render(scene)[0].color;
+  Context fresh(std::to_string(ctx->info().index));
+  std::vector<std::string> outcomes(4);
+  std::vector<std::thread> threads;
+  for (std::string& outcome : outcomes)
+    threads.emplace_back([&] {
+      try {
+        outcome = Renderer(fresh).render(scene)[0].color.data == expected.data ? "" : "differs";
+      } catch (const std::exception& e) {
+        outcome = e.what();
+      }
+    });
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(outcomes, std::vector<std::string>(4));
 }
 
 TEST(RendererCalls, AnAbandonedCallLeavesTheRendererUsable) {

@@ -3,6 +3,7 @@
 #include <CL/opencl.hpp>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -79,6 +80,7 @@ class Context {
   cl::Context context_;
   cl::CommandQueue queue_;
   std::map<std::string, cl::Program> programs_;
+  mutable std::mutex programs_mutex_;  // renderers of several threads build programs at once
 };
 
 // The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "CL_ERROR(<code>)".

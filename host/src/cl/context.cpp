@@ -234,6 +234,7 @@ std::string Context::build_options(const std::string& options) {
 }
 
 std::vector<std::pair<std::string, std::string>> Context::programs() const {
+  const std::lock_guard<std::mutex> lock(programs_mutex_);
   std::vector<std::pair<std::string, std::string>> out;
   for (const auto& [key, program] : programs_) {
     const size_t cut = key.find('\n');
@@ -261,6 +262,7 @@ cl::Program Context::build_from_source(const std::string& file, const std::strin
 // Built once per process; across processes the binary comes from the program cache when it has
 // one for this device, source and options (program_cache.hpp).
 cl::Program& Context::program(const std::string& file, const std::string& options) {
+  const std::lock_guard<std::mutex> lock(programs_mutex_);
   std::string key = file + "\n" + options;
   auto it = programs_.find(key);
   if (it != programs_.end()) return it->second;
