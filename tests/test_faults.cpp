@@ -618,6 +618,11 @@ TEST(FaultsPocl, WorkerThreadsArePinnedToEveryCpu) {
 // Threads of a new process that each open a context at once make its first OpenCL calls
 // together, as the ICD loader and PoCL set themselves up: every one must find the device.
 TEST(FaultsPocl, ContextsOpenedFromThreadsAtOnceAllFindTheDevice) {
+#ifdef __SANITIZE_ADDRESS__
+  // PoCL's LLVM gives the thread that loads it a signal stack of its own, which ASan's teardown
+  // of that thread then fails to unmap ("unable to unmap"): the plain build runs this test.
+  GTEST_SKIP() << "threads that load PoCL cannot end under ASan";
+#endif
   constexpr int kThreads = 4;
   std::vector<std::string> errors(kThreads);
   std::vector<std::thread> threads;
