@@ -619,8 +619,8 @@ TEST(FaultsPocl, WorkerThreadsArePinnedToEveryCpu) {
 // together, as the ICD loader and PoCL set themselves up: every one must find the device.
 TEST(FaultsPocl, ContextsOpenedFromThreadsAtOnceAllFindTheDevice) {
 #ifdef __SANITIZE_ADDRESS__
-  // PoCL's LLVM gives the thread that loads it a signal stack of its own, which ASan's teardown
-  // of that thread then fails to unmap ("unable to unmap"): the plain build runs this test.
+  // ASan's teardown of a thread that loaded PoCL fails to unmap that thread's signal stack
+  // ("unable to unmap", in UnsetAlternateSignalStack) and aborts: the plain build runs it.
   GTEST_SKIP() << "threads that load PoCL cannot end under ASan";
 #endif
   constexpr int kThreads = 4;
