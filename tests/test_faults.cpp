@@ -626,6 +626,7 @@ TEST(FaultsPocl, ContextsOpenedFromThreadsAtOnceAllFindTheDevice) {
   constexpr int kThreads = 4;
   std::vector<std::string> errors(kThreads);
   std::vector<std::thread> threads;
+  threads.reserve(kThreads);
   for (int i = 0; i < kThreads; ++i)
     threads.emplace_back([&errors, i] {
       try {

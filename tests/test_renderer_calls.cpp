@@ -61,6 +61,7 @@ TEST(RendererCalls, RenderersOfSeveralThreadsShareANewContext) {
   Context fresh(std::to_string(ctx->info().index));
   std::vector<std::string> outcomes(4);
   std::vector<std::thread> threads;
+  threads.reserve(outcomes.size());
   for (std::string& outcome : outcomes)
     threads.emplace_back([&] {
       try {
