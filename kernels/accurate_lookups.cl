@@ -43,7 +43,7 @@
 //               pcf_gather and pcf_bucket_radius read of a fragment, in the order they visit
 //               fragments
 //   logs        2 × real: log(1/ε) of the filter's and the search's cuts (pcf_window_logs)
-// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd, pcf_search_boxes), one per
+// Launch: one work-item per fragment (pcf_sample, pcf_sample_bwd, pcf_boxes), one per
 // ROW texels of GATHER_ROWS rows (pcf_gather), one per texel of the search map
 // (pcf_search_map) or of the pass's map (pcf_bucket_radius), one per
 // fragment (pcf_gather_records) or per bucket entry (pcf_gather_entry_of), a single one
@@ -271,20 +271,22 @@ BACKWARD_KERNEL void pcf_gather_records(__global const real* P, int nrec, int li
   gslope[e] = x.grad;
 }
 
-// The search pass's buckets (bin.cl with one-texel tiles on the search map): the texel of the
-// search map nearest each fragment's μ/st, for a fragment in the map with dL/dz_b ≠ 0; empty
-// for the others, which add nothing there (shadow_boxes, paper_lookups.cl, for the filter's).
-BACKWARD_KERNEL void pcf_search_boxes(__global const real* P, int nrec, int light, int nl,
-                                      int Wm, int Hm, int Wb, int Hb,
-                                      __global const real4* rec_light,
-                                      __global const real4* rec_lgrad2, __global int4* boxes) {
+// A gather pass's buckets (bin.cl with one-texel tiles on the pass's map: the light's, or the
+// search map): the texel nearest each fragment's μ there (μ/st on the search map), for a fragment
+// in the map with a gradient for the pass (dL/ds, or dL/dz_b for the search); empty for the
+// others, which add nothing to it.
+BACKWARD_KERNEL void pcf_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                               int search, int Wb, int Hb, __global const real4* rec_light,
+                               __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
+                               __global int4* boxes) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   const int at = r * nl + light;
   const real2 mu = rec_light[at].xy;
+  const real g = search ? rec_lgrad2[at].z : rec_lgrad[at].x;
   int4 box = (int4)(1, 1, 0, 0);
-  if (inside_map(mu, Wm, Hm) && rec_lgrad2[at].z != 0) {
-    const real2 mb = mu / light_disc(P, light).stride;
+  if (inside_map(mu, Wm, Hm) && g != 0) {
+    const real2 mb = search ? mu / light_disc(P, light).stride : mu;
     const int bx = clamp((int)floor(mb.x + RL(0.5)), 0, Wb - 1);
     const int by = clamp((int)floor(mb.y + RL(0.5)), 0, Hb - 1);
     box = (int4)(bx, by, bx, by);

@@ -110,8 +110,8 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
 // no gradient to pass to the map, whose gather scale (rec_lgrad.x as the lookups' backward left
 // it) is ±0, as where it faces away from the light or lies outside the loss. The gathers
 // (shadow_gather, soft_gather, and pcf_gather's pass over the map) add nothing for such a
-// fragment, so leaving it out of the buckets changes no bit. (pcf_search_boxes buckets the
-// accurate model's search pass.)
+// fragment, so leaving it out of the buckets changes no bit. (pcf_boxes buckets the accurate
+// model's passes.)
 BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm,
                                   int Hm, __global const real4* rec_light,
                                   __global const real4* rec_lgrad, __global int4* boxes) {

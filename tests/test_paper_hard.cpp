@@ -797,7 +797,7 @@ TEST(ShadowFacing, LookupsSkipped) {
 // ---------------------------------------------------------------------------------------------
 // (i) The gathers' texel buckets.
 
-// shadow_boxes (and for the accurate model's search pass pcf_search_boxes) buckets only the
+// shadow_boxes (and for the accurate model's passes pcf_boxes) buckets only the
 // fragments with a gradient to pass to the maps (a nonzero gather scale). Under a loss that
 // leaves the image's left half out (and so the fragments there, besides those facing away from
 // a light), kernels that bucket every fragment in the map give the same images and gradients
@@ -806,8 +806,7 @@ TEST(ShadowFacing, LookupsSkipped) {
 // stay finite with the project's buckets and are NaN with every fragment bucketed.
 const KernelEdit kBucketEvery{"paper_lookups.cl", "Hm) && rec_lgrad[at].x != 0)",
                               "Hm) && r < nrec)"};
-const KernelEdit kSearchBucketEvery{"accurate_lookups.cl", "Hm) && rec_lgrad2[at].z != 0)",
-                                    "Hm) && r < nrec)"};
+const KernelEdit kSearchBucketEvery{"accurate_lookups.cl", "Hm) && g != 0)", "Hm) && r < nrec)"};
 
 Scene bucket_scene(Lighting lighting, Shadows shadows, ShadowModel model) {
   Scene s = shadow_scene(lighting);

@@ -95,14 +95,16 @@ struct PcfGatherRecordsArgs {
   }
 };
 
-struct PcfSearchBoxesArgs {
+struct PcfBoxesArgs {
   static constexpr const char* file = "accurate_lookups.cl";
-  static constexpr const char* kernel = "pcf_search_boxes";
+  static constexpr const char* kernel = "pcf_boxes";
   static constexpr KernelPart part = KernelPart::Backward;
   MapLookup at;
-  cl_int Wb, Hb;
-  const cl::Buffer &rec_light, &rec_lgrad2, &boxes;
-  auto fields() const { return std::tie(at, Wb, Hb, rec_light, rec_lgrad2, boxes); }
+  cl_int search, Wb, Hb;
+  const cl::Buffer &rec_light, &rec_lgrad, &rec_lgrad2, &boxes;
+  auto fields() const {
+    return std::tie(at, search, Wb, Hb, rec_light, rec_lgrad, rec_lgrad2, boxes);
+  }
 };
 
 struct PcfGatherEntryOfArgs {
@@ -197,19 +199,22 @@ GatherRecords gather_records(Kernels& k, Sampling sampling, const Fragments& f,
   return g;
 }
 
-// The fragments with a search gradient bucketed by the search map's texel nearest their μ/st.
-Bins search_buckets(Kernels& k, Sampling sampling, const Fragments& f, const FragmentGrads& fgr,
-                    const MapLookup& at, const GatherPass& pass) {
+// The fragments with a gradient for a pass bucketed by the texel of its map nearest their μ
+// (μ/st on the search map).
+Bins pass_buckets(Kernels& k, Sampling sampling, const Fragments& f, const FragmentGrads& fgr,
+                  const MapLookup& at, const GatherPass& pass) {
   const int n = at.nrec;
   cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
   launch_1d(k.ctx(),
-            bind_args(k, PcfSearchBoxesArgs{at, pass.W, pass.H, f.rec_light, fgr.rec_lgrad2, boxes},
+            bind_args(k,
+                      PcfBoxesArgs{at, cl_int(pass.search), pass.W, pass.H, f.rec_light,
+                                   fgr.rec_lgrad, fgr.rec_lgrad2, boxes},
                       sampling_define(sampling)),
             n);
   return bin_boxes(k, boxes, n, pass.W, pass.H, 1);
 }
 
-GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
+GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const Fragments& f,
                              const FragmentGrads& fgr, const MapLookup& at, const cl::Buffer& logs,
                              const GatherPass& pass) {
   Context& ctx = k.ctx();
@@ -228,8 +233,7 @@ GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const
   }
   b.chunks = alloc_ints(ctx, 4);
   const size_t texels = size_t(pass.W) * pass.H;
-  b.bins = pass.search ? search_buckets(k, sampling, f, fgr, at, pass)
-                       : texel_buckets(k, v, f, fgr, at.light, at.Wm, at.Hm);
+  b.bins = pass_buckets(k, sampling, f, fgr, at, pass);
   b.records = gather_records(k, sampling, f, fgr, at, pass.search, b.bins);
   b.radius = alloc_reals(ctx, k.precision(), texels);
   auto& radius = bind_args(k,
@@ -242,11 +246,11 @@ GatherBuckets gather_buckets(Kernels& k, Sampling sampling, const View& v, const
 
 // One pass of the gather: dL/dS and dL/dA of the W × H texels S, A into gS, gA (Wm wide),
 // written by the map's pass, added to the map's texels (st·I, st·J) by the search map's.
-void gather_pass(Kernels& k, const RenderParams& p, double search_sigma, const View& v,
-                 const Fragments& f, const FragmentGrads& fgr, const MapLookup& at,
-                 const cl::Buffer& logs, const GatherPass& pass, const cl::Buffer& S,
-                 const cl::Buffer& A, const cl::Buffer& gS, const cl::Buffer& gA) {
-  const GatherBuckets buckets = gather_buckets(k, p.sampling, v, f, fgr, at, logs, pass);
+void gather_pass(Kernels& k, const RenderParams& p, double search_sigma, const Fragments& f,
+                 const FragmentGrads& fgr, const MapLookup& at, const cl::Buffer& logs,
+                 const GatherPass& pass, const cl::Buffer& S, const cl::Buffer& A,
+                 const cl::Buffer& gS, const cl::Buffer& gA) {
+  const GatherBuckets buckets = gather_buckets(k, p.sampling, f, fgr, at, logs, pass);
   const int reach = gather_reach(k.precision(), p, search_sigma, pass.search);
   const MapLookup on{at.P, at.nrec, at.light, at.nl, pass.W, pass.H};
   auto& ga = bind_args(k,
@@ -311,9 +315,9 @@ MapGrads pcf_backward(Kernels& k, const RenderParams& p, double search_sigma, co
                                         fgr.rec_lgrad, fgr.rec_lgrad2},
                        variant);
   launch_1d(ctx, sb, n);
-  gather_pass(k, p, search_sigma, v, f, fgr, at, logs, {false, Wm, Hm}, lm.S, lm.A, g.S, g.A);
+  gather_pass(k, p, search_sigma, f, fgr, at, logs, {false, Wm, Hm}, lm.S, lm.A, g.S, g.A);
   if (p.shadows == Shadows::Soft) {
-    gather_pass(k, p, search_sigma, v, f, fgr, at, logs, {true, search.W, search.H}, search.S,
+    gather_pass(k, p, search_sigma, f, fgr, at, logs, {true, search.W, search.H}, search.S,
                 search.A, g.S, g.A);
     // dL/dD_L: Σ over the fragments, on the device in parts
     const RowParts sums = sum_rows(k, fgr.rec_lgrad2, size_t(n), size_t(nl) * 4);
