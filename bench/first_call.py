@@ -122,7 +122,7 @@ def section(doc):
         TITLE, "",
         "The first `Renderer::render` of a process builds the OpenCL programs its stages use",
         "(only those, when first needed). Each row is a new `penumbra render` process of the",
-        f"bundled scene (default options), the median of {doc['runs']} runs",
+        f"bundled scene (default options), the median of {doc['runs']} runs{machine(doc)}",
         f"(`bench/first_call.py`, {doc['date']}, `{doc['command']}`).",
         "*Kernel build* sums the time spent getting the programs (compiled from source or",
         "loaded from the kernel cache), *first render* is the whole call as the tool prints it.",
@@ -145,13 +145,32 @@ def section(doc):
         "and one that loads it compiles nothing (the *kernel cache* row).",
         "What keeps the cold row above a second is PoCL compiling the kernels a first render",
         f"uses{kernel_count(doc.get('floor'))}: work-group generation and code generation",
-        "(`POCL_DEBUG=llvm,timing`), most of it for raster_fragments and raster_count (the",
-        "kernels with the PPW-lane vector code), besides loading PoCL's built-in library.",
+        "(`POCL_DEBUG=llvm,timing`), most of it for pcf_sample, raster_fragments and",
+        "raster_count, besides loading PoCL's built-in library. PoCL inlines each kernel into",
+        "two work-group launchers and compiles both; the raster's long kernels are built as a",
+        "call to a body of their own (`KERNEL_BODY`, kernels/common/real.clh), compiled once.",
         "PoCL compiles one program at a time: the programs a first render uses, built from four",
-        "threads sharing one context, take as long as one after another, so the second core",
-        "cannot shorten the cold call (the measurements: [benchmarks-log.md](benchmarks-log.md)).",
+        "threads sharing one context, take as long as one after another, and so do two threads",
+        "with a context each, so the second core cannot shorten the cold call (the measurements:",
+        "[benchmarks-log.md](benchmarks-log.md)).",
         "",
     ] + floor_paragraph(doc.get("floor"))
+
+
+def cpu_model():
+    """The CPU's model name as /proc/cpuinfo gives it ('' where it gives none)."""
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return ""
+
+
+def machine(doc):
+    """' on <CPU>, <n> cores' for the section, where the JSON records them."""
+    return f" on {doc['cpu']}, {doc['cores']} cores" if doc.get("cpu") else ""
 
 
 def kernel_count(floor):
@@ -205,6 +224,7 @@ def main():
     doc = {"runs": a.runs, "command": f"{a.cli} render -o PNG (PENUMBRA_PROFILE=1)",
            "loadavg_before": " ".join(load_before), "loadavg_after": " ".join(load_after),
            "date": time.strftime("%Y-%m-%dT%H:%M:%S+00:00", time.gmtime()),
+           "cpu": cpu_model(), "cores": os.cpu_count(),
            "states": results, "floor": floor}
     docfile.write_text(a.out, json.dumps(doc, indent=1))
     print(table(results))

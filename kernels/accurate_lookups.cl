@@ -362,16 +362,14 @@ INLINE void add_search_rows(const realR* acc, int rows, int n, int i0, int j0, i
 // (Wg texels wide) at the map's texels (st·I, st·J):
 //   dL/dS = Σ (dL/ds / Σg')·g'·(−dc/dΔ) + Σ (dL/dz_b / V)·h'·(o + (S − z_b)·dc/dΔ)
 //   dL/dA = −Σ (dL/ds / Σg')·g'·step    + Σ (dL/dz_b / V)·h'·step·(S − z_b)
-GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
-                                WindowLogs logs, int reach, __global const real* S,
-                                __global const real* A,
-                                __global const real8* grec, __global const real2* gslope,
-                                __global const int* bucket_offsets,
-                                __global const int* bucket_counts, __global const int* bucket_recs,
-                                __global const real* bucket_radius, __global const int4* chunks,
-                                __global real* gS, __global real* gA, int search, int Wg) {
-  int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
-  GATHER_STAGE_MEMORY;
+GATHER_BODY void pcf_gather_body(int i0, int j0, GATHER_STAGE_PARAMS __global const real* P,
+                                 int nrec, int light, int nl, int Wm, int Hm, WindowLogs logs,
+                                 int reach, __global const real* S, __global const real* A,
+                                 __global const real8* grec, __global const real2* gslope,
+                                 __global const int* bucket_offsets,
+                                 __global const int* bucket_counts, __global const int* bucket_recs,
+                                 __global const real* bucket_radius, __global const int4* chunks,
+                                 __global real* gS, __global real* gA, int search, int Wg) {
   RETURN_PAST_MAP(i0, j0);
   const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm);
   realR Sv[GATHER_ROWS], Av[GATHER_ROWS], acc[GATHER_ROWS], accA[GATHER_ROWS];
@@ -411,6 +409,20 @@ GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int n
     store_rows(acc, rows, n, i0, j0, Wm, gS);
     store_rows(accA, rows, n, i0, j0, Wm, gA);
   }
+}
+
+GATHER_KERNEL void pcf_gather(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
+                                WindowLogs logs, int reach, __global const real* S,
+                                __global const real* A,
+                                __global const real8* grec, __global const real2* gslope,
+                                __global const int* bucket_offsets,
+                                __global const int* bucket_counts, __global const int* bucket_recs,
+                                __global const real* bucket_radius, __global const int4* chunks,
+                                __global real* gS, __global real* gA, int search, int Wg) {
+  GATHER_STAGE_MEMORY;
+  pcf_gather_body(get_global_id(0) * ROW, get_global_id(1) * GATHER_ROWS, GATHER_STAGE_ARGS P, nrec,
+                  light, nl, Wm, Hm, logs, reach, S, A, grec, gslope, bucket_offsets, bucket_counts,
+                  bucket_recs, bucket_radius, chunks, gS, gA, search, Wg);
 }
 
 // pcf_gather's chunks (window.clh): the texels within the exact weights' zero_radius of each

@@ -63,12 +63,11 @@
 #include "common/raster_tiles.clh"
 #include "common/face_sums.clh"
 
-FORWARD_KERNEL TILE_GROUP
-void raster_count(__global const real4* vscreen, __global const int4* faces,
-                  __global const int4* fbbox, __global const real4* fnormal,
-                  __global const real* P, int W, int H, int nf, TILE_ARGS,
-                  __global real4* aux, __global int* pix_count, __global ulong* block_hits) {
-  int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
+KERNEL_BODY void raster_count_body(int px0, int py0, int lx, int ly, __global const real4* vscreen,
+                                   __global const int4* faces, __global const int4* fbbox,
+                                   __global const real4* fnormal, __global const real* P, int W,
+                                   int H, int nf, TILE_ARGS, __global real4* aux,
+                                   __global int* pix_count, __global ulong* block_hits) {
   if (py0 >= H || px0 >= W) return;
   const real weight_log = P[P_WEIGHT_LOG];
   VIEW_RECIPROCALS(P)
@@ -79,7 +78,7 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
   // log D + (z̃ − m)/γ, the background's (ε − m)/γ included, relative to the running m.
   realP m = P[P_EPS], M = 0, slog = 0, count = 0;
   FACE_LIST_BEGIN(px0, py0)
-  __global ulong* hits_out = BLOCK_HITS_BEGIN(block_hits);
+  __global ulong* hits_out = BLOCK_HITS_BEGIN(block_hits, lx, ly);
   for (int i0 = 0; i0 < list_count; i0 += 64) {
     ulong hits = 0;
     for (int i = i0; i < min(i0 + 64, list_count); ++i) {
@@ -110,6 +109,16 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
     aux[block_pixel(px0, py0, j, W, H)] = (real4)(Ms[j], ms[j], 0, slogs[j]);
     pix_count[block_pixel(px0, py0, j, W, H)] = (int)counts[j];
   }
+}
+
+FORWARD_KERNEL TILE_GROUP
+void raster_count(__global const real4* vscreen, __global const int4* faces,
+                  __global const int4* fbbox, __global const real4* fnormal,
+                  __global const real* P, int W, int H, int nf, TILE_ARGS,
+                  __global real4* aux, __global int* pix_count, __global ulong* block_hits) {
+  raster_count_body(get_global_id(0) * BLOCK_W, get_global_id(1) * BLOCK_H, get_local_id(0),
+                    get_local_id(1), vscreen, faces, fbbox, fnormal, P, W, H, nf, TILE_ARG_NAMES,
+                    aux, pix_count, block_hits);
 }
 
 // Record r: face f's fragment at lane j of the terms t (weight, depth z, shading, light terms).
@@ -151,18 +160,17 @@ inline void close_record_list(int from, int to, int nl, int shadowed, __global i
   }
 }
 
-FORWARD_KERNEL TILE_GROUP
-void raster_fragments(__global const real4* vscreen, __global const real4* vworld,
-                      __global const int4* faces, __global const int4* fbbox,
-                      __global const real4* fnormal, __global const real4* albedo,
-                      __global const real* P, int W, int H, int nf, TILE_ARGS,
-                      __global const real4* aux, __global const int* pix_count,
-                      __global const ulong* block_hits, __global const int* pix_offset,
-                      __global int* pix_n,
-                      __global int* rec_face, __global real2* rec_frag,
-                      __global real4* rec_shade, __global real4* rec_light,
-                      __global real4* rec_light2, __global int* face_kept) {
-  int px0 = get_global_id(0) * BLOCK_W, py0 = get_global_id(1) * BLOCK_H;
+KERNEL_BODY void raster_fragments_body(int px0, int py0, int lx, int ly,
+                                       __global const real4* vscreen, __global const real4* vworld,
+                                       __global const int4* faces, __global const int4* fbbox,
+                                       __global const real4* fnormal, __global const real4* albedo,
+                                       __global const real* P, int W, int H, int nf, TILE_ARGS,
+                                       __global const real4* aux, __global const int* pix_count,
+                                       __global const ulong* block_hits,
+                                       __global const int* pix_offset, __global int* pix_n,
+                                       __global int* rec_face, __global real2* rec_frag,
+                                       __global real4* rec_shade, __global real4* rec_light,
+                                       __global real4* rec_light2, __global int* face_kept) {
   if (py0 >= H || px0 >= W) return;
   VIEW_RECIPROCALS(P)
   const int nl = (int)P[P_NLIGHTS], shadowed = P[P_SHADOWS] > 0;
@@ -182,7 +190,7 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
   }
   const realP m = VLOADP(0, ms), keep = VLOADP(0, keeps);
   FACE_LIST_BEGIN(px0, py0)
-  __global const ulong* hits = BLOCK_HITS_BEGIN(block_hits);
+  __global const ulong* hits = BLOCK_HITS_BEGIN(block_hits, lx, ly);
   for (int i = next_hit(hits, -1, list_count); i < list_count;
        i = next_hit(hits, i, list_count)) {
     int f = FACE_AT(i);
@@ -214,6 +222,23 @@ void raster_fragments(__global const real4* vscreen, __global const real4* vworl
     close_record_list(first[j] + n[j], first[j] + bound[j], nl, shadowed, rec_face, rec_frag,
                       rec_light, rec_light2);
   }
+}
+
+FORWARD_KERNEL TILE_GROUP
+void raster_fragments(__global const real4* vscreen, __global const real4* vworld,
+                      __global const int4* faces, __global const int4* fbbox,
+                      __global const real4* fnormal, __global const real4* albedo,
+                      __global const real* P, int W, int H, int nf, TILE_ARGS,
+                      __global const real4* aux, __global const int* pix_count,
+                      __global const ulong* block_hits, __global const int* pix_offset,
+                      __global int* pix_n,
+                      __global int* rec_face, __global real2* rec_frag,
+                      __global real4* rec_shade, __global real4* rec_light,
+                      __global real4* rec_light2, __global int* face_kept) {
+  raster_fragments_body(get_global_id(0) * BLOCK_W, get_global_id(1) * BLOCK_H, get_local_id(0),
+                        get_local_id(1), vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H,
+                        nf, TILE_ARG_NAMES, aux, pix_count, block_hits, pix_offset, pix_n,
+                        rec_face, rec_frag, rec_shade, rec_light, rec_light2, face_kept);
 }
 
 // The shadow term s of fragment r for light l: 1 in a view without shadows.
@@ -408,23 +433,31 @@ INLINE void pixel_face_bwd(int px, int py, int lane, int f, int kept, const RowL
   fragment_bwd(q, F->p, F->z, F->area, P, &fr, gu, gzf, gb, s->gp, s->gz);
 }
 
-BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
-                                __global const int4* faces, __global const int4* fbbox,
-                                __global const real4* fnormal, __global const real4* albedo,
-                                __global const real* P, int W, int H, int nf,
-                                __global const real* gcover, __global const real4* gimage,
-                                __global const real* gdepth, __global const int* pix_offset,
-                                __global const int* pix_n, __global const int* face_kept,
-                                __global const int* rec_face,
-                                __global const real4* rec_light, __global const real2* rec_wg,
-                                __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
-                                __global real4* gface_screen, __global real4* gface_world,
-                                __global real4* gface_albedo, __global real4* gface_light) {
+// With FACE_LANES > 1 a face's bands add their sums at barriers: its body is inlined.
+#if FACE_LANES > 1
+#define RASTER_BWD_BODY INLINED_KERNEL_BODY
+#else
+#define RASTER_BWD_BODY KERNEL_BODY
+#endif
+
+RASTER_BWD_BODY void raster_bwd_body(int id, __local real4* sum, __global const real4* vscreen,
+                                     __global const real4* vworld, __global const int4* faces,
+                                     __global const int4* fbbox, __global const real4* fnormal,
+                                     __global const real4* albedo, __global const real* P, int W,
+                                     int H, int nf, __global const real* gcover,
+                                     __global const real4* gimage, __global const real* gdepth,
+                                     __global const int* pix_offset, __global const int* pix_n,
+                                     __global const int* face_kept, __global const int* rec_face,
+                                     __global const real4* rec_light, __global const real2* rec_wg,
+                                     __global const real4* rec_lgrad,
+                                     __global const real4* rec_lgrad2,
+                                     __global real4* gface_screen, __global real4* gface_world,
+                                     __global real4* gface_albedo, __global real4* gface_light) {
   // A GPU waits for a launch's longest work-item, and a face as large as the image (a ground
   // plane) is 65536 pixels for one: with FACE_LANES > 1 the face's lanes take bands of at least
   // MIN_BAND_ROWS rows of its box each and add their sums in a fixed order. A box of one band
   // is walked by the face's first work-item alone, as with FACE_LANES = 1.
-  const int f = get_global_id(0) / FACE_LANES, band = get_global_id(0) % FACE_LANES;
+  const int f = id / FACE_LANES, band = id % FACE_LANES;
   if (f >= nf) return;
   const int nl = (int)P[P_NLIGHTS];
   FaceSums s;
@@ -452,10 +485,32 @@ BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const re
     }
   }
 #if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
-  __local real4 sum[FACE_LANES];
   if (rows > band_rows) face_sums_across_bands(&s, nl, sum, band);  // alike for a face's items
 #endif
   if (band > 0) return;
   store_face_sums(f, nl, bb.x <= bb.z, &F, &s, gface_screen, gface_world, gface_albedo,
+                  gface_light);
+}
+
+BACKWARD_KERNEL void raster_bwd(__global const real4* vscreen, __global const real4* vworld,
+                                __global const int4* faces, __global const int4* fbbox,
+                                __global const real4* fnormal, __global const real4* albedo,
+                                __global const real* P, int W, int H, int nf,
+                                __global const real* gcover, __global const real4* gimage,
+                                __global const real* gdepth, __global const int* pix_offset,
+                                __global const int* pix_n, __global const int* face_kept,
+                                __global const int* rec_face,
+                                __global const real4* rec_light, __global const real2* rec_wg,
+                                __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
+                                __global real4* gface_screen, __global real4* gface_world,
+                                __global real4* gface_albedo, __global real4* gface_light) {
+#if FACE_LANES > 1 && defined(BACKWARD_KERNELS)
+  __local real4 sum[FACE_LANES];
+#else
+  __local real4* sum = 0;
+#endif
+  raster_bwd_body(get_global_id(0), sum, vscreen, vworld, faces, fbbox, fnormal, albedo, P, W, H,
+                  nf, gcover, gimage, gdepth, pix_offset, pix_n, face_kept, rec_face, rec_light,
+                  rec_wg, rec_lgrad, rec_lgrad2, gface_screen, gface_world, gface_albedo,
                   gface_light);
 }

@@ -182,6 +182,18 @@ def test_the_floor_paragraph_quotes_the_median_run_and_judges_it_against_a_secon
     assert first_call.floor_paragraph(None) == []
 
 
+def test_the_first_call_section_names_the_machine_it_ran_on():
+    rows = [{"from_source": 4, "from_cache": 0, "build_ms": 900.0, "render_ms": 950.0,
+             "process_s": 1.0}]
+    doc = {"runs": 1, "date": "2026-12-07T16:00:00+00:00", "command": "penumbra render",
+           "loadavg_before": "0.1 0.1 0.1", "loadavg_after": "0.2 0.1 0.1", "floor": None,
+           "states": {state: rows for state in first_call.STATES}}
+    text = " ".join(first_call.section(doc))
+    assert "the median of 1 runs (`bench/first_call.py`" in text
+    text = " ".join(first_call.section(dict(doc, cpu="AMD EPYC", cores=2)))
+    assert "the median of 1 runs on AMD EPYC, 2 cores (`bench/first_call.py`" in text
+
+
 def test_kernels_are_judged_against_the_ceiling_their_work_has():
     name = "fwd/hard/{}/img:256/map:256/faces:1312/sigma_s:{}/lights:1/manual_time"
     trunc, dense = (report.parse_name(name.format(*a)) for a in (("truncated", 2), ("exact", 400)))

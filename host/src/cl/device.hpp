@@ -41,6 +41,11 @@ inline DeviceDefaults device_defaults(const DeviceInfo& d) {
 // Oclgrind (a simulator that checks every access: scripts/oclgrind.sh) builds its kernels with
 // -DPENUMBRA_OCLGRIND (kernels/common/real.clh says why); no other device gets the option.
 inline bool is_oclgrind(const DeviceInfo& d) { return d.platform == "Oclgrind"; }
+// PoCL on a CPU builds long kernels' bodies as functions of their own (-DPENUMBRA_POCL_CPU:
+// kernels/common/real.clh says why).
+inline bool is_pocl_cpu(const DeviceInfo& d) {
+  return !d.is_gpu && d.platform == "Portable Computing Language";
+}
 
 inline size_t real_size(Precision p) { return p == Precision::Double ? 8 : 4; }
 // Float kernels flush subnormal numbers to zero: the Gaussian weights' products reach them

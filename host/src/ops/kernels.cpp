@@ -56,6 +56,7 @@ std::string program_options(const std::string& file, Precision precision, const 
     o += " -DMM_VW=" + std::to_string(tuning.exact.vector_width) +
          " -DMM_RB=" + std::to_string(tuning.exact.row_block);
   if (is_oclgrind(device)) o += " -DPENUMBRA_OCLGRIND";
+  if (is_pocl_cpu(device)) o += " -DPENUMBRA_POCL_CPU";
   o += " " + variant;
   if (part == KernelPart::Gather) return o + " -DGATHER_KERNELS";
   return part == KernelPart::Backward ? o + " -DBACKWARD_KERNELS" : o;
