@@ -133,13 +133,14 @@ BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, i
 // as one vector: g' = max(0, gx·gy − ε_λ) is zero outside every window by itself, so no
 // bounds test is needed. Truncated only: the exact sum of hard shadows is matrix products.
 #if !EXACT
-GATHER_BODY void shadow_gather_body(int i0, int j0, GATHER_STAGE_PARAMS __global const real* P,
-                                    int nrec, int light, int nl, int Wm, int Hm,
-                                    __global const real4* rec_light,
-                                    __global const real4* rec_lgrad,
-                                    __global const int* bucket_offsets,
-                                    __global const int* bucket_counts,
-                                    __global const int* bucket_recs, __global real* gS) {
+GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm,
+                                   int Hm, __global const real4* rec_light,
+                                   __global const real4* rec_lgrad,
+                                   __global const int* bucket_offsets,
+                                   __global const int* bucket_counts,
+                                   __global const int* bucket_recs, __global real* gS) {
+  int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
+  GATHER_STAGE_MEMORY;
   RETURN_PAST_MAP(i0, j0);
   const real ss = P[P_SIGMA_S], eps = P[P_LAMBDA_EPS], r2 = P[P_WINDOW_R2];
   const int rows = gather_rows(i0, j0, Wm, Hm);
@@ -158,18 +159,6 @@ GATHER_BODY void shadow_gather_body(int i0, int j0, GATHER_STAGE_PARAMS __global
     }
   }
   store_rows(acc, rows, min(ROW, Wm - i0), i0, j0, Wm, gS);
-}
-
-GATHER_KERNEL void shadow_gather(__global const real* P, int nrec, int light, int nl, int Wm,
-                                   int Hm, __global const real4* rec_light,
-                                   __global const real4* rec_lgrad,
-                                   __global const int* bucket_offsets,
-                                   __global const int* bucket_counts,
-                                   __global const int* bucket_recs, __global real* gS) {
-  GATHER_STAGE_MEMORY;
-  shadow_gather_body(get_global_id(0) * ROW, get_global_id(1) * GATHER_ROWS, GATHER_STAGE_ARGS P,
-                     nrec, light, nl, Wm, Hm, rec_light, rec_lgrad, bucket_offsets, bucket_counts,
-                     bucket_recs, gS);
 }
 #endif
 
@@ -438,15 +427,16 @@ BACKWARD_KERNEL void soft_sample_bwd(__global const real* P, int nrec, int light
 // dL/dS and dL/dP per texel, gathered from the fragments whose window holds it (from the
 // nearby texel buckets when truncated; every fragment when exact), in a fixed order; ROW
 // texels of GATHER_ROWS rows per work-item.
-GATHER_BODY void soft_gather_body(int i0, int j0, GATHER_STAGE_PARAMS __global const real* P,
-                                  int nrec, int light, int nl, int Wm, int Hm,
-                                  __global const real* S, __global const real* Pmap,
-                                  __global const real4* rec_light, __global const real4* rec_light2,
-                                  __global const real4* rec_lgrad,
-                                  __global const int* bucket_offsets,
-                                  __global const int* bucket_counts,
-                                  __global const int* bucket_recs, __global const int4* chunks,
-                                  __global real* gS, __global real* gPmap) {
+GATHER_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm,
+                                 int Hm, __global const real* S, __global const real* Pmap,
+                                 __global const real4* rec_light, __global const real4* rec_light2,
+                                 __global const real4* rec_lgrad,
+                                 __global const int* bucket_offsets,
+                                 __global const int* bucket_counts, __global const int* bucket_recs,
+                                 __global const int4* chunks, __global real* gS,
+                                 __global real* gPmap) {
+  int i0 = get_global_id(0) * ROW, j0 = get_global_id(1) * GATHER_ROWS;
+  GATHER_STAGE_MEMORY;
   RETURN_PAST_MAP(i0, j0);
   const real ss = P[P_SIGMA_S];
   const int n = min(ROW, Wm - i0), rows = gather_rows(i0, j0, Wm, Hm);
@@ -480,20 +470,6 @@ GATHER_BODY void soft_gather_body(int i0, int j0, GATHER_STAGE_PARAMS __global c
   }
   store_rows(accS, rows, n, i0, j0, Wm, gS);
   store_rows(accP, rows, n, i0, j0, Wm, gPmap);
-}
-
-GATHER_KERNEL void soft_gather(__global const real* P, int nrec, int light, int nl, int Wm,
-                                 int Hm, __global const real* S, __global const real* Pmap,
-                                 __global const real4* rec_light, __global const real4* rec_light2,
-                                 __global const real4* rec_lgrad,
-                                 __global const int* bucket_offsets,
-                                 __global const int* bucket_counts, __global const int* bucket_recs,
-                                 __global const int4* chunks, __global real* gS,
-                                 __global real* gPmap) {
-  GATHER_STAGE_MEMORY;
-  soft_gather_body(get_global_id(0) * ROW, get_global_id(1) * GATHER_ROWS, GATHER_STAGE_ARGS P,
-                   nrec, light, nl, Wm, Hm, S, Pmap, rec_light, rec_light2, rec_lgrad,
-                   bucket_offsets, bucket_counts, bucket_recs, chunks, gS, gPmap);
 }
 
 // soft_gather's chunks (window.clh): the texels within the exact weights' zero_radius of each

@@ -121,45 +121,6 @@ void raster_count(__global const real4* vscreen, __global const int4* faces,
                     aux, pix_count, block_hits);
 }
 
-// Record r: face f's fragment at lane j of the terms t (weight, depth z, shading, light terms).
-inline void write_record(int r, int j, int f, real weight, real z, const FragmentTerms* t,
-                         int nl, int shadowed, __global int* rec_face, __global real2* rec_frag,
-                         __global real4* rec_shade, __global real4* rec_light,
-                         __global real4* rec_light2) {
-  rec_face[r] = f;
-  rec_frag[r] = (real2)(weight, z);
-  real3 c = (real3)(t->ambient[0][j], t->ambient[1][j], t->ambient[2][j]);
-  if (!shadowed) {  // fragment_colour's sum with every s 1, in its order
-    for (int l = 0; l < nl; ++l)
-      c += (real3)(t->direct[l][0][j], t->direct[l][1][j], t->direct[l][2][j]);
-    rec_shade[r] = (real4)(c, 0);
-    return;
-  }
-  rec_shade[r * (1 + nl)] = (real4)(c, 0);
-  for (int l = 0; l < nl; ++l)
-    rec_shade[r * (1 + nl) + 1 + l] =
-        (real4)(t->direct[l][0][j], t->direct[l][1][j], t->direct[l][2][j], t->facing[l][j]);
-  for (int l = 0; l < nl; ++l) {
-    rec_light[r * nl + l] = (real4)(t->mu[l][0][j], t->mu[l][1][j], t->mu[l][2][j], 1);
-    rec_light2[r * nl + l] = (real4)(t->slope[l][0][j], t->slope[l][1][j], 0, 0);
-  }
-}
-
-// Slots [from, to) that a pixel's bound reserved but no fragment took: weight 0, outside every
-// light's map, so that kernels running over all slots (shadow sampling) read nothing undefined.
-inline void close_record_list(int from, int to, int nl, int shadowed, __global int* rec_face,
-                              __global real2* rec_frag, __global real4* rec_light,
-                              __global real4* rec_light2) {
-  for (int r = from; r < to; ++r) {
-    rec_face[r] = -1;
-    rec_frag[r] = 0;
-    for (int l = 0; shadowed && l < nl; ++l) {
-      rec_light[r * nl + l] = (real4)(-2, -2, 0, 1);
-      rec_light2[r * nl + l] = 0;
-    }
-  }
-}
-
 KERNEL_BODY void raster_fragments_body(int px0, int py0, int lx, int ly,
                                        __global const real4* vscreen, __global const real4* vworld,
                                        __global const int4* faces, __global const int4* fbbox,
