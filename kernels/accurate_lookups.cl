@@ -271,10 +271,8 @@ BACKWARD_KERNEL void pcf_gather_records(__global const real* P, int nrec, int li
   gslope[e] = x.grad;
 }
 
-// A gather pass's buckets (bin.cl with one-texel tiles on the pass's map: the light's, or the
-// search map): the texel nearest each fragment's μ there (μ/st on the search map), for a fragment
-// in the map with a gradient for the pass (dL/ds, or dL/dz_b for the search); empty for the
-// others, which add nothing to it.
+// Each fragment's texel bucket (texel_box, window.clh) for a gather pass: on the light's map,
+// with its filter's dL/ds as the gradient that passes, or on the search map (μ/st), with dL/dz_b.
 BACKWARD_KERNEL void pcf_boxes(__global const real* P, int nrec, int light, int nl, int Wm, int Hm,
                                int search, int Wb, int Hb, __global const real4* rec_light,
                                __global const real4* rec_lgrad, __global const real4* rec_lgrad2,
@@ -282,16 +280,9 @@ BACKWARD_KERNEL void pcf_boxes(__global const real* P, int nrec, int light, int 
   int r = get_global_id(0);
   if (r >= nrec) return;
   const int at = r * nl + light;
-  const real2 mu = rec_light[at].xy;
   const real g = search ? rec_lgrad2[at].z : rec_lgrad[at].x;
-  int4 box = (int4)(1, 1, 0, 0);
-  if (inside_map(mu, Wm, Hm) && g != 0) {
-    const real2 mb = search ? mu / light_disc(P, light).stride : mu;
-    const int bx = clamp((int)floor(mb.x + RL(0.5)), 0, Wb - 1);
-    const int by = clamp((int)floor(mb.y + RL(0.5)), 0, Hb - 1);
-    box = (int4)(bx, by, bx, by);
-  }
-  boxes[r] = box;
+  boxes[r] = texel_box(rec_light[at].xy, Wm, Hm, g, search ? light_disc(P, light).stride : 1, Wb,
+                       Hb);
 }
 
 // The entry of each bucketed fragment: its place in bucket_recs (entry_of: nrec × int, −1

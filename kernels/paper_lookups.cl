@@ -104,28 +104,18 @@ BACKWARD_KERNEL void shadow_sample_bwd(__global const real* P, int nrec, int lig
   rec_lgrad[r * nl + light] = (real4)(gv / norm, gv * dv, -gv);
 }
 
-// The texel nearest each fragment's μ as a one-texel box, for bucketing fragments by texel
-// with bin.cl (tile = 1): the gathers below then find the fragments whose window can cover a
-// texel in the buckets within the window radius. Empty outside the map and for a fragment with
-// no gradient to pass to the map, whose gather scale (rec_lgrad.x as the lookups' backward left
-// it) is ±0, as where it faces away from the light or lies outside the loss. The gathers
-// (shadow_gather, soft_gather, and pcf_gather's pass over the map) add nothing for such a
-// fragment, so leaving it out of the buckets changes no bit. (pcf_boxes buckets the accurate
-// model's passes.)
+// Each fragment's texel bucket (texel_box, window.clh), for the gathers below, which find the
+// fragments whose window can cover a texel in the buckets within the window radius. Its
+// gradient for the gathers is its gather scale (rec_lgrad.x as the lookups' backward left it):
+// ±0 where it faces away from the light or lies outside the loss, and such a fragment, left
+// out of the buckets, changes no bit.
 BACKWARD_KERNEL void shadow_boxes(__global const real* P, int nrec, int light, int nl, int Wm,
                                   int Hm, __global const real4* rec_light,
                                   __global const real4* rec_lgrad, __global int4* boxes) {
   int r = get_global_id(0);
   if (r >= nrec) return;
   const int at = r * nl + light;
-  real2 mu = rec_light[at].xy;
-  int4 box = (int4)(1, 1, 0, 0);
-  if (inside_map(mu, Wm, Hm) && rec_lgrad[at].x != 0) {
-    int bx = clamp((int)floor(mu.x + RL(0.5)), 0, Wm - 1);
-    int by = clamp((int)floor(mu.y + RL(0.5)), 0, Hm - 1);
-    box = (int4)(bx, by, bx, by);
-  }
-  boxes[r] = box;
+  boxes[r] = texel_box(rec_light[at].xy, Wm, Hm, rec_lgrad[at].x, 1, Wm, Hm);
 }
 
 // dL/dS per texel: Σ over the fragments whose window holds it of (dL/dv / Σg')·g', in a fixed

@@ -797,16 +797,15 @@ TEST(ShadowFacing, LookupsSkipped) {
 // ---------------------------------------------------------------------------------------------
 // (i) The gathers' texel buckets.
 
-// shadow_boxes (and for the accurate model's passes pcf_boxes) buckets only the
-// fragments with a gradient to pass to the maps (a nonzero gather scale). Under a loss that
+// shadow_boxes (and for the accurate model's passes pcf_boxes), through texel_box, bucket only
+// the fragments with a gradient to pass to the maps (a nonzero gather scale). Under a loss that
 // leaves the image's left half out (and so the fragments there, besides those facing away from
 // a light), kernels that bucket every fragment in the map give the same images and gradients
 // bit for bit, for both models and hard and soft shadows. And the buckets leave fragments out:
 // with a soft_gather that turns NaN on meeting a fragment without a gradient, the gradients
 // stay finite with the project's buckets and are NaN with every fragment bucketed.
-const KernelEdit kBucketEvery{"paper_lookups.cl", "Hm) && rec_lgrad[at].x != 0)",
-                              "Hm) && r < nrec)"};
-const KernelEdit kSearchBucketEvery{"accurate_lookups.cl", "Hm) && g != 0)", "Hm) && r < nrec)"};
+const KernelEdit kBucketEvery{"common/window.clh", "!inside_map(mu, Wm, Hm) || g == 0)",
+                              "!inside_map(mu, Wm, Hm))"};
 
 Scene bucket_scene(Lighting lighting, Shadows shadows, ShadowModel model) {
   Scene s = shadow_scene(lighting);
@@ -825,8 +824,7 @@ std::vector<OutputGrads> right_half_loss(const Scene& scene) {
 
 TEST(ShadowBuckets, FragmentsWithoutGradientLeftOutChangeNoBit) {
   REQUIRE_CONTEXT(ctx);
-  const std::string every =
-      patched_kernels("penumbra_bucket_every", {kBucketEvery, kSearchBucketEvery});
+  const std::string every = patched_kernels("penumbra_bucket_every", {kBucketEvery});
   for (Precision p : {Precision::Float, Precision::Double})
     for (Lighting lighting : {Lighting::Point, Lighting::Two})
       for (ShadowModel model : {ShadowModel::Paper, ShadowModel::Accurate})

@@ -318,12 +318,6 @@ struct MapGrads {
 MapGrads shadow_backward(Kernels& k, const RenderParams& p, const View& v, Fragments& f,
                          FragmentGrads& fgr, int light, const LightMaps& m);
 
-// The fragments `f` of `v` with a gradient to pass to `light`'s maps (fgr, as the lookups'
-// backward completed it) bucketed by the texel nearest their μ in the map (bin.cl with
-// one-texel tiles), for the gathers that find the fragments whose window holds a texel.
-Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
-                   int light, int Wm, int Hm);
-
 // The accurate model (accurate_lookups.cl): shadow terms of every fragment of `v` for `light` by
 // percentage-closer filtering of the light's shadow map (a blocker search first for soft
 // shadows).

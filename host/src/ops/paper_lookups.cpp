@@ -181,6 +181,19 @@ void exact_forward(Kernels& k, bool clblast, Fragments& f, const MapLookup& at,
   }
 }
 
+// The fragments `f` of `v` with a gradient to pass to `light`'s maps (fgr, as the lookups'
+// backward completed it) bucketed by the texel nearest their μ in the map (bin.cl with
+// one-texel tiles), for the gathers that find the fragments whose window holds a texel.
+Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
+                   int light, int Wm, int Hm) {
+  const int n = int(f.nrec);
+  cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
+  auto& bx = bind_args(
+      k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, fgr.rec_lgrad, boxes});
+  launch_1d(k.ctx(), bx, n);
+  return bin_boxes(k, boxes, n, Wm, Hm, 1);
+}
+
 MapGrads soft_backward(Kernels& k, Sampling sampling, const View& v, const Fragments& f,
                        FragmentGrads& fgr, const MapLookup& at, const LightMaps& lm, MapGrads g) {
   const std::string variant = sampling_define(sampling);
@@ -267,18 +280,6 @@ cl::Buffer gather_chunks(Kernels& k, int nrec,
   cl::Buffer out = alloc_ints(k.ctx(), std::max<size_t>(chunks, 1) * 4);
   launch_1d(k.ctx(), bind(out), chunks);
   return out;
-}
-
-// The fragments with a gradient bucketed by the texel nearest their μ (bin.cl with one-texel
-// tiles).
-Bins texel_buckets(Kernels& k, const View& v, const Fragments& f, const FragmentGrads& fgr,
-                   int light, int Wm, int Hm) {
-  const int n = int(f.nrec);
-  cl::Buffer boxes = alloc_ints(k.ctx(), size_t(n) * 4);
-  auto& bx = bind_args(
-      k, ShadowBoxesArgs{{v.P, n, light, v.nlights, Wm, Hm}, f.rec_light, fgr.rec_lgrad, boxes});
-  launch_1d(k.ctx(), bx, n);
-  return bin_boxes(k, boxes, n, Wm, Hm, 1);
 }
 
 void shadow_forward(Kernels& k, const RenderParams& p, const View& v, Fragments& f, int light,
