@@ -83,8 +83,12 @@ KERNEL_BODY void raster_count_body(int px0, int py0, int lx, int ly, __global co
     ulong hits = 0;
     for (int i = i0; i < min(i0 + 64, list_count); ++i) {
       int f = FACE_AT(i);
-      LANES_OF_FACE(f)
+      FACE_IN_BLOCK(f)
+      LANES_SHAPE
       slog += covered ? -(fmax(u, R(0)) + log1p_e) : (realP)0;
+      // Behind the running maxima everywhere (M ≤ 0): neither counted nor raising m or M.
+      if (!lanes_may_weigh(&sf, m, M - weight_log - 1, P, inv_gamma, inv_depth_range)) continue;
+      LANES_DEPTH
       if (!ANY(in_range)) continue;
       maskP higher = in_range && zt > m;
       M = higher ? M - (zt - m) * inv_gamma : M;
@@ -155,7 +159,10 @@ KERNEL_BODY void raster_fragments_body(int px0, int py0, int lx, int ly,
   for (int i = next_hit(hits, -1, list_count); i < list_count;
        i = next_hit(hits, i, list_count)) {
     int f = FACE_AT(i);
-    LANES_OF_FACE(f)
+    FACE_IN_BLOCK(f)
+    if (!lanes_may_weigh(&sf, m, keep, P, inv_gamma, inv_depth_range)) continue;
+    LANES_SHAPE
+    LANES_DEPTH
     realP lw = log_D + (zt - m) * inv_gamma;
     const uint kept = mask_bits(in_range && lw >= keep);  // lane j's bit: a kept fragment
     if (kept == 0) continue;
