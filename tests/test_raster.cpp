@@ -672,6 +672,40 @@ TEST(RasterFragments, CountsTheKeptFragments) {
   }
 }
 
+// Both raster passes skip a face hidden behind the block's nearest surface (lanes_may_weigh),
+// but not one that still weighs ε_w of it: a plane 0.3 e-folds short of ε_w behind a front one
+// keeps its fragments, one 0.3 e-folds beyond keeps none, in either face order (the count skips
+// against its running maxima, raster_fragments against the final ones).
+TEST(RasterFragments, KeepsAHiddenFaceThatStillWeighs) {
+  REQUIRE_CONTEXT(ctx);
+  const int W = 24, H = 16;
+  const double near = 0.1, far = 20.0, gamma = 1e-3;
+  for (double beyond : {-0.3, 0.3})
+    for (bool back_first : {true, false}) {
+      // Planes far larger than the view (log D = 0 at every pixel), Δz̃/γ = ln(1/ε_w) + beyond.
+      const double dz = (std::log(1 / RenderParams{}.weight_eps) + beyond) * gamma * (far - near);
+      Mesh m;
+      m.vertices = {{-40, -40, 0},   {40, -40, 0},   {0, 40, 0},
+                    {-40, -40, -dz}, {40, -40, -dz}, {0, 40, -dz}};
+      m.faces = back_first ? std::vector<glm::ivec3>{{3, 4, 5}, {0, 1, 2}}
+                           : std::vector<glm::ivec3>{{0, 1, 2}, {3, 4, 5}};
+      m.albedo.assign(m.vertices.size(), {0.5, 0.5, 0.5});
+      Scene s;
+      s.meshes.push_back(m);
+      s.cameras.push_back(perspective_camera({0, 0, 5}, {0, 0, 0}, W, H, 40.0, near, far));
+      s.lights.push_back(point_light({0, 0, 3}, {1, 1, 1}));
+      s.params.sigma = 1e-3;
+      s.params.gamma = gamma;
+      for (Precision precision : {Precision::Float, Precision::Double}) {
+        Renderer renderer(*ctx, precision);
+        ASSERT_NO_THROW(renderer.render(s));
+        EXPECT_EQ(renderer.fragment_counts(),
+                  std::vector<size_t>{size_t((beyond < 0 ? 2 : 1) * W * H)})
+            << "beyond " << beyond << ", back face first " << back_first;
+      }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // raster_bwd passes a fragment's gradient through its shading only where the pixel has a colour
 // gradient (never in a light's view): kernels that always do give the same images and gradients
