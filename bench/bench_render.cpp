@@ -82,8 +82,14 @@ void run_step(benchmark::State& state, const Case& c) {
   }
 }
 
+std::vector<RenderCase>& cases() {
+  static std::vector<RenderCase> all;
+  return all;
+}
+
 void add_step(const Case& c) {
   const std::string name = "step" + case_name("", false, c).substr(4);  // less "/fwd"
+  cases().push_back({name, c, RenderCase::Kind::Step});
   benchmark::RegisterBenchmark(name.c_str(), [c](benchmark::State& st) { run_step(st, c); })
       ->UseManualTime()
       ->Unit(benchmark::kMillisecond);
@@ -97,6 +103,7 @@ void add(bool backward, const Case& c, bool large = false) {
                 c.frequency, c.sigma_s,      c.lights,        int(c.model)};
   if (!seen.insert(key).second) return;
   const std::string name = (large ? "large/" : "") + case_name("", backward, c).substr(1);
+  cases().push_back({name, c, backward ? RenderCase::Kind::Backward : RenderCase::Kind::Forward});
   benchmark::RegisterBenchmark(name.c_str(),
                                [c, backward](benchmark::State& st) { run_case(st, c, backward); })
       ->UseManualTime()
@@ -200,5 +207,7 @@ void register_render_benchmarks() {
 
   add_steps();
 }
+
+const std::vector<RenderCase>& render_cases() { return cases(); }
 
 }  // namespace penumbra::bench

@@ -7,7 +7,9 @@
 // --build-floor N,N,... builds programs of trivial kernels and runs no benchmark
 // (bench_build_floor.cpp); --host-stages [N] times the host's stages of a render, and of a
 // render and its backward, at 1k, 100k and 1M faces and runs no benchmark
-// (bench_host_stages.cpp).
+// (bench_host_stages.cpp); --paired DIR_A DIR_B REGEX [N] times the matching forward, backward
+// and step cases with the kernels of two directories in turn in one process and runs no
+// benchmark (bench_paired.cpp).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -52,6 +54,10 @@ int main(int argc, char** argv) {
       return penumbra::bench::run_build_floor(i + 1 < argc ? argv[i + 1] : "");
     if (std::strcmp(argv[i], "--host-stages") == 0)
       return penumbra::bench::run_host_stages(i + 1 < argc ? argv[i + 1] : "");
+    if (std::strcmp(argv[i], "--paired") == 0) {
+      penumbra::bench::register_render_benchmarks();  // the cases, by name
+      return penumbra::bench::run_paired({argv + i + 1, argv + argc});
+    }
     if (std::strcmp(argv[i], "--scaling") == 0) {
       scaling = true;
       continue;

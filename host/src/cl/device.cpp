@@ -223,6 +223,11 @@ Rows profile_stages() {
   return profile().stages;
 }
 
+Rows profile_kernels() {
+  std::lock_guard<std::mutex> lock(profile().mutex);
+  return profile().ms;
+}
+
 void launch(Context& ctx, cl::Kernel& k, cl::NDRange global, cl::NDRange local) {
   size_t g[3] = {1, 1, 1};
   for (cl_uint d = 0; d < global.dimensions(); ++d) {

@@ -158,6 +158,9 @@ void profile_stage(Context& ctx, const char* call, const char* name);
 // With PENUMBRA_PROFILE set: the stage rows so far, "`call`: `name`" → (wall ms, calls), for a
 // tool that compares two moments (penumbra_bench --host-stages).
 std::map<std::string, std::pair<double, int>> profile_stages();
+// With PENUMBRA_PROFILE set: the kernel rows so far, name → (device ms, launches), likewise
+// (penumbra_bench --paired).
+std::map<std::string, std::pair<double, int>> profile_kernels();
 inline void launch_1d(Context& ctx, cl::Kernel& k, size_t n, size_t local = 64) {
   launch(ctx, k, cl::NDRange(n), cl::NDRange(local));
 }
