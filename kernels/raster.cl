@@ -357,9 +357,9 @@ inline int rows_have_gradient(int4 bb, int y0, int y1, int W, int kept,
   return 0;
 }
 
-// The backward of one face at one pixel of its box (lane `lane` of `row`), added to s; `kept`:
+// The backward of one face at one pixel of its box (lane `lane` of `block`), added to s; `kept`:
 // whether the face kept a fragment at any pixel (else none is searched for).
-INLINE void pixel_face_bwd(int px, int py, int lane, int f, int kept, const RowLanes* row,
+INLINE void pixel_face_bwd(int px, int py, int lane, int f, int kept, const BlockLanes* block,
                            const Face* F, const ReceiverFace* rf, int receiver_plane,
                            __global const real* P, int W, int H, __global const real* gcover,
                            __global const real4* gimage, __global const real* gdepth,
@@ -379,7 +379,7 @@ INLINE void pixel_face_bwd(int px, int py, int lane, int f, int kept, const RowL
   if (r < 0 && gc == 0) return;
   real2 q = pixel_centre(px, py, W, H);
   Fragment fr;
-  lane_fragment(row, lane, P, &fr);
+  lane_fragment(block, lane, P, &fr);
   real D = sigmoid(fr.u);
   // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
   real gu = gc * D;
@@ -441,13 +441,19 @@ RASTER_BWD_BODY void raster_bwd_body(int id, __local real4* sum, __global const 
   const int active = rows_have_gradient(bb, y0, y1, W, kept, gcover, gimage, gdepth);
   if (active)
     for (int l = 0; receiver_plane && l < nl; ++l) rf[l] = receiver_face(l, F.V, P);
+  // The box's pixels in rows, their shape computed a block of PPW at a time: as wide as the box
+  // (a power of two), and as many rows tall as that leaves lanes, or one row of PPW.
+  const int cols = bb.z - bb.x + 1;
+  int bw = PPW;
+  while (bw > 1 && bw / 2 >= cols) bw /= 2;
+  const int bh = cols <= bw ? PPW / bw : 1;
+  BlockLanes block;
   for (int py = y0; active && py <= y1; ++py) {
-    RowLanes row;
     for (int px = bb.x; px <= bb.z; ++px) {
-      int lane = (px - bb.x) % PPW;
-      if (lane == 0) lanes_row(px, py, W, H, &F, P, &row);
-      if (row.reach[lane] == 0) continue;
-      pixel_face_bwd(px, py, lane, f, kept, &row, &F, rf, receiver_plane, P, W, H, gcover,
+      int lane = ((py - y0) & (bh - 1)) * bw + ((px - bb.x) & (bw - 1));  // powers of two
+      if (lane == 0) lanes_block(px, py, bw, W, H, &F, P, &block);
+      if (block.reach[lane] == 0) continue;
+      pixel_face_bwd(px, py, lane, f, kept, &block, &F, rf, receiver_plane, P, W, H, gcover,
                      gimage, gdepth, pix_offset, pix_n, rec_face, rec_light, rec_wg, rec_lgrad,
                      rec_lgrad2, &s);
     }
