@@ -96,10 +96,10 @@ struct Bins {
   cl::Buffer offsets, counts, items;
 };
 
-// The lanes of raster_bwd's rows (raster.cl's PPW in its backward program): the tuning's
-// pixels per work-item, at most 8. A face's box is walked in rows of that many pixels, and rows
-// of 16 left most lanes idle: 16 took raster_bwd 14 % longer than 8 in the 100k-face accurate
-// hard step, 4 no shorter (same bits whatever the lanes).
+// The lanes of raster_bwd's blocks (raster.cl's PPW in its backward program): the tuning's
+// pixels per work-item, at most 8. A face's box is walked in blocks of that many pixels fitted
+// to its width; 16 made raster_bwd no faster in the 100k-face accurate hard step (same bits
+// whatever the lanes).
 inline int raster_backward_lanes(int pixels_per_item) { return std::min(pixels_per_item, 8); }
 
 // Width of the pixel block a raster work-item takes (raster.cl's BLOCK_W): 4×4 pixels from
