@@ -379,8 +379,8 @@ INLINE void pixel_face_bwd(int px, int py, int lane, int f, int kept, const Bloc
   if (r < 0 && gc == 0) return;
   real2 q = pixel_centre(px, py, W, H);
   Fragment fr;
-  lane_fragment(block, lane, P, &fr);
-  real D = sigmoid(fr.u);
+  lane_fragment(block, lane, &fr);
+  real D = block->D[lane];
   // Silhouette A = 1 − Π(1 − D): dA/du = (1 − A)·D.
   real gu = gc * D;
   real gzf = 0, gb[3] = {0, 0, 0};
