@@ -187,8 +187,9 @@ KERNEL_BODY void raster_fragments_body(int px0, int py0, int lx, int ly,
   for (int j = 0; j < PPW; ++j) {
     if (!block_lane_inside(px0, py0, j, W, H)) continue;
     pix_n[block_pixel(px0, py0, j, W, H)] = n[j];
-    close_record_list(first[j] + n[j], first[j] + bound[j], nl, shadowed, rec_face, rec_frag,
-                      rec_light, rec_light2);
+    if (shadowed)
+      close_record_list(first[j] + n[j], first[j] + bound[j], nl, rec_face, rec_frag, rec_light,
+                        rec_light2);
   }
 }
 
